@@ -1,0 +1,29 @@
+#include "core/cli.h"
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include "core/logging.h"
+#include "core/threads.h"
+
+namespace handscs {
+
+void add_common_options(CLI::App& app, CommonOptions& options, bool with_overrides) {
+  app.add_option("--threads", options.threads,
+                 "worker threads for LibTorch and OpenMP (0 = all cores)")
+      ->check(CLI::Range(0, 1024));
+  app.add_option("--log-level", options.log_level, "trace, debug, info, warn, error or off");
+  if (with_overrides)
+    app.add_option("--set", options.overrides,
+                   "override a config key, e.g. --set train.iterations=2000 (repeatable)")
+        ->take_all();
+}
+
+void start_up(const CommonOptions& options, const std::string& program) {
+  set_log_level(options.log_level);
+  const int threads = set_threads(options.threads);
+  spdlog::info("{}: {} thread{}, BLAS {}", program, threads, threads == 1 ? "" : "s",
+               blas_in_use());
+}
+
+}  // namespace handscs

@@ -1,0 +1,25 @@
+// Options every executable shares (--threads, --log-level, --set) and the start-up they trigger.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace CLI {
+class App;
+}
+
+namespace handscs {
+
+struct CommonOptions {
+  int threads = 0;                    // 0 = all available cores
+  std::string log_level = "info";     // spdlog level name
+  std::vector<std::string> overrides; // --set key.path=value
+};
+
+// Adds --threads and --log-level (and --set when with_overrides) to `app`.
+void add_common_options(CLI::App& app, CommonOptions& options, bool with_overrides);
+
+// Applies logging and thread settings and logs the thread count and BLAS library in use.
+void start_up(const CommonOptions& options, const std::string& program);
+
+}  // namespace handscs

@@ -1,0 +1,209 @@
+#include "core/config.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+namespace handscs {
+
+std::string json_type_name(const json& value) {
+  switch (value.type()) {
+    case json::value_t::null: return "null";
+    case json::value_t::boolean: return "boolean";
+    case json::value_t::number_integer:
+    case json::value_t::number_unsigned:
+    case json::value_t::number_float: return "number";
+    case json::value_t::string: return "string";
+    case json::value_t::array: return "array";
+    case json::value_t::object: return "object";
+    default: return "unknown";
+  }
+}
+
+ConfigReader::ConfigReader(const json& object, std::string source, std::string path)
+    : object_(object), source_(std::move(source)), path_(std::move(path)) {}
+
+const json* ConfigReader::take(const char* key) {
+  seen_.insert(key);
+  auto it = object_.find(key);
+  return it == object_.end() ? nullptr : &*it;
+}
+
+std::string ConfigReader::key_path(const char* key) const {
+  return path_.empty() ? std::string(key) : path_ + "." + key;
+}
+
+void ConfigReader::fail(const std::string& path, const std::string& problem) const {
+  throw Error(source_ + ": " + path + ": " + problem);
+}
+
+void ConfigReader::check_range(double value, double lo, double hi, const std::string& path) const {
+  if (!(value >= lo && value <= hi)) {
+    std::ostringstream os;
+    os << "value " << value << " out of range [" << lo << ", " << hi << "]";
+    fail(path, os.str());
+  }
+}
+
+void ConfigReader::choice(const char* key, std::string& value,
+                          const std::vector<std::string>& options, const char* doc) {
+  const json* item = take(key);
+  if (!item) return;
+  read_value(*item, value, key_path(key));
+  for (const auto& option : options)
+    if (option == value) return;
+  std::string known;
+  for (const auto& option : options) known += (known.empty() ? "" : ", ") + option;
+  fail(key_path(key), "unknown value \"" + value + "\" (known: " + known + ")");
+}
+
+void ConfigReader::finish() const {
+  for (auto it = object_.begin(); it != object_.end(); ++it)
+    if (!seen_.count(it.key())) fail(key_path(it.key().c_str()), "unknown key");
+}
+
+void ConfigReader::read_value(const json& item, bool& out, const std::string& path) const {
+  if (!item.is_boolean()) fail(path, "expected boolean, got " + json_type_name(item));
+  out = item.get<bool>();
+}
+
+void ConfigReader::read_value(const json& item, int64_t& out, const std::string& path) const {
+  if (!item.is_number()) fail(path, "expected integer, got " + json_type_name(item));
+  if (!item.is_number_integer()) {
+    double x = item.get<double>();
+    if (x != std::floor(x) || std::fabs(x) > 9.0e15)
+      fail(path, "expected integer, got " + item.dump());
+    out = static_cast<int64_t>(x);
+    return;
+  }
+  out = item.get<int64_t>();
+}
+
+void ConfigReader::read_value(const json& item, int& out, const std::string& path) const {
+  int64_t wide = 0;
+  read_value(item, wide, path);
+  if (wide < std::numeric_limits<int>::min() || wide > std::numeric_limits<int>::max())
+    fail(path, "integer " + std::to_string(wide) + " does not fit in 32 bits");
+  out = static_cast<int>(wide);
+}
+
+void ConfigReader::read_value(const json& item, double& out, const std::string& path) const {
+  if (!item.is_number()) fail(path, "expected number, got " + json_type_name(item));
+  out = item.get<double>();
+  if (!std::isfinite(out)) fail(path, "expected a finite number");
+}
+
+void ConfigReader::read_value(const json& item, float& out, const std::string& path) const {
+  double wide = 0;
+  read_value(item, wide, path);
+  out = static_cast<float>(wide);
+}
+
+void ConfigReader::read_value(const json& item, std::string& out, const std::string& path) const {
+  if (!item.is_string()) fail(path, "expected string, got " + json_type_name(item));
+  out = item.get<std::string>();
+}
+
+void ConfigDoc::choice(const char* key, const std::string& value,
+                       const std::vector<std::string>& options, const char* doc) {
+  std::string known;
+  for (const auto& option : options) known += (known.empty() ? "" : ", ") + option;
+  add(key, json(value), doc, known);
+}
+
+void ConfigDoc::add(const char* key, const json& value, const char* doc, const std::string& range) {
+  std::string shown = value.dump();
+  if (shown.size() > 60) shown = shown.substr(0, 57) + "...";
+  std::string escaped;
+  for (char c : shown) escaped += (c == '|') ? std::string("\\|") : std::string(1, c);
+  rows.push_back("| `" + join(key) + "` | " + json_type_name(value) + " | `" + escaped + "` | " +
+                 range + " | " + doc + " |");
+}
+
+std::string ConfigDoc::format_number(double x) {
+  std::ostringstream os;
+  os << x;
+  return os.str();
+}
+
+namespace {
+
+json parse_json_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path + ": cannot open file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  try {
+    return json::parse(text);
+  } catch (const json::parse_error& e) {
+    // Report the line and column of the byte offset nlohmann gives.
+    size_t line = 1, column = 1;
+    for (size_t i = 0; i + 1 < e.byte && i < text.size(); ++i) {
+      if (text[i] == '\n') {
+        ++line;
+        column = 1;
+      } else {
+        ++column;
+      }
+    }
+    throw Error(path + ": malformed JSON at line " + std::to_string(line) + ", column " +
+                std::to_string(column) + " (" + std::string(e.what()) + ")");
+  }
+}
+
+json load_json_file_depth(const std::string& path, int depth) {
+  if (depth > 8) throw Error(path + ": \"extends\" chain deeper than 8 files (a cycle?)");
+  json object = parse_json_file(path);
+  if (!object.is_object())
+    throw Error(path + ": expected a JSON object at the top level, got " + json_type_name(object));
+  auto it = object.find("extends");
+  if (it == object.end()) return object;
+  if (!it->is_string())
+    throw Error(path + ": extends: expected string, got " + json_type_name(*it));
+  std::filesystem::path parent =
+      std::filesystem::path(path).parent_path() / it->get<std::string>();
+  object.erase("extends");
+  json base = load_json_file_depth(parent.string(), depth + 1);
+  base.merge_patch(object);
+  return base;
+}
+
+}  // namespace
+
+json load_json_file(const std::string& path) { return load_json_file_depth(path, 0); }
+
+void apply_overrides(json& object, const std::vector<std::string>& overrides) {
+  for (const auto& text : overrides) {
+    const size_t eq = text.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw Error("--set " + text + ": expected key.path=value");
+    const std::string key = text.substr(0, eq);
+    const std::string raw = text.substr(eq + 1);
+    json value;
+    try {
+      value = json::parse(raw);
+    } catch (const json::parse_error&) {
+      value = raw;  // bare words are strings: --set data.split=novel_view
+    }
+    json* node = &object;
+    std::string walked;
+    size_t start = 0;
+    while (true) {
+      const size_t dot = key.find('.', start);
+      const std::string part = key.substr(start, dot == std::string::npos ? std::string::npos
+                                                                          : dot - start);
+      walked += (walked.empty() ? "" : ".") + part;
+      if (!node->is_object() || !node->contains(part))
+        throw Error("--set " + text + ": unknown key " + walked);
+      node = &(*node)[part];
+      if (dot == std::string::npos) break;
+      start = dot + 1;
+    }
+    *node = value;
+  }
+}
+
+}  // namespace handscs

@@ -1,0 +1,200 @@
+// Typed configuration: each component's config struct lists its fields once in a visit() method,
+// and the visitors here read it from JSON (with key-path errors), write it back, and document it.
+//
+// A config struct looks like:
+//   struct RasterConfig {
+//     float near_plane = 0.01f;  // metres
+//     template <class V> void visit(V& v) {
+//       v.field("near_plane", near_plane, "near clipping plane (m)", 1e-6, 10.0);
+//     }
+//   };
+// Supported field types: bool, int, int64_t, float, double, std::string, std::vector of int/float/
+// double/std::string, std::vector<std::array<int, 2>> (edge lists); nested structs via v.section().
+// Strings limited to a set of names use v.choice().
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/error.h"
+
+namespace handscs {
+
+using json = nlohmann::json;
+
+// Name of a JSON value's type as users read it in error messages ("number", "string", ...).
+std::string json_type_name(const json& value);
+
+// Reads a JSON object into a config struct. Errors carry "<source>: <key.path>: <problem>".
+class ConfigReader {
+ public:
+  ConfigReader(const json& object, std::string source, std::string path = "");
+
+  template <class T>
+  void field(const char* key, T& value, const char* doc) {
+    if (const json* item = take(key)) read_value(*item, value, key_path(key));
+  }
+  template <class T>
+  void field(const char* key, T& value, const char* doc, double lo, double hi) {
+    if (const json* item = take(key)) {
+      read_value(*item, value, key_path(key));
+      check_range(static_cast<double>(value), lo, hi, key_path(key));
+    }
+  }
+  void choice(const char* key, std::string& value, const std::vector<std::string>& options,
+              const char* doc);
+  template <class S>
+  void section(const char* key, S& sub, const char* doc) {
+    if (const json* item = take(key)) {
+      if (!item->is_object()) fail(key_path(key), "expected object, got " + json_type_name(*item));
+      ConfigReader reader(*item, source_, key_path(key));
+      sub.visit(reader);
+      reader.finish();
+    }
+  }
+  // Throws if the object holds keys no field asked for (typos must not pass silently).
+  void finish() const;
+
+ private:
+  const json* take(const char* key);
+  std::string key_path(const char* key) const;
+  [[noreturn]] void fail(const std::string& path, const std::string& problem) const;
+  void check_range(double value, double lo, double hi, const std::string& path) const;
+
+  void read_value(const json& item, bool& out, const std::string& path) const;
+  void read_value(const json& item, int& out, const std::string& path) const;
+  void read_value(const json& item, int64_t& out, const std::string& path) const;
+  void read_value(const json& item, float& out, const std::string& path) const;
+  void read_value(const json& item, double& out, const std::string& path) const;
+  void read_value(const json& item, std::string& out, const std::string& path) const;
+  template <class T>
+  void read_value(const json& item, std::vector<T>& out, const std::string& path) const {
+    if (!item.is_array()) fail(path, "expected array, got " + json_type_name(item));
+    std::vector<T> values(item.size());
+    for (size_t i = 0; i < item.size(); ++i)
+      read_value(item[i], values[i], path + "[" + std::to_string(i) + "]");
+    out = std::move(values);
+  }
+  template <class T, size_t N>
+  void read_value(const json& item, std::array<T, N>& out, const std::string& path) const {
+    if (!item.is_array() || item.size() != N)
+      fail(path, "expected array of " + std::to_string(N) + ", got " + json_type_name(item) +
+                     (item.is_array() ? " of " + std::to_string(item.size()) : ""));
+    for (size_t i = 0; i < N; ++i) read_value(item[i], out[i], path + "[" + std::to_string(i) + "]");
+  }
+
+  const json& object_;
+  std::string source_;
+  std::string path_;
+  std::set<std::string> seen_;
+};
+
+// Writes a config struct to JSON (every field, defaults included).
+class ConfigWriter {
+ public:
+  template <class T>
+  void field(const char* key, const T& value, const char* doc, double = 0, double = 0) {
+    out[key] = value;
+  }
+  void choice(const char* key, const std::string& value, const std::vector<std::string>&,
+              const char*) {
+    out[key] = value;
+  }
+  template <class S>
+  void section(const char* key, S& sub, const char* doc) {
+    ConfigWriter writer;
+    sub.visit(writer);
+    out[key] = writer.out;
+  }
+  json out = json::object();
+};
+
+// Lists every key with its type, default, allowed range and description (Markdown table rows).
+class ConfigDoc {
+ public:
+  explicit ConfigDoc(std::string path = "") : path_(std::move(path)) {}
+  template <class T>
+  void field(const char* key, const T& value, const char* doc) {
+    add(key, json(value), doc, "");
+  }
+  template <class T>
+  void field(const char* key, const T& value, const char* doc, double lo, double hi) {
+    add(key, json(value), doc, "[" + format_number(lo) + ", " + format_number(hi) + "]");
+  }
+  void choice(const char* key, const std::string& value, const std::vector<std::string>& options,
+              const char* doc);
+  template <class S>
+  void section(const char* key, S& sub, const char* doc) {
+    rows.push_back("| **" + join(key) + "** | section | | | " + doc + " |");
+    ConfigDoc child(join(key));
+    sub.visit(child);
+    rows.insert(rows.end(), child.rows.begin(), child.rows.end());
+  }
+  std::vector<std::string> rows;
+
+ private:
+  std::string join(const char* key) const { return path_.empty() ? key : path_ + "." + key; }
+  void add(const char* key, const json& value, const char* doc, const std::string& range);
+  static std::string format_number(double x);
+  std::string path_;
+};
+
+template <class C>
+json config_to_json(C& config) {
+  ConfigWriter writer;
+  config.visit(writer);
+  return writer.out;
+}
+
+// Reads `object` into `config` (starting from its defaults); `source` names the origin in errors.
+template <class C>
+void config_from_json(const json& object, const std::string& source, C& config) {
+  if (!object.is_object()) throw Error(source + ": expected a JSON object at the top level, got " +
+                                       json_type_name(object));
+  ConfigReader reader(object, source);
+  config.visit(reader);
+  reader.finish();
+}
+
+template <class C>
+std::string config_markdown(C& config) {
+  ConfigDoc doc;
+  config.visit(doc);
+  std::string text = "| key | type | default | range / options | meaning |\n|---|---|---|---|---|\n";
+  for (const auto& row : doc.rows) text += row + "\n";
+  return text;
+}
+
+// Reads a JSON file; a file may name a parent with "extends": "other.json" (relative to itself),
+// whose keys it overrides (RFC 7386 merge). Errors name the file, with line/column for bad JSON.
+json load_json_file(const std::string& path);
+
+// Applies "a.b.c=value" overrides (value parsed as JSON, else taken as a string). The key must
+// already exist in `object` (the defaults), so a typo is an error naming the override.
+void apply_overrides(json& object, const std::vector<std::string>& overrides);
+
+// Defaults of C, merged with the file (if given) and the overrides, then validated into C.
+template <class C>
+C load_config(const std::string& path, const std::vector<std::string>& overrides) {
+  C config;
+  json merged = config_to_json(config);
+  std::string source = "defaults";
+  if (!path.empty()) {
+    json file = load_json_file(path);
+    // Validate the file alone first so its errors name the file, not the merged result.
+    C check;
+    config_from_json(file, path, check);
+    merged.merge_patch(file);
+    source = path;
+  }
+  apply_overrides(merged, overrides);
+  config_from_json(merged, overrides.empty() ? source : source + " + --set", config);
+  return config;
+}
+
+}  // namespace handscs

@@ -1,0 +1,17 @@
+#include "core/logging.h"
+
+#include <spdlog/spdlog.h>
+
+#include "core/error.h"
+
+namespace handscs {
+
+void set_log_level(const std::string& level) {
+  const auto parsed = spdlog::level::from_str(level);
+  if (parsed == spdlog::level::off && level != "off")
+    throw Error("--log-level " + level + ": unknown level (trace, debug, info, warn, error, off)");
+  spdlog::set_level(parsed);
+  spdlog::set_pattern("[%H:%M:%S] [%^%l%$] %v");
+}
+
+}  // namespace handscs

@@ -1,0 +1,19 @@
+// Thread pool set-up: one call sets LibTorch's intra-op pool and OpenMP's pool to the same count
+// (they share libgomp), and reports which BLAS library the process actually loaded.
+#pragma once
+
+#include <string>
+
+namespace handscs {
+
+// Number of cores this process may run on (sched affinity), at least 1.
+int available_cores();
+
+// Sets LibTorch and OpenMP to `threads` threads (0 = all available cores); returns the count set.
+int set_threads(int threads);
+
+// Name of the BLAS shared library mapped into this process (e.g. "libopenblasp-r0.3.21.so" or
+// "libblas.so.3 (reference BLAS: slow)"), found from /proc/self/maps after a small matmul.
+std::string blas_in_use();
+
+}  // namespace handscs

@@ -1,0 +1,141 @@
+// Config loading: defaults, files with "extends", --set overrides, and the error for each bad input.
+#include <catch2/catch.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "core/config.h"
+
+namespace {
+
+struct LrConfig {
+  double means = 1.6e-4;
+  double colors = 2.5e-3;
+  template <class V>
+  void visit(V& v) {
+    v.field("means", means, "learning rate of the means", 0.0, 1.0);
+    v.field("colors", colors, "learning rate of the colours", 0.0, 1.0);
+  }
+};
+
+struct TrainConfig {
+  int iterations = 100;
+  std::string split = "novel_pose";
+  std::vector<int> cameras = {1, 2};
+  std::vector<std::array<int, 2>> edges = {{0, 1}};
+  bool lpips = true;
+  LrConfig lr;
+  template <class V>
+  void visit(V& v) {
+    v.field("iterations", iterations, "training steps", 1, 1e7);
+    v.choice("split", split, {"novel_pose", "novel_view"}, "which split rule");
+    v.field("cameras", cameras, "camera ids");
+    v.field("edges", edges, "bone edges");
+    v.field("lpips", lpips, "LPIPS loss on");
+    v.section("lr", lr, "learning rates");
+  }
+};
+
+struct RootConfig {
+  TrainConfig train;
+  template <class V>
+  void visit(V& v) {
+    v.section("train", train, "training");
+  }
+};
+
+std::string temp_file(const std::string& name, const std::string& text) {
+  const auto dir = std::filesystem::temp_directory_path() / "handscs_test_config";
+  std::filesystem::create_directories(dir);
+  const auto path = (dir / name).string();
+  std::ofstream(path) << text;
+  return path;
+}
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const handscs::Error& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+}  // namespace
+
+TEST_CASE("config: defaults round-trip through JSON") {
+  RootConfig config;
+  const auto j = handscs::config_to_json(config);
+  CHECK(j["train"]["iterations"] == 100);
+  CHECK(j["train"]["lr"]["means"] == Approx(1.6e-4));
+  RootConfig back;
+  back.train.iterations = 7;
+  handscs::config_from_json(j, "mem", back);
+  CHECK(back.train.iterations == 100);
+  CHECK(back.train.edges == config.train.edges);
+}
+
+TEST_CASE("config: file values, extends and --set overrides apply in order") {
+  const auto base = temp_file("base.json", R"({"train": {"iterations": 50, "lr": {"means": 0.01}}})");
+  const auto child =
+      temp_file("child.json", R"({"extends": "base.json", "train": {"split": "novel_view"}})");
+  auto config = handscs::load_config<RootConfig>(
+      child, {"train.lr.colors=0.5", "train.cameras=[4,5,6]", "train.lpips=false"});
+  CHECK(config.train.iterations == 50);
+  CHECK(config.train.split == "novel_view");
+  CHECK(config.train.lr.means == Approx(0.01));
+  CHECK(config.train.lr.colors == Approx(0.5));
+  CHECK(config.train.cameras == std::vector<int>{4, 5, 6});
+  CHECK_FALSE(config.train.lpips);
+  (void)base;
+}
+
+TEST_CASE("config: each bad input names the file and key") {
+  const auto wrong_type = temp_file("x.json", R"({"train": {"lr": {"means": "fast"}}})");
+  CHECK(error_of([&] { handscs::load_config<RootConfig>(wrong_type, {}); }) ==
+        wrong_type + ": train.lr.means: expected number, got string");
+
+  const auto unknown = temp_file("unknown.json", R"({"train": {"iteratons": 5}})");
+  CHECK(error_of([&] { handscs::load_config<RootConfig>(unknown, {}); }) ==
+        unknown + ": train.iteratons: unknown key");
+
+  const auto range = temp_file("range.json", R"({"train": {"lr": {"means": 3}}})");
+  CHECK(error_of([&] { handscs::load_config<RootConfig>(range, {}); }) ==
+        range + ": train.lr.means: value 3 out of range [0, 1]");
+
+  const auto choice = temp_file("choice.json", R"({"train": {"split": "sideways"}})");
+  CHECK(error_of([&] { handscs::load_config<RootConfig>(choice, {}); }) ==
+        choice + ": train.split: unknown value \"sideways\" (known: novel_pose, novel_view)");
+
+  const auto fraction = temp_file("fraction.json", R"({"train": {"iterations": 2.5}})");
+  CHECK(error_of([&] { handscs::load_config<RootConfig>(fraction, {}); }) ==
+        fraction + ": train.iterations: expected integer, got 2.5");
+
+  const auto element = temp_file("element.json", R"({"train": {"cameras": [1, "b"]}})");
+  CHECK(error_of([&] { handscs::load_config<RootConfig>(element, {}); }) ==
+        element + ": train.cameras[1]: expected integer, got string");
+
+  const auto missing = std::string("/nonexistent/handscs.json");
+  CHECK(error_of([&] { handscs::load_config<RootConfig>(missing, {}); }) ==
+        missing + ": cannot open file");
+
+  const auto malformed = temp_file("malformed.json", "{\n  \"train\": {\n    \"iterations\": 5,\n  }\n}");
+  const auto message = error_of([&] { handscs::load_config<RootConfig>(malformed, {}); });
+  CHECK(message.rfind(malformed + ": malformed JSON at line 4, column 3", 0) == 0);
+
+  CHECK(error_of([&] { handscs::load_config<RootConfig>("", {"train.lr.mean=1"}); }) ==
+        "--set train.lr.mean=1: unknown key train.lr.mean");
+  CHECK(error_of([&] { handscs::load_config<RootConfig>("", {"train.iterations=abc"}); }) ==
+        "defaults + --set: train.iterations: expected integer, got string");
+  CHECK(error_of([&] { handscs::load_config<RootConfig>("", {"novalue"}); }) ==
+        "--set novalue: expected key.path=value");
+}
+
+TEST_CASE("config: markdown documentation lists every key") {
+  RootConfig config;
+  const auto doc = handscs::config_markdown(config);
+  for (const char* key : {"train.iterations", "train.split", "train.cameras", "train.edges",
+                          "train.lpips", "train.lr.means", "train.lr.colors"})
+    CHECK(doc.find(std::string("`") + key + "`") != std::string::npos);
+}
