@@ -1,0 +1,321 @@
+#!/usr/bin/env python3
+"""Convert a MANO hand model pickle (MANO_RIGHT.pkl / MANO_LEFT.pkl) into a HandSCS rig file.
+
+MANO is licence-restricted (https://mano.is.tue.mpg.de): download it yourself, convert it with this
+script, and never commit or redistribute the pickle or the rig file made from it.
+
+Needs only python3 and numpy. The pickle is a Python-2 pickle holding chumpy and scipy objects; this
+script reads it with encoding='latin1' and replaces those classes (and any other unknown class) by
+inert stand-ins whose pickled state it reads directly: a chumpy Ch keeps its array in 'x', a scipy
+csc_matrix keeps data/indices/indptr/_shape. No code from the pickle is ever run.
+
+The rig file format is docs/RIG_FORMAT.md. For the left hand the known shapedirs bug of the released
+MANO_LEFT.pkl is fixed (shapedirs[:, 0, :] *= -1; pass --no-left-shapedirs-fix for a fixed file).
+
+Usage:
+  convert_mano.py MANO_RIGHT.pkl mano_right.json
+  convert_mano.py MANO_LEFT.pkl mano_left.json [--hand left] [--tips 745,317,445,556,673]
+"""
+
+import argparse
+import json
+import os
+import pickle
+import sys
+
+try:
+    import numpy as np
+except ImportError:  # pragma: no cover - depends on the machine
+    sys.exit("convert_mano.py: needs numpy (Debian: apt install python3-numpy; "
+             "run it with /usr/bin/python3)")
+
+MANO_PARENTS = [-1, 0, 1, 2, 0, 4, 5, 0, 7, 8, 0, 10, 11, 0, 13, 14]
+# Fingertip vertices (thumb, index, middle, ring, pinky), as InterHand2.6M's regressor uses them.
+MANO_TIP_VERTICES = [745, 317, 445, 556, 673]
+MANO_VERTICES = 778
+# Rows of the skinning weights must sum to 1 within this (the rig loader's tolerance).
+SUM_TOLERANCE = 1e-4
+
+
+class ConversionError(Exception):
+    pass
+
+
+class _Inert:
+    """Stand-in for a class of the pickle: keeps constructor arguments and state, runs nothing."""
+
+    def __init__(self, *args, **kwargs):
+        self.__dict__["_args"] = args
+
+    def __setstate__(self, state):
+        self.__dict__["_state"] = state
+
+    def state(self):
+        return self.__dict__.get("_state")
+
+
+class ChumpyObject(_Inert):
+    pass
+
+
+class SparseMatrix(_Inert):
+    def toarray(self, key):
+        state = self.state()
+        if not isinstance(state, dict):
+            raise ConversionError(f"{key}: scipy sparse matrix without a state dictionary")
+        shape = state.get("_shape", state.get("shape"))
+        try:
+            data = np.asarray(state["data"], dtype=np.float64)
+            indices = np.asarray(state["indices"], dtype=np.int64)
+            indptr = np.asarray(state["indptr"], dtype=np.int64)
+            rows, cols = int(shape[0]), int(shape[1])
+        except (KeyError, TypeError, IndexError) as error:
+            raise ConversionError(f"{key}: scipy sparse matrix missing {error}") from None
+        layout = self.layout
+        dense = np.zeros((rows, cols), dtype=np.float64)
+        outer = cols if layout == "csc" else rows
+        if len(indptr) != outer + 1:
+            raise ConversionError(
+                f"{key}: {layout} matrix with {len(indptr)} pointers for {outer} slices")
+        for j in range(outer):
+            for p in range(indptr[j], indptr[j + 1]):
+                if layout == "csc":
+                    dense[indices[p], j] += data[p]
+                else:
+                    dense[j, indices[p]] += data[p]
+        return dense
+
+
+class CscMatrix(SparseMatrix):
+    layout = "csc"
+
+
+class CsrMatrix(SparseMatrix):
+    layout = "csr"
+
+
+# Classes the pickle may construct for real: numpy arrays and the plain builtins pickle needs.
+_ALLOWED = {
+    ("numpy.core.multiarray", "_reconstruct"),
+    ("numpy.core.multiarray", "scalar"),
+    ("numpy._core.multiarray", "_reconstruct"),
+    ("numpy._core.multiarray", "scalar"),
+    ("numpy.core.numeric", "_frombuffer"),
+    ("numpy", "ndarray"),
+    ("numpy", "dtype"),
+    ("copy_reg", "_reconstructor"),
+    ("copyreg", "_reconstructor"),
+    ("__builtin__", "object"),
+    ("builtins", "object"),
+    ("__builtin__", "set"),
+    ("builtins", "set"),
+    ("__builtin__", "frozenset"),
+    ("builtins", "frozenset"),
+    ("__builtin__", "list"),
+    ("builtins", "list"),
+    ("__builtin__", "dict"),
+    ("builtins", "dict"),
+    ("__builtin__", "tuple"),
+    ("builtins", "tuple"),
+    ("__builtin__", "slice"),
+    ("builtins", "slice"),
+    ("__builtin__", "complex"),
+    ("builtins", "complex"),
+}
+
+
+class ManoUnpickler(pickle.Unpickler):
+    def find_class(self, module, name):
+        if module.startswith("chumpy"):
+            return ChumpyObject
+        if module.startswith("scipy.sparse"):
+            if name == "csc_matrix":
+                return CscMatrix
+            if name == "csr_matrix":
+                return CsrMatrix
+            return _Inert
+        if (module, name) in _ALLOWED:
+            return super().find_class(module, name)
+        if module.split(".")[0] in ("builtins", "__builtin__", "os", "posix", "subprocess", "sys"):
+            raise ConversionError(f"the pickle asks for {module}.{name}: refusing to load it")
+        return _Inert  # any other class: kept inert
+
+
+def to_array(value, key):
+    """The numeric array behind a pickled value (ndarray, chumpy object or sparse matrix)."""
+    if isinstance(value, np.ndarray):
+        return value
+    if isinstance(value, SparseMatrix):
+        return value.toarray(key)
+    if isinstance(value, ChumpyObject):
+        state = value.state()
+        if isinstance(state, dict):
+            if "x" in state:
+                return to_array(state["x"], key)
+            arrays = [v for v in state.values() if isinstance(v, np.ndarray)]
+            if len(arrays) == 1:
+                return arrays[0]
+        raise ConversionError(f"{key}: chumpy object without its array ('x')")
+    if isinstance(value, (list, tuple, float, int)):
+        return np.asarray(value)
+    raise ConversionError(f"{key}: expected an array, got {type(value).__name__}")
+
+
+def read_mano(path):
+    try:
+        with open(path, "rb") as stream:
+            data = ManoUnpickler(stream, encoding="latin1").load()
+    except OSError as error:
+        raise ConversionError(f"cannot read: {error.strerror}") from None
+    except ConversionError:
+        raise
+    except Exception as error:  # a truncated or foreign file
+        raise ConversionError(f"not a MANO pickle ({type(error).__name__}: {error})") from None
+    if isinstance(data, _Inert):
+        data = data.state()
+    if not isinstance(data, dict):
+        raise ConversionError("not a MANO pickle (expected a dictionary at the top level)")
+    return {str(k): v for k, v in data.items()}
+
+
+def float_array(data, key, shape):
+    if key not in data:
+        raise ConversionError(f"missing key '{key}'")
+    array = np.asarray(to_array(data[key], key), dtype=np.float64)
+    if tuple(array.shape) != tuple(shape):
+        raise ConversionError(f"{key}: expected shape {list(shape)}, got {list(array.shape)}")
+    if not np.all(np.isfinite(array)):
+        raise ConversionError(f"{key}: non-finite value")
+    return array
+
+
+def convert(data, hand, tips, left_fix, name):
+    if "v_template" not in data:
+        raise ConversionError("missing key 'v_template'")
+    v_template = np.asarray(to_array(data["v_template"], "v_template"), dtype=np.float64)
+    if v_template.ndim != 2 or v_template.shape[1] != 3:
+        raise ConversionError(f"v_template: expected shape [V, 3], got {list(v_template.shape)}")
+    num_vertices = v_template.shape[0]
+    if not np.all(np.isfinite(v_template)):
+        raise ConversionError("v_template: non-finite value")
+    if "f" not in data:
+        raise ConversionError("missing key 'f'")
+    faces = np.asarray(to_array(data["f"], "f")).astype(np.int64)
+    if faces.ndim != 2 or faces.shape[1] != 3:
+        raise ConversionError(f"f: expected shape [F, 3], got {list(faces.shape)}")
+    if faces.size and (faces.min() < 0 or faces.max() >= num_vertices):
+        raise ConversionError(f"f: vertex index out of range [0, {num_vertices})")
+    weights = float_array(data, "weights", (num_vertices, 16))
+    sums = weights.sum(axis=1)
+    worst = int(np.argmax(np.abs(sums - 1.0)))
+    if abs(sums[worst] - 1.0) > SUM_TOLERANCE:
+        raise ConversionError(f"weights[{worst}]: row sums to {sums[worst]:.6f}, expected 1")
+    j_regressor = float_array(data, "J_regressor", (16, num_vertices))
+    posedirs = float_array(data, "posedirs", (num_vertices, 3, 135))
+    shapedirs = float_array(data, "shapedirs", (num_vertices, 3, 10)).copy()
+    hands_mean = float_array(data, "hands_mean", (45,))
+    if "kintree_table" in data:
+        table = np.asarray(to_array(data["kintree_table"], "kintree_table")).astype(np.int64)
+        parents = [int(p) if 0 <= p < 16 else -1 for p in table[0].tolist()]
+        if parents != MANO_PARENTS:
+            raise ConversionError(
+                f"kintree_table: parents {parents} differ from MANO's {MANO_PARENTS}")
+    if hand == "left" and left_fix:
+        shapedirs[:, 0, :] *= -1.0
+    if tips is None:
+        if num_vertices != MANO_VERTICES:
+            raise ConversionError(
+                f"{num_vertices} vertices (MANO has {MANO_VERTICES}): "
+                "pass the fingertip vertices with --tips")
+        tips = MANO_TIP_VERTICES
+    for i, tip in enumerate(tips):
+        if not 0 <= tip < num_vertices:
+            raise ConversionError(
+                f"--tips[{i}]: vertex index {tip} out of range [0, {num_vertices})")
+
+    rows, cols = np.nonzero(j_regressor)
+    regressor_entries = [[int(r), int(c), float(j_regressor[r, c])] for r, c in zip(rows, cols)]
+    return [
+        ("format", "handscs-rig"),
+        ("version", 1),
+        ("units", "metres"),
+        ("name", name),
+        ("handedness", hand),
+        ("description", f"Converted from MANO ({name}) by scripts/convert_mano.py. MANO is licence-"
+                        "restricted: do not commit or redistribute this file."),
+        ("parents", MANO_PARENTS),
+        ("tip_vertices", [int(t) for t in tips]),
+        ("hands_mean", hands_mean.tolist()),
+        ("v_template", v_template.tolist()),
+        ("faces", faces.tolist()),
+        ("weights", weights.tolist()),
+        ("j_regressor", {"shape": [16, num_vertices], "sparse": regressor_entries}),
+        ("shapedirs", shapedirs.tolist()),
+        ("posedirs", posedirs.tolist()),
+    ]
+
+
+def write_rig(entries, path):
+    """One key per line; floats as Python's shortest round-trip repr (exact float64)."""
+    lines = [f"  {json.dumps(key)}: {json.dumps(value, separators=(',', ':'), allow_nan=False)}"
+             for key, value in entries]
+    text = "{\n" + ",\n".join(lines) + "\n}\n"
+    temp = f"{path}.tmp.{os.getpid()}"
+    with open(temp, "w", encoding="utf-8") as stream:
+        stream.write(text)
+        stream.flush()
+        os.fsync(stream.fileno())
+    os.replace(temp, path)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("pickle", help="MANO_RIGHT.pkl or MANO_LEFT.pkl")
+    parser.add_argument("output", help="rig file to write (JSON, docs/RIG_FORMAT.md)")
+    parser.add_argument("--hand", choices=["right", "left"],
+                        help="handedness (default: from the file name, MANO_RIGHT / MANO_LEFT)")
+    parser.add_argument("--tips", help="fingertip vertex ids thumb,index,middle,ring,pinky "
+                                       "(default for MANO's 778 vertices: 745,317,445,556,673)")
+    parser.add_argument("--no-left-shapedirs-fix", action="store_true",
+                        help="do not negate shapedirs[:, 0, :] of a left hand (file already fixed)")
+    parser.add_argument("--name",
+                        help="rig name (default: the pickle's file name without extension)")
+    args = parser.parse_args(argv)
+
+    stem = os.path.splitext(os.path.basename(args.pickle))[0]
+    hand = args.hand
+    if hand is None:
+        if "LEFT" in stem.upper():
+            hand = "left"
+        elif "RIGHT" in stem.upper():
+            hand = "right"
+        else:
+            print(f"convert_mano.py: {args.pickle}: cannot tell the hand from the file name; "
+                  "pass --hand right or --hand left", file=sys.stderr)
+            return 2
+    tips = None
+    if args.tips:
+        try:
+            tips = [int(t) for t in args.tips.split(",")]
+        except ValueError:
+            tips = []
+        if len(tips) != 5:
+            print("convert_mano.py: --tips needs 5 comma-separated vertex ids", file=sys.stderr)
+            return 2
+    try:
+        entries = convert(read_mano(args.pickle), hand, tips, not args.no_left_shapedirs_fix,
+                          args.name or stem)
+        write_rig(entries, args.output)
+    except ConversionError as error:
+        print(f"convert_mano.py: {args.pickle}: {error}", file=sys.stderr)
+        return 1
+    except OSError as error:
+        print(f"convert_mano.py: {args.output}: cannot write ({error.strerror})", file=sys.stderr)
+        return 1
+    print(f"convert_mano.py: wrote {args.output} ({hand} hand). MANO is licence-restricted: "
+          "keep this file out of version control.")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

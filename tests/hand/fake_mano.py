@@ -1,0 +1,204 @@
+#!/usr/bin/env python3
+"""Test helper: writes small fake MANO pickles shaped like the real ones, and reference LBS outputs.
+
+The pickles mimic MANO_RIGHT.pkl / MANO_LEFT.pkl as written by Python 2: protocol 2, every string
+(dictionary keys, numpy's raw array bytes) a Python-2 'str' (BINSTRING opcodes, read back with
+encoding='latin1'), shapedirs a chumpy.ch.Ch object holding its array in 'x', J_regressor a
+scipy.sparse.csc.csc_matrix (data/indices/indptr/_shape). Neither chumpy nor scipy is needed: the
+classes are stand-ins registered under those module names.
+
+The reference is MANO's LBS written here in numpy (independent of the C++ code), for the converted
+rig (left hand: with the shapedirs fix), for a few poses/shapes/translations, with and without
+flat_hand_mean.
+
+Usage: fake_mano.py OUT_DIR   -> OUT_DIR/MANO_RIGHT.pkl, MANO_LEFT.pkl, broken.pkl, reference.json
+"""
+
+import io
+import json
+import os
+import pickle
+import struct
+import sys
+import types
+
+import numpy as np
+
+V, F = 40, 30
+TIPS = [3, 11, 19, 27, 35]
+PARENTS = [-1, 0, 1, 2, 0, 4, 5, 0, 7, 8, 0, 10, 11, 0, 13, 14]
+
+
+# --- stand-in classes under the names the real pickles use ------------------------------------
+class Ch(object):
+    def __init__(self, x):
+        self.x = x
+        self._dirty_vars = set()
+        self._itr = None
+
+
+class csc_matrix(object):
+    def __init__(self, dense):
+        rows, cols = dense.shape
+        data, indices, indptr = [], [], [0]
+        for j in range(cols):
+            for i in range(rows):
+                if dense[i, j] != 0:
+                    data.append(dense[i, j])
+                    indices.append(i)
+            indptr.append(len(data))
+        self.data = np.array(data, dtype=np.float64)
+        self.indices = np.array(indices, dtype=np.int32)
+        self.indptr = np.array(indptr, dtype=np.int32)
+        self._shape = (rows, cols)
+        self.maxprint = 50
+        self.format = "csc"
+
+
+def _register(module_name, cls):
+    parts = module_name.split(".")
+    for i in range(1, len(parts) + 1):
+        name = ".".join(parts[:i])
+        if name not in sys.modules:
+            sys.modules[name] = types.ModuleType(name)
+    setattr(sys.modules[module_name], cls.__name__, cls)
+    cls.__module__ = module_name
+
+
+_register("chumpy.ch", Ch)
+_register("scipy.sparse.csc", csc_matrix)
+
+
+class Py2Pickler(pickle._Pickler):
+    """Protocol-2 pickler writing text and bytes as Python-2 'str' (SHORT_BINSTRING, BINSTRING)."""
+
+    dispatch = pickle._Pickler.dispatch.copy()
+
+    def _write_py2_str(self, obj, data):
+        if len(data) < 256:
+            self.write(pickle.SHORT_BINSTRING + bytes([len(data)]) + data)
+        else:
+            self.write(pickle.BINSTRING + struct.pack("<i", len(data)) + data)
+        self.memoize(obj)
+
+    def save_bytes(self, obj):
+        self._write_py2_str(obj, obj)
+
+    def save_text(self, obj):
+        self._write_py2_str(obj, obj.encode("latin1"))
+
+    dispatch[bytes] = save_bytes
+    dispatch[str] = save_text
+
+
+def py2_pickle(obj):
+    stream = io.BytesIO()
+    Py2Pickler(stream, protocol=2).dump(obj)
+    return stream.getvalue()
+
+
+# --- the fake model ------------------------------------------------------------------------------
+def make_model(rng, left):
+    v_template = rng.normal(scale=0.05, size=(V, 3))
+    if left:
+        v_template[:, 0] *= -1
+    faces = np.array([[i, (i + 1) % V, (i + 7) % V] for i in range(F)], dtype=np.uint32)
+    weights = rng.random((V, 16)) * (rng.random((V, 16)) > 0.5)
+    weights[:, 0] += 1e-3
+    weights /= weights.sum(axis=1, keepdims=True)
+    regressor = rng.random((16, V)) * (rng.random((16, V)) > 0.7)
+    regressor[:, 0] += 1e-3
+    regressor /= regressor.sum(axis=1, keepdims=True)
+    kintree = np.array([[4294967295] + PARENTS[1:], list(range(16))], dtype=np.int64)
+    return {
+        "v_template": v_template,
+        "f": faces,
+        "weights": weights,
+        "J_regressor": csc_matrix(regressor),
+        "kintree_table": kintree,
+        "posedirs": rng.normal(scale=1e-3, size=(V, 3, 135)),
+        "shapedirs": Ch(rng.normal(scale=1e-2, size=(V, 3, 10))),
+        "hands_mean": rng.normal(scale=0.2, size=45),
+        "hands_components": rng.normal(size=(45, 45)),
+        "hands_coeffs": rng.normal(size=(10, 45)),
+        "J": regressor @ v_template,
+        "bs_style": "lbs",
+        "bs_type": "lrotmin",
+    }
+
+
+# --- reference LBS (MANO, numpy) ---------------------------------------------------------------
+def rodrigues(a):
+    theta = np.linalg.norm(a)
+    if theta < 1e-12:
+        return np.eye(3)
+    k = a / theta
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(theta) * K + (1 - np.cos(theta)) * K @ K
+
+
+def reference_lbs(model, shapedirs, pose, beta, trans, flat_hand_mean):
+    pose = np.array(pose, dtype=np.float64)
+    if not flat_hand_mean:
+        pose[3:] += model["hands_mean"]
+    regressor = np.zeros((16, V))
+    sparse = model["J_regressor"]
+    for j in range(V):
+        for p in range(sparse.indptr[j], sparse.indptr[j + 1]):
+            regressor[sparse.indices[p], j] = sparse.data[p]
+    v_shaped = model["v_template"] + shapedirs @ beta
+    J = regressor @ v_shaped
+    R = [rodrigues(pose[3 * k:3 * k + 3]) for k in range(16)]
+    feature = np.concatenate([(R[k] - np.eye(3)).ravel() for k in range(1, 16)])
+    v_posed = v_shaped + model["posedirs"] @ feature
+    G = []
+    for k in range(16):
+        local = np.eye(4)
+        local[:3, :3] = R[k]
+        local[:3, 3] = J[k] - (J[PARENTS[k]] if k else 0)
+        G.append(local if k == 0 else G[PARENTS[k]] @ local)
+    A = []
+    for k in range(16):
+        a = G[k].copy()
+        a[:3, 3] -= G[k][:3, :3] @ J[k]
+        A.append(a)
+    T = np.einsum("vk,kij->vij", model["weights"], np.array(A))
+    homogeneous = np.concatenate([v_posed, np.ones((V, 1))], axis=1)
+    vertices = np.einsum("vij,vj->vi", T, homogeneous)[:, :3] + trans
+    rig_joints = [G[k][:3, 3] for k in range(16)]
+    joints = np.array(rig_joints + [vertices[t] - trans for t in TIPS]) + trans
+    return vertices, joints
+
+
+def main():
+    out = sys.argv[1]
+    os.makedirs(out, exist_ok=True)
+    rng = np.random.default_rng(1234)
+    reference = {"tips": TIPS, "cases": []}
+    poses = [np.zeros(48), rng.normal(scale=0.6, size=48), rng.normal(scale=0.3, size=48)]
+    betas = [np.zeros(10), rng.normal(size=10), rng.normal(size=10)]
+    translations = [np.zeros(3), rng.normal(scale=0.1, size=3), rng.normal(scale=0.1, size=3)]
+    for hand in ("right", "left"):
+        model = make_model(rng, hand == "left")
+        with open(os.path.join(out, f"MANO_{hand.upper()}.pkl"), "wb") as stream:
+            stream.write(py2_pickle(model))
+        shapedirs = model["shapedirs"].x.copy()
+        if hand == "left":
+            shapedirs[:, 0, :] *= -1  # the converter's left-hand fix
+        for pose, beta, trans in zip(poses, betas, translations):
+            for flat in (True, False):
+                vertices, joints = reference_lbs(model, shapedirs, pose, beta, trans, flat)
+                reference["cases"].append({
+                    "hand": hand, "flat_hand_mean": flat, "pose": pose.tolist(),
+                    "shape": beta.tolist(), "trans": trans.tolist(),
+                    "vertices": vertices.tolist(), "joints": joints.tolist()})
+    broken = make_model(rng, False)
+    del broken["J_regressor"]
+    with open(os.path.join(out, "broken_right.pkl"), "wb") as stream:
+        stream.write(py2_pickle(broken))
+    with open(os.path.join(out, "reference.json"), "w") as stream:
+        json.dump(reference, stream)
+
+
+if __name__ == "__main__":
+    main()
