@@ -1,0 +1,149 @@
+#include "avatar/avatar.h"
+
+#include <torch/torch.h>
+
+#include "core/error.h"
+#include "scs/descriptor.h"
+
+namespace handscs {
+
+torch::Tensor symmetric_upper(const torch::Tensor& m) {
+  return torch::stack({m.select(-2, 0).select(-1, 0), m.select(-2, 0).select(-1, 1),
+                       m.select(-2, 0).select(-1, 2), m.select(-2, 1).select(-1, 1),
+                       m.select(-2, 1).select(-1, 2), m.select(-2, 2).select(-1, 2)},
+                      -1);
+}
+
+Avatar::Avatar(const AvatarConfig& config, Rig rig)
+    : config_(config), rig_(std::move(rig)), topology_(make_static_topology(config.scs)) {
+  torch::manual_seed(static_cast<uint64_t>(config.seed));
+  gaussians_ = init_gaussians_from_rig(rig_, config_);
+  if (config_.scs.enabled && config_.scs.virtual_bones > 0)
+    generator_ = VirtualBoneGenerator(config_.scs, topology_);
+  const int64_t embedding = config_.embeddings ? config_.embedding_dim : 0;
+  decoders_ = OffsetDecoders(config_.scs.enabled ? descriptor_dim() : 0, embedding,
+                             config_.decoder_hidden);
+}
+
+bool Avatar::uses_static_bones() const {
+  // Without SCS the decoders see no P, but the inter-pose loss still matches Gaussians by their
+  // static-bone coordinates (the virtual bones would have no training signal).
+  return config_.scs.static_bones || !config_.scs.enabled;
+}
+
+int64_t Avatar::descriptor_dim() const {
+  return (uses_static_bones() ? topology_.size() : 0) +
+         (generator_ ? generator_->num_bones() : 0);
+}
+
+std::vector<std::pair<std::string, std::vector<torch::Tensor>>> Avatar::network_parameter_groups() {
+  std::vector<torch::Tensor> decoder_weights, gates;
+  for (const auto& item : decoders_->named_parameters()) {
+    if (item.key().find("gate") != std::string::npos)
+      gates.push_back(item.value());
+    else
+      decoder_weights.push_back(item.value());
+  }
+  std::vector<std::pair<std::string, std::vector<torch::Tensor>>> groups;
+  if (generator_) groups.push_back({"generator", generator_->parameters()});
+  groups.push_back({"decoders", decoder_weights});
+  groups.push_back({"gates", gates});
+  return groups;
+}
+
+torch::Tensor Avatar::compute_descriptor(const torch::Tensor& pose, const LbsOutput& lbs,
+                                         const torch::Tensor& lbs_means, VirtualBones* bones) {
+  std::vector<torch::Tensor> parts;
+  const auto posed_joints = lbs.joints[0];      // [21, 3]
+  const auto canonical_joints = lbs.rest_joints[0];
+  if (uses_static_bones())
+    parts.push_back(static_descriptor(lbs_means, posed_joints, topology_, config_.scs.tau,
+                                      config_.scs.norm_eps));
+  if (generator_) {
+    const bool posed_space = config_.scs.virtual_space == "posed";
+    *bones = generator_->forward(pose, canonical_joints, posed_space ? posed_joints : canonical_joints);
+    parts.push_back(virtual_descriptor(posed_space ? lbs_means : gaussians_.means, bones->start,
+                                       bones->end, config_.scs.norm_eps));
+  }
+  if (parts.empty()) return torch::zeros({gaussians_.size(), 0}, lbs_means.options());
+  return torch::cat(parts, 1);
+}
+
+AvatarState Avatar::pose(const torch::Tensor& pose_in, const torch::Tensor& shape_in,
+                         const torch::Tensor& trans_in, bool need_descriptor) {
+  require(pose_in.numel() == kPoseDim, "avatar: pose must have 48 values, got " +
+                                           std::to_string(pose_in.numel()));
+  require(shape_in.numel() == kShapeDim, "avatar: shape must have 10 values, got " +
+                                             std::to_string(shape_in.numel()));
+  require(trans_in.numel() == 3, "avatar: trans must have 3 values, got " +
+                                     std::to_string(trans_in.numel()));
+  require(torch::isfinite(pose_in).all().item<bool>(), "avatar: pose contains NaN or Inf");
+  require(torch::isfinite(shape_in).all().item<bool>(), "avatar: shape contains NaN or Inf");
+  require(torch::isfinite(trans_in).all().item<bool>(), "avatar: trans contains NaN or Inf");
+  const auto dtype = gaussians_.means.scalar_type();
+  const auto pose = pose_in.to(dtype).reshape({1, kPoseDim});
+  const auto shape = shape_in.to(dtype).reshape({1, kShapeDim});
+  const auto trans = trans_in.to(dtype).reshape({1, 3});
+
+  AvatarState s;
+  s.lbs = lbs(rig_, pose, shape, trans, LbsOptions{config_.flat_hand_mean});
+  auto& g = gaussians_;
+  // Per-Gaussian blend transform T = sum_k w_k A_k and blend offset of the nearest rig vertex.
+  const auto transforms =
+      g.skin_weights.matmul(s.lbs.joint_transforms[0].reshape({kRigJoints, 16})).view({-1, 4, 4});
+  const auto linear = transforms.slice(1, 0, 3).slice(2, 0, 3);  // [N, 3, 3]
+  const auto offset = transforms.slice(1, 0, 3).select(2, 3);    // [N, 3]
+  const auto blend = s.lbs.blend_offsets[0].index_select(0, g.vertex_ids);  // [N, 3]
+  auto apply = [&](const torch::Tensor& x) {
+    return linear.matmul((x + blend).unsqueeze(2)).squeeze(2) + offset;
+  };
+  s.lbs_means = apply(g.means);
+
+  const bool use_descriptor = config_.scs.enabled && descriptor_dim() > 0;
+  if (use_descriptor || need_descriptor)
+    s.descriptor = compute_descriptor(pose[0], s.lbs, s.lbs_means, &s.virtual_bones);
+  const auto descriptor_in =
+      use_descriptor ? s.descriptor : torch::zeros({g.size(), 0}, s.lbs_means.options());
+  const auto transform_in = transforms.slice(1, 0, 3).reshape({-1, 12});
+  s.offsets = decoders_->forward(descriptor_in, g.embed_geometry, g.embed_appearance, transform_in);
+
+  s.canonical_means = g.means + s.offsets.dx + s.offsets.dx_f;
+  s.canonical_colors = g.colors + s.offsets.dc + s.offsets.dc_f;
+  const auto rot = quaternion_to_matrix(g.rotations);
+  const auto scaled = rot * torch::exp(g.log_scales).unsqueeze(1);
+  const auto sigma = scaled.matmul(scaled.transpose(1, 2));           // R S S R^T
+  const auto a = s.offsets.dsigma_f.matmul(s.offsets.dsigma);          // A = dSigma^f dSigma
+  s.canonical_covariances = a.matmul(sigma).matmul(a.transpose(1, 2));  // A Sigma A^T
+
+  s.posed.means = apply(s.canonical_means);
+  const auto posed_cov = linear.matmul(s.canonical_covariances).matmul(linear.transpose(1, 2));
+  s.posed.covariances = symmetric_upper(posed_cov);
+  s.posed.colors = s.canonical_colors;
+  s.posed.opacities = torch::sigmoid(g.opacity_logits);
+  return s;
+}
+
+void Avatar::set_dtype(torch::ScalarType dtype) {
+  for (auto& [name, tensor] : gaussians_.all()) {
+    if (!tensor->is_floating_point()) continue;
+    const bool learn = tensor->requires_grad();
+    *tensor = tensor->detach().to(dtype);
+    if (learn) tensor->set_requires_grad(true);
+  }
+  if (generator_) generator_->to(dtype);
+  decoders_->to(dtype);
+}
+
+AvatarOutput Avatar::forward(const torch::Tensor& pose_in, const torch::Tensor& shape,
+                             const torch::Tensor& trans, const Camera& camera,
+                             const RasterSettings& settings, const torch::Tensor& means2d_probe,
+                             bool need_descriptor) {
+  AvatarOutput out;
+  out.state = pose(pose_in, shape, trans, need_descriptor);
+  const auto& p = out.state.posed;
+  out.render = rasterize_gaussians(p.means, p.covariances, p.colors, p.opacities, camera, settings,
+                                   means2d_probe);
+  return out;
+}
+
+}  // namespace handscs

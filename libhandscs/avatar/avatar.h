@@ -1,0 +1,90 @@
+// The HandSCS avatar (paper §3.1): canonical Gaussians on the rig, SCS descriptor, offset decoders,
+// posing by per-Gaussian blend transforms, and rendering with the splat rasterizer:
+//   x' = x + dx + dx^f,  c' = c + dc + dc^f,  Sigma' = A Sigma A^T (A = dSigma^f dSigma),
+//   posed mean = T (x' + blend offset),  posed covariance = A_T Sigma' A_T^T.
+#pragma once
+
+#include <torch/types.h>
+
+#include "avatar/avatar_config.h"
+#include "avatar/decoders.h"
+#include "avatar/gaussians.h"
+#include "core/camera.h"
+#include "hand/lbs.h"
+#include "render/rasterize.h"
+#include "scs/topology.h"
+#include "scs/virtual_bones.h"
+
+namespace handscs {
+
+struct PosedGaussians {
+  torch::Tensor means;        // [N, 3] world
+  torch::Tensor covariances;  // [N, 6] world, upper triangle (xx, xy, xz, yy, yz, zz)
+  torch::Tensor colors;       // [N, 3]
+  torch::Tensor opacities;    // [N]
+};
+
+// Everything one forward pass produces that losses and tools may need.
+struct AvatarState {
+  PosedGaussians posed;
+  LbsOutput lbs;                  // of the rig for this pose (batch of 1)
+  torch::Tensor lbs_means;        // [N, 3] LBS-posed canonical centres x'_lbs (no offsets)
+  torch::Tensor descriptor;       // [N, |P|] structural coordinate P (undefined if not computed)
+  DecodedOffsets offsets;
+  torch::Tensor canonical_means;        // [N, 3] x'
+  torch::Tensor canonical_covariances;  // [N, 3, 3] Sigma'
+  torch::Tensor canonical_colors;       // [N, 3] c'
+  VirtualBones virtual_bones;     // undefined tensors when M = 0 or SCS is off
+};
+
+struct AvatarOutput {
+  AvatarState state;
+  RasterOutput render;
+};
+
+class Avatar {
+ public:
+  Avatar(const AvatarConfig& config, Rig rig);
+
+  // pose [48], shape [10], trans [3] (any float dtype; computed in float32). Throws Error on
+  // non-finite input. need_descriptor forces P even when the decoders do not use it (for L_con).
+  AvatarState pose(const torch::Tensor& pose, const torch::Tensor& shape,
+                   const torch::Tensor& trans, bool need_descriptor = false);
+
+  AvatarOutput forward(const torch::Tensor& pose, const torch::Tensor& shape,
+                       const torch::Tensor& trans, const Camera& camera,
+                       const RasterSettings& settings, const torch::Tensor& means2d_probe = {},
+                       bool need_descriptor = false);
+
+  // Converts every Gaussian tensor and network to `dtype` (float32 by default; float64 for checks).
+  void set_dtype(torch::ScalarType dtype);
+
+  const AvatarConfig& config() const { return config_; }
+  const Rig& rig() const { return rig_; }
+  const BoneTopology& topology() const { return topology_; }
+  GaussianState& gaussians() { return gaussians_; }
+  OffsetDecoders& decoders() { return decoders_; }
+  VirtualBoneGenerator& generator() { return generator_; }  // null when M = 0 or SCS is off
+  // Width of P as computed (static bones, then virtual bones); the decoders see it when SCS is on.
+  int64_t descriptor_dim() const;
+
+  // Network parameters by group name: "generator", "decoders", "gates".
+  std::vector<std::pair<std::string, std::vector<torch::Tensor>>> network_parameter_groups();
+
+ private:
+  bool uses_static_bones() const;
+  torch::Tensor compute_descriptor(const torch::Tensor& pose, const LbsOutput& lbs,
+                                   const torch::Tensor& lbs_means, VirtualBones* bones);
+
+  AvatarConfig config_;
+  Rig rig_;
+  BoneTopology topology_;
+  GaussianState gaussians_;
+  VirtualBoneGenerator generator_{nullptr};
+  OffsetDecoders decoders_{nullptr};
+};
+
+// Upper triangle [N, 6] of symmetric matrices [N, 3, 3].
+torch::Tensor symmetric_upper(const torch::Tensor& m);
+
+}  // namespace handscs

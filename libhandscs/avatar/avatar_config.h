@@ -1,0 +1,45 @@
+// Configuration of the HandSCS avatar: rig, Gaussian initialisation, embeddings, decoders, SCS.
+// Defaults follow DESIGN.md §4; each paper ablation is a switch (here or in ScsConfig).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "scs/scs_config.h"
+
+namespace handscs {
+
+struct AvatarConfig {
+  std::string rig = "builtin";  // "builtin", "builtin:left" or a rig file (docs/RIG_FORMAT.md)
+  bool flat_hand_mean = false;  // false: poses are relative to the rig's hands_mean (InterHand2.6M)
+  bool embeddings = true;       // per-Gaussian embeddings e_g, e_a as decoder inputs
+  int embedding_dim = 32;       // d of e_g and e_a (paper)
+  double embedding_init_std = 1e-2;  // N(0, 1e-2): small so decoders start from structure alone
+  int decoder_hidden = 256;     // width of the two hidden layers of each decoder (paper)
+  double opacity_init_min = 0.5;  // random initial opacity U(min, max): opaque enough to cover skin
+  double opacity_init_max = 0.95;
+  double scale_init_factor = 1.0;  // initial isotropic scale = factor x mean 3-NN vertex distance
+  int64_t seed = 0;             // initialisation seed (Gaussians, embeddings, networks)
+  ScsConfig scs;
+
+  template <class V>
+  void visit(V& v) {
+    v.field("rig", rig, "hand rig: builtin, builtin:left or a rig file path");
+    v.field("flat_hand_mean", flat_hand_mean, "poses are absolute (true) or relative to hands_mean");
+    v.field("embeddings", embeddings, "use per-Gaussian embeddings e_g, e_a");
+    v.field("embedding_dim", embedding_dim, "embedding size d", 1, 1024);
+    v.field("embedding_init_std", embedding_init_std, "std of the embeddings' initial values", 0.0,
+            10.0);
+    v.field("decoder_hidden", decoder_hidden, "hidden width of the decoder MLPs", 1, 4096);
+    v.field("opacity_init_min", opacity_init_min, "lower bound of random initial opacity", 1e-4,
+            0.9999);
+    v.field("opacity_init_max", opacity_init_max, "upper bound of random initial opacity", 1e-4,
+            0.9999);
+    v.field("scale_init_factor", scale_init_factor, "initial scale / mean 3-NN distance", 1e-3,
+            100.0);
+    v.field("seed", seed, "initialisation seed", 0, 9.0e15);
+    v.section("scs", scs, "Structural Coordinate Space");
+  }
+};
+
+}  // namespace handscs

@@ -1,0 +1,66 @@
+#include "avatar/decoders.h"
+
+#include <torch/torch.h>
+
+#include "avatar/gaussians.h"
+
+namespace handscs {
+
+namespace {
+constexpr int64_t kTransformDim = 12;  // vec of the 3x4 blend transform T
+constexpr int64_t kSpdRaw = 7;         // 3 log-scales + 4 quaternion-delta values
+}  // namespace
+
+GatedMlpImpl::GatedMlpImpl(int64_t inputs, int64_t hidden, int64_t outputs) {
+  layer1_ = register_module("layer1", torch::nn::Linear(inputs, hidden));
+  layer2_ = register_module("layer2", torch::nn::Linear(hidden, hidden));
+  layer3_ = register_module("layer3", torch::nn::Linear(hidden, outputs));
+  gate = register_parameter("gate", torch::zeros({1}));
+}
+
+torch::Tensor GatedMlpImpl::forward(const torch::Tensor& x) {
+  auto h = torch::relu(layer1_->forward(x));
+  h = torch::relu(layer2_->forward(h));
+  return gate * layer3_->forward(h);
+}
+
+OffsetDecodersImpl::OffsetDecodersImpl(int64_t descriptor_dim, int64_t embedding_dim,
+                                       int64_t hidden) {
+  geometry = register_module(
+      "geometry", GatedMlp(descriptor_dim + embedding_dim + kTransformDim, hidden, 3 + kSpdRaw));
+  appearance = register_module(
+      "appearance", GatedMlp(descriptor_dim + embedding_dim + kTransformDim, hidden, 3));
+  fusion = register_module("fusion", GatedMlp(descriptor_dim + 2 * embedding_dim + kTransformDim,
+                                              hidden, 3 + kSpdRaw + 3));
+}
+
+torch::Tensor spd_from_raw(const torch::Tensor& raw) {
+  const auto log_scales = raw.slice(1, 0, 3);
+  auto quats = raw.slice(1, 3, 7).clone();
+  quats.select(1, 0).add_(1.0);  // q = (1, 0, 0, 0) + raw: identity rotation when raw = 0
+  const auto rot = quaternion_to_matrix(quats);               // [N, 3, 3]
+  const auto scaled = rot * torch::exp(log_scales).unsqueeze(1);  // R diag(exp(s))
+  return scaled.matmul(rot.transpose(1, 2));
+}
+
+DecodedOffsets OffsetDecodersImpl::forward(const torch::Tensor& descriptor,
+                                           const torch::Tensor& embed_geometry,
+                                           const torch::Tensor& embed_appearance,
+                                           const torch::Tensor& transforms) {
+  const auto geometry_in = torch::cat({descriptor, embed_geometry, transforms}, 1);
+  const auto appearance_in = torch::cat({descriptor, embed_appearance, transforms}, 1);
+  const auto fusion_in = torch::cat({descriptor, embed_geometry, embed_appearance, transforms}, 1);
+  const auto g = geometry->forward(geometry_in);
+  const auto a = appearance->forward(appearance_in);
+  const auto f = fusion->forward(fusion_in);
+  DecodedOffsets out;
+  out.dx = g.slice(1, 0, 3);
+  out.dsigma = spd_from_raw(g.slice(1, 3, 3 + kSpdRaw));
+  out.dc = a;
+  out.dx_f = f.slice(1, 0, 3);
+  out.dsigma_f = spd_from_raw(f.slice(1, 3, 3 + kSpdRaw));
+  out.dc_f = f.slice(1, 3 + kSpdRaw, 6 + kSpdRaw);
+  return out;
+}
+
+}  // namespace handscs

@@ -1,0 +1,50 @@
+// Offset decoders (paper §3.1.3): geometry [P, e_g, vec(T)] -> dx, dSigma; appearance
+// [P, e_a, vec(T)] -> dc; fusion [P, e_g, e_a, vec(T)] -> dx^f, dSigma^f, dc^f. Each is
+// Linear-ReLU-Linear-ReLU-Linear times a learnable scalar gate initialised to 0, so the avatar
+// starts as plain LBS. dSigma = R(q) diag(exp(s)) R(q)^T with q = (1,0,0,0) + raw: SPD, = I at zero.
+#pragma once
+
+#include <torch/nn/module.h>
+#include <torch/nn/modules/linear.h>
+#include <torch/nn/pimpl.h>
+
+namespace handscs {
+
+// One gated MLP: gate * L3(relu(L2(relu(L1(x))))).
+class GatedMlpImpl : public torch::nn::Module {
+ public:
+  GatedMlpImpl(int64_t inputs, int64_t hidden, int64_t outputs);
+  torch::Tensor forward(const torch::Tensor& x);  // [N, inputs] -> [N, outputs]
+  torch::Tensor gate;                             // [1], starts at 0
+
+ private:
+  torch::nn::Linear layer1_{nullptr}, layer2_{nullptr}, layer3_{nullptr};
+};
+TORCH_MODULE(GatedMlp);
+
+struct DecodedOffsets {
+  torch::Tensor dx;        // [N, 3] geometry position offset
+  torch::Tensor dsigma;    // [N, 3, 3] geometry covariance factor (SPD)
+  torch::Tensor dc;        // [N, 3] appearance colour offset
+  torch::Tensor dx_f;      // [N, 3] fusion position offset
+  torch::Tensor dsigma_f;  // [N, 3, 3] fusion covariance factor (SPD)
+  torch::Tensor dc_f;      // [N, 3] fusion colour offset
+};
+
+class OffsetDecodersImpl : public torch::nn::Module {
+ public:
+  // descriptor_dim = |P| (0 without SCS), embedding_dim = d (0 without embeddings).
+  OffsetDecodersImpl(int64_t descriptor_dim, int64_t embedding_dim, int64_t hidden);
+
+  // descriptor [N, |P|] (may be empty), e_g, e_a [N, d], transforms [N, 12] = vec of the 3x4 T.
+  DecodedOffsets forward(const torch::Tensor& descriptor, const torch::Tensor& embed_geometry,
+                         const torch::Tensor& embed_appearance, const torch::Tensor& transforms);
+
+  GatedMlp geometry{nullptr}, appearance{nullptr}, fusion{nullptr};
+};
+TORCH_MODULE(OffsetDecoders);
+
+// SPD factor from 7 raw values [N, 7] = (log-scales 3, quaternion delta 4): R diag(exp(s)) R^T.
+torch::Tensor spd_from_raw(const torch::Tensor& raw);
+
+}  // namespace handscs

@@ -1,0 +1,445 @@
+#include "data/capture.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <set>
+#include <sstream>
+#include <tuple>
+
+#include "core/error.h"
+#include "data/capture_impl.h"
+#include "data/image_checks.h"
+#include "data/interhand_annotations.h"
+#include "data/mesh_mask.h"
+#include "hand/lbs.h"
+#include "hand/rig.h"
+
+namespace handscs {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Paths listed in the one-line skip summary (the rest are counted).
+constexpr size_t kSummaryPaths = 5;
+// Poses per LBS call when posing the rig for every frame (bounded memory, few calls).
+constexpr int64_t kLbsBatch = 128;
+
+// A data.json image that passed the annotation checks, before the image checks.
+struct Candidate {
+  const InterHandImage* image;
+  const ManoParams* mano;
+  const InterHandJoints* joints;
+  std::string path;
+  Camera camera;
+};
+
+std::string join(const std::vector<std::string>& items, const std::string& sep) {
+  std::string out;
+  for (const auto& item : items) out += (out.empty() ? "" : sep) + item;
+  return out;
+}
+
+// Reason order in the summary line.
+const std::vector<std::string> kReasonOrder = {
+    "null MANO",        "no joint_3d entry", "other hand",  "interacting",       "missing image",
+    "unreadable image", "wrong image size",  "black image", "hand outside image"};
+
+std::string make_summary(const std::string& source, const std::vector<SkippedImage>& skipped,
+                         size_t total) {
+  if (skipped.empty()) return "";
+  std::map<std::string, size_t> counts;
+  for (const auto& s : skipped) ++counts[s.reason];
+  std::vector<std::string> parts;
+  for (const auto& reason : kReasonOrder)
+    if (counts.count(reason)) parts.push_back(reason + " " + std::to_string(counts[reason]));
+  std::vector<std::string> paths;
+  for (size_t i = 0; i < skipped.size() && i < kSummaryPaths; ++i) paths.push_back(skipped[i].path);
+  std::string line = source + ": skipped " + std::to_string(skipped.size()) + " of " +
+                     std::to_string(total) + " images (" + join(parts, ", ") +
+                     "): " + join(paths, ", ");
+  if (skipped.size() > kSummaryPaths) line += ", ...";
+  return line;
+}
+
+// FNV-1a 64-bit hash: names the on-disk mask folder after the settings the masks depend on.
+uint64_t fnv1a(const std::string& text) {
+  uint64_t hash = 1469598103934665603ull;
+  for (unsigned char c : text) {
+    hash ^= c;
+    hash *= 1099511628211ull;
+  }
+  return hash;
+}
+
+void check_cameras_exist(const std::vector<std::string>& wanted, const std::set<std::string>& have,
+                         const char* key, const std::string& data_json, int capture) {
+  for (const auto& id : wanted)
+    if (!have.count(id))
+      throw Error("capture." + std::string(key) + ": camera \"" + id +
+                  "\" has no images in capture " + std::to_string(capture) + " of " + data_json);
+}
+
+// Poses every distinct frame: posed vertices [V * 3] float per pose.
+std::vector<std::vector<float>> pose_rig(const Rig& rig,
+                                         const std::vector<const ManoParams*>& poses,
+                                         bool flat_hand_mean) {
+  std::vector<std::vector<float>> out;
+  out.reserve(poses.size());
+  const int64_t count = static_cast<int64_t>(poses.size());
+  const auto options = torch::TensorOptions().dtype(torch::kFloat64);
+  for (int64_t start = 0; start < count; start += kLbsBatch) {
+    const int64_t n = std::min(kLbsBatch, count - start);
+    torch::Tensor pose = torch::empty({n, 48}, options);
+    torch::Tensor shape = torch::empty({n, 10}, options);
+    torch::Tensor trans = torch::empty({n, 3}, options);
+    for (int64_t b = 0; b < n; ++b) {
+      const ManoParams& p = *poses[start + b];
+      std::copy(p.pose.begin(), p.pose.end(), pose[b].data_ptr<double>());
+      std::copy(p.shape.begin(), p.shape.end(), shape[b].data_ptr<double>());
+      std::copy(p.trans.begin(), p.trans.end(), trans[b].data_ptr<double>());
+    }
+    LbsOptions lbs_options;
+    lbs_options.flat_hand_mean = flat_hand_mean;
+    torch::Tensor vertices;
+    {
+      torch::NoGradGuard no_grad;
+      vertices =
+          lbs(rig, pose, shape, trans, lbs_options).vertices.to(torch::kFloat32).contiguous();
+    }
+    for (int64_t b = 0; b < n; ++b) {
+      const float* data = vertices[b].data_ptr<float>();
+      out.emplace_back(data, data + vertices.size(1) * 3);
+    }
+  }
+  return out;
+}
+
+// <cache_dir>/masks-<hash>: the hash covers every setting a mask depends on, so a changed setting
+// never reads a stale mask (version 1: mesh_raster centre sampling + mask_refine). The annotation
+// files' sizes and times stand for their content; the images are assumed unchanged.
+std::string mask_folder(const CaptureConfig& c, const CaptureLayout& layout,
+                        const std::string& cache_dir) {
+  auto stamp = [](const std::string& path) {
+    std::error_code ec;
+    const auto size = fs::file_size(path, ec);
+    const auto time = fs::last_write_time(path, ec).time_since_epoch().count();
+    return std::to_string(size) + ":" + std::to_string(time);
+  };
+  std::ostringstream settings;
+  settings << "v1|" << fs::absolute(layout.images_dir).string() << "|" << layout.mano_json << "|"
+           << stamp(layout.mano_json) << "|" << stamp(layout.camera_json) << "|" << c.rig << "|"
+           << c.hand << "|" << c.flat_hand_mean << "|" << c.mask_refine.enabled << "|"
+           << c.mask_refine.low << "|" << c.mask_refine.high << "|"
+           << c.mask_refine.largest_component;
+  char name[32];
+  std::snprintf(name, sizeof(name), "masks-%016llx",
+                static_cast<unsigned long long>(fnv1a(settings.str())));
+  return (fs::path(cache_dir) / name).string();
+}
+
+// Train/test lists from the frames: novel_pose splits by held-out pose (each side filtered by its
+// camera list), novel_view by camera list.
+void split_frames(const std::vector<FrameInfo>& frames, const std::string& rule,
+                  const std::set<std::string>& train_cams, const std::set<std::string>& test_cams,
+                  std::vector<FrameInfo>& train, std::vector<FrameInfo>& test) {
+  for (const FrameInfo& f : frames) {
+    const bool in_train = train_cams.empty() || train_cams.count(f.camera_id);
+    const bool in_test = test_cams.empty() || test_cams.count(f.camera_id);
+    const bool train_pose = rule != "novel_pose" || !f.held_out;
+    const bool test_pose = rule != "novel_pose" || f.held_out;
+    if (in_train && train_pose) train.push_back(f);
+    if (in_test && test_pose) test.push_back(f);
+  }
+  if (train.empty()) throw Error("capture: no training images left after the split (" + rule + ")");
+  if (test.empty()) throw Error("capture: no test images left after the split (" + rule + ")");
+}
+
+}  // namespace
+
+std::string capture_rig_source(const CaptureConfig& config) {
+  return (config.rig == "builtin" && config.hand == "left") ? std::string("builtin:left")
+                                                            : config.rig;
+}
+
+Capture::Capture(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Capture::Capture(Capture&&) noexcept = default;
+Capture& Capture::operator=(Capture&&) noexcept = default;
+Capture::~Capture() = default;
+
+Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache_dir) {
+  auto impl = std::make_unique<Impl>(static_cast<size_t>(config.cache.budget_mb) << 20);
+  impl->config = config;
+  const CaptureConfig& c = impl->config;
+  require(c.split_rule != "novel_view" || !c.test_cameras.empty(),
+          "capture.test_cameras: split_rule novel_view needs a list of test cameras");
+  impl->layout = resolve_capture_layout(c.root, c.split);
+  const CaptureLayout& layout = impl->layout;
+
+  // Annotations, filtered to the capture (and sequences) while streaming.
+  ImageFilter filter;
+  filter.capture = c.capture;
+  filter.sequences.insert(c.sequences.begin(), c.sequences.end());
+  const std::vector<InterHandImage> images = read_interhand_images(layout.data_json, filter);
+  if (images.empty())
+    throw Error(layout.data_json + ": no images of capture " + std::to_string(c.capture) +
+                (c.sequences.empty() ? "" : " in sequences " + join(c.sequences, ", ")));
+  {
+    std::set<std::string> sequences_seen;
+    for (const auto& image : images) sequences_seen.insert(image.seq_name);
+    for (const auto& seq : c.sequences)
+      if (!sequences_seen.count(seq))
+        throw Error("capture.sequences: sequence \"" + seq + "\" has no images in capture " +
+                    std::to_string(c.capture) + " of " + layout.data_json);
+  }
+  const auto cameras = read_interhand_cameras(layout.camera_json, c.capture);
+  const auto joints = read_interhand_joints(layout.joint_3d_json, c.capture);
+  const auto mano = read_interhand_mano(layout.mano_json, c.capture);
+
+  // Camera selection: every camera named in data.json must exist in camera.json.
+  std::set<std::string> data_cameras;
+  for (const auto& image : images) {
+    if (!cameras.count(image.camera))
+      throw Error(layout.camera_json + ": " + std::to_string(c.capture) +
+                  ".campos: missing key \"" + image.camera + "\" (camera of " + image.file_name +
+                  " in " + layout.data_json + ")");
+    data_cameras.insert(image.camera);
+  }
+  check_cameras_exist(c.train_cameras, data_cameras, "train_cameras", layout.data_json, c.capture);
+  check_cameras_exist(c.test_cameras, data_cameras, "test_cameras", layout.data_json, c.capture);
+  std::set<std::string> train_cams(c.train_cameras.begin(), c.train_cameras.end());
+  std::set<std::string> test_cams(c.test_cameras.begin(), c.test_cameras.end());
+  if (c.split_rule == "novel_view") {
+    if (train_cams.empty())
+      for (const auto& id : data_cameras)
+        if (!test_cams.count(id)) train_cams.insert(id);
+    for (const auto& id : test_cams)
+      if (train_cams.count(id))
+        throw Error("capture.test_cameras: camera \"" + id +
+                    "\" is also a training camera (novel_view needs disjoint lists)");
+  } else if (test_cams.empty()) {
+    test_cams = train_cams;  // novel_pose tests the held-out poses from the training views
+  }
+  auto camera_used = [&](const std::string& id) {
+    const bool in_train = train_cams.empty() || train_cams.count(id);
+    const bool in_test = test_cams.empty() || test_cams.count(id);
+    return in_train || in_test;
+  };
+
+  // Annotation checks (cheap): MANO, joints, hand type, image present.
+  const bool right = c.hand == "right";
+  const std::string other_hand = right ? "left" : "right";
+  std::vector<SkippedImage> skipped;
+  std::vector<Candidate> candidates;
+  size_t considered = 0;
+  for (const auto& image : images) {
+    if (!camera_used(image.camera)) continue;
+    ++considered;
+    const std::string path = (fs::path(layout.images_dir) / image.file_name).string();
+    auto m = mano.find(image.frame_idx);
+    const ManoParams* params = nullptr;
+    if (m != mano.end())
+      params = right ? (m->second.right ? &*m->second.right : nullptr)
+                     : (m->second.left ? &*m->second.left : nullptr);
+    auto j = joints.find(image.frame_idx);
+    std::string reason;
+    if (!params) {
+      reason = "null MANO";
+    } else if (j == joints.end()) {
+      reason = "no joint_3d entry";
+    } else if (image.hand_type == other_hand) {
+      reason = "other hand";
+    } else if (image.hand_type == "interacting" && !c.include_interacting) {
+      reason = "interacting";
+    } else if (!fs::is_regular_file(path)) {
+      reason = "missing image";
+    }
+    if (!reason.empty()) {
+      skipped.push_back({path, reason});
+      continue;
+    }
+    const Camera camera =
+        camera_from_interhand(cameras.at(image.camera), image.width, image.height);
+    candidates.push_back({&image, params, &j->second, path, camera});
+  }
+
+  // Frame stride over the distinct frame indices (poses), then pose the rig once per pose.
+  std::vector<int64_t> frame_ids;
+  for (const auto& cand : candidates) frame_ids.push_back(cand.image->frame_idx);
+  std::sort(frame_ids.begin(), frame_ids.end());
+  frame_ids.erase(std::unique(frame_ids.begin(), frame_ids.end()), frame_ids.end());
+  std::map<int64_t, int> strided_pose;  // frame_idx -> index among strided poses
+  for (size_t k = 0; k < frame_ids.size(); k += c.frame_stride)
+    strided_pose.emplace(frame_ids[k], static_cast<int>(strided_pose.size()));
+  {
+    std::vector<Candidate> kept;
+    for (auto& cand : candidates)
+      if (strided_pose.count(cand.image->frame_idx)) kept.push_back(std::move(cand));
+    candidates = std::move(kept);
+  }
+  std::vector<const ManoParams*> pose_params(strided_pose.size(), nullptr);
+  for (const auto& cand : candidates)
+    pose_params[strided_pose.at(cand.image->frame_idx)] = cand.mano;
+
+  const Rig rig = load_rig_source(capture_rig_source(c));
+  if ((rig.handedness == Handedness::right) != right)
+    throw Error("capture.rig: rig \"" + c.rig + "\" is a " +
+                (rig.handedness == Handedness::right ? "right" : "left") +
+                " hand but capture.hand is " + c.hand);
+  const std::vector<std::vector<float>> posed = pose_rig(rig, pose_params, c.flat_hand_mean);
+  impl->num_vertices = rig.num_vertices();
+  {
+    torch::Tensor faces = rig.faces.to(torch::kInt64).contiguous();
+    impl->faces.assign(faces.data_ptr<int64_t>(), faces.data_ptr<int64_t>() + faces.numel());
+  }
+
+  // Image checks (decode at 1/8 scale) and hand-in-view checks, in parallel. Nothing here throws.
+  const int64_t num_candidates = static_cast<int64_t>(candidates.size());
+  std::vector<ImageScan> scans(candidates.size());
+  std::vector<uint8_t> in_view(candidates.size(), 0);
+  std::vector<int> candidate_pose(candidates.size());
+  for (int64_t i = 0; i < num_candidates; ++i)
+    candidate_pose[i] = strided_pose.at(candidates[i].image->frame_idx);
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int64_t i = 0; i < num_candidates; ++i) {
+    const Candidate& cand = candidates[i];
+    scans[i] = scan_image(cand.path);
+    const std::vector<float>& vertices = posed[candidate_pose[i]];
+    in_view[i] = !projected_bounds(vertices.data(), impl->num_vertices, cand.camera).empty();
+  }
+
+  // Monochrome cameras: most of their readable images are grey.
+  std::map<std::string, std::pair<int, int>> mono_votes;  // camera -> (grey, readable)
+  for (int64_t i = 0; i < num_candidates; ++i) {
+    if (!scans[i].readable || scans[i].black) continue;
+    auto& votes = mono_votes[candidates[i].image->camera];
+    votes.first += scans[i].monochrome;
+    votes.second += 1;
+  }
+  std::set<std::string> mono;
+  for (const auto& [id, votes] : mono_votes)
+    if (2 * votes.first > votes.second) mono.insert(id);
+  impl->monochrome_cameras.assign(mono.begin(), mono.end());
+
+  std::vector<size_t> usable;
+  size_t dropped_mono = 0;
+  for (int64_t i = 0; i < num_candidates; ++i) {
+    const Candidate& cand = candidates[i];
+    std::string reason;
+    const int expected_w = (cand.image->width + 7) / 8, expected_h = (cand.image->height + 7) / 8;
+    if (!scans[i].readable) {
+      reason = "unreadable image";
+    } else if (scans[i].scaled_width != expected_w || scans[i].scaled_height != expected_h) {
+      reason = "wrong image size";  // the JPEG's size differs from data.json's width x height
+    } else if (scans[i].black && c.skip_black_images) {
+      reason = "black image";
+    } else if (!in_view[i]) {
+      reason = "hand outside image";
+    }
+    if (!reason.empty()) {
+      skipped.push_back({cand.path, reason});
+      continue;
+    }
+    if (c.drop_monochrome && mono.count(cand.image->camera)) {
+      ++dropped_mono;
+      continue;
+    }
+    usable.push_back(static_cast<size_t>(i));
+  }
+  impl->skipped = skipped;
+  impl->skip_summary = make_summary(layout.data_json, skipped, considered);
+  if (!impl->skip_summary.empty()) spdlog::warn("{}", impl->skip_summary);
+  if (!mono.empty())
+    spdlog::info("monochrome cameras: {} ({})", join(impl->monochrome_cameras, ", "),
+                 c.drop_monochrome ? std::to_string(dropped_mono) + " images dropped" : "kept");
+  if (usable.empty())
+    throw Error(layout.data_json + ": no usable images in capture " + std::to_string(c.capture) +
+                " (" + std::to_string(considered) + " considered" +
+                (impl->skip_summary.empty() ? "" : "; " + impl->skip_summary) + ")");
+
+  // Poses that still have images, in frame order; novel_pose holds out the last ones.
+  std::map<int64_t, int> pose_of;
+  for (size_t i : usable) pose_of.emplace(candidates[i].image->frame_idx, 0);
+  int next = 0;
+  for (auto& [frame, index] : pose_of) index = next++;
+  impl->num_poses = next;
+  if (c.split_rule == "novel_pose" && c.held_out_poses >= impl->num_poses)
+    throw Error("capture.held_out_poses: " + std::to_string(c.held_out_poses) +
+                " held-out poses leave nothing to train on (the selection has " +
+                std::to_string(impl->num_poses) + " poses)");
+  const int first_held_out = impl->num_poses - c.held_out_poses;
+  impl->posed_vertices.resize(impl->num_poses);
+  for (const auto& [frame, index] : pose_of)
+    impl->posed_vertices[index] = posed[strided_pose.at(frame)];
+
+  std::sort(usable.begin(), usable.end(), [&](size_t a, size_t b) {
+    const auto& ia = *candidates[a].image;
+    const auto& ib = *candidates[b].image;
+    return std::tie(ia.frame_idx, ia.camera, ia.id) < std::tie(ib.frame_idx, ib.camera, ib.id);
+  });
+  std::set<std::string> kept_cameras;
+  for (size_t i : usable) {
+    const Candidate& cand = candidates[i];
+    const InterHandImage& image = *cand.image;
+    FrameInfo f;
+    f.index = static_cast<int64_t>(impl->frames.size());
+    f.image_id = image.id;
+    f.image_path = cand.path;
+    f.file_name = image.file_name;
+    f.camera_id = image.camera;
+    f.seq_name = image.seq_name;
+    f.capture = image.capture;
+    f.frame_idx = image.frame_idx;
+    f.pose_index = pose_of.at(image.frame_idx);
+    f.held_out = c.split_rule == "novel_pose" && f.pose_index >= first_held_out;
+    f.camera = cand.camera;
+    for (int k = 0; k < 4; ++k) f.bbox[k] = static_cast<float>(image.bbox[k]);
+    for (int k = 0; k < 48; ++k) f.pose[k] = static_cast<float>(cand.mano->pose[k]);
+    for (int k = 0; k < 10; ++k) f.shape[k] = static_cast<float>(cand.mano->shape[k]);
+    for (int k = 0; k < 3; ++k) f.trans[k] = static_cast<float>(cand.mano->trans[k]);
+    const int row0 = right ? 0 : 21;  // joint_3d rows: right hand 0-20, left 21-41
+    for (int ih = 0; ih < 21; ++ih) {
+      const int m = kInterHandFromMano21[ih];
+      for (int d = 0; d < 3; ++d)
+        f.joints[m * 3 + d] = static_cast<float>(cand.joints->world_mm[(row0 + ih) * 3 + d] * 1e-3);
+      f.joint_valid[m] = cand.joints->valid[row0 + ih];
+    }
+    kept_cameras.insert(f.camera_id);
+    impl->frames.push_back(std::move(f));
+  }
+  impl->cameras.assign(kept_cameras.begin(), kept_cameras.end());
+
+  split_frames(impl->frames, c.split_rule, train_cams, test_cams, impl->train, impl->test);
+
+  if (!mask_cache_dir.empty() && c.cache.disk_masks)
+    impl->mask_folder = mask_folder(c, layout, mask_cache_dir);
+  spdlog::info("capture {} ({}): {} images, {} poses, {} cameras; train {}, test {} ({})",
+               c.capture, c.split, impl->frames.size(), impl->num_poses, impl->cameras.size(),
+               impl->train.size(), impl->test.size(), c.split_rule);
+  impl->start_workers(c.cache.prefetch_threads);
+  return Capture(std::move(impl));
+}
+
+const CaptureConfig& Capture::config() const { return impl_->config; }
+const std::vector<FrameInfo>& Capture::frames() const { return impl_->frames; }
+const std::vector<FrameInfo>& Capture::train() const { return impl_->train; }
+const std::vector<FrameInfo>& Capture::test() const { return impl_->test; }
+int Capture::num_poses() const { return impl_->num_poses; }
+std::vector<std::string> Capture::cameras() const { return impl_->cameras; }
+std::vector<std::string> Capture::monochrome_cameras() const { return impl_->monochrome_cameras; }
+const std::vector<SkippedImage>& Capture::skipped() const { return impl_->skipped; }
+const std::string& Capture::skip_summary() const { return impl_->skip_summary; }
+const std::vector<float>& Capture::posed_vertices(int pose_index) const {
+  require(pose_index >= 0 && pose_index < impl_->num_poses,
+          "Capture::posed_vertices: pose index " + std::to_string(pose_index) + " out of range");
+  return impl_->posed_vertices[pose_index];
+}
+const std::vector<int64_t>& Capture::faces() const { return impl_->faces; }
+const CropCache& Capture::cache() const { return impl_->cache; }
+std::string Capture::mask_cache_folder() const { return impl_->mask_folder; }
+
+}  // namespace handscs

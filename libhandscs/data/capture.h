@@ -1,0 +1,122 @@
+// One training capture read from an InterHand2.6M-layout folder: the usable frames with cameras and
+// MANO parameters, the train/test split, and lazily decoded ROI crops with hand masks (LRU-cached).
+//
+// Typical use (trainer):
+//   Capture capture = Capture::open(config.data, run_dir + "/cache");
+//   for (const FrameInfo& f : capture.train()) ...              // cameras, pose, shape, trans
+//   capture.prefetch({next indices});                           // background decode
+//   FrameSample s = capture.load(capture.train()[k]);           // ROI crop + mask as uint8 tensors
+//   render with s.roi_camera() (or the full camera plus s.roi), compare against s.image / s.mask.
+//
+// Masks: the posed rig mesh (rig + the frame's MANO parameters, lbs()) rasterised into the view
+// (data/mesh_raster.h), refined against the image (data/mask_refine.h), cached as PNG files under
+// <mask_cache_dir>/masks-<settings hash>/ with the image's relative path. ROI: mask bounding box
+// plus roi_margin. Units: metres; cameras as core/camera.h.
+#pragma once
+
+#include <torch/types.h>
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <opencv2/core/mat.hpp>
+#include <string>
+#include <vector>
+
+#include "core/camera.h"
+#include "data/camera_transforms.h"
+#include "data/capture_config.h"
+#include "data/crop_cache.h"
+
+namespace handscs {
+
+// One usable image: where it is, its camera, and the hand's annotated pose.
+struct FrameInfo {
+  int64_t index = 0;       // position in Capture::frames()
+  int64_t image_id = 0;    // data.json images[].id
+  std::string image_path;  // path of the JPEG
+  std::string file_name;   // relative to images/{split}/ (as in data.json)
+  std::string camera_id;   // "400026"
+  std::string seq_name;
+  int capture = 0;
+  int64_t frame_idx = 0;
+  int pose_index = 0;           // frames with the same frame_idx share a pose: Capture::num_poses()
+  bool held_out = false;        // novel_pose: this pose is one of the held-out (test) poses
+  Camera camera;                // full image, metres
+  std::array<float, 4> bbox{};  // data.json bbox [x, y, w, h] (pixels)
+  std::array<float, 48> pose{};  // axis-angle as annotated (relative to hands_mean unless
+                                 // config.flat_hand_mean)
+  std::array<float, 10> shape{};
+  std::array<float, 3> trans{};    // metres
+  std::array<float, 63> joints{};  // annotated joint_3d, MANO21 order, metres, row-major [21, 3]
+  std::array<uint8_t, 21> joint_valid{};  // MANO21 order
+};
+
+// A decoded frame: image and mask as uint8 tensors, cropped to the ROI unless full_image.
+struct FrameSample {
+  int64_t index = 0;    // FrameInfo::index
+  Camera camera;        // full-image camera
+  PixelRect roi;        // rectangle of `image` in full-image pixels (the whole image if full)
+  torch::Tensor image;  // [h, w, 3] uint8 RGB (a copy: safe to modify)
+  torch::Tensor mask;   // [h, w] uint8, 1 = hand, 0 = background
+  // Camera of the crop itself (principal point shifted by the ROI origin).
+  Camera roi_camera() const { return crop_camera(camera, roi); }
+};
+
+// Why an image was left out, with the image path.
+struct SkippedImage {
+  std::string path;
+  std::string reason;  // "null MANO", "no joint_3d entry", "other hand", "interacting",
+                       // "missing image", "unreadable image", "wrong image size", "black image",
+                       // "hand outside image"
+};
+
+// The rig source the capture poses for its masks (and the trainer should load): config.rig, with
+// "builtin" meaning "builtin:left" for a left hand.
+std::string capture_rig_source(const CaptureConfig& config);
+
+class Capture {
+ public:
+  // Reads the annotations, selects and checks frames (skips are logged as one summary line), poses
+  // the rig for every pose and splits train/test. mask_cache_dir: where masks are cached on disk
+  // ("" = no disk cache). Throws Error naming the file and key for bad annotations or config.
+  static Capture open(const CaptureConfig& config, const std::string& mask_cache_dir = "");
+
+  Capture(Capture&&) noexcept;
+  Capture& operator=(Capture&&) noexcept;
+  ~Capture();
+
+  const CaptureConfig& config() const;
+  const std::vector<FrameInfo>& frames() const;  // every usable frame (train and test)
+  const std::vector<FrameInfo>& train() const;   // training frames (copies with FrameInfo::index)
+  const std::vector<FrameInfo>& test() const;    // held-out frames
+  int num_poses() const;
+  std::vector<std::string> cameras() const;             // camera ids kept, sorted
+  std::vector<std::string> monochrome_cameras() const;  // detected (dropped if drop_monochrome)
+  const std::vector<SkippedImage>& skipped() const;
+  // "<data.json>: skipped N of M images (null MANO a, black image b): path, path, ..." or "".
+  const std::string& skip_summary() const;
+
+  // Decoded ROI crop (or full image) of a frame, from the cache or decoded now.
+  FrameSample load(const FrameInfo& frame, bool full_image = false);
+  std::shared_ptr<const CachedCrop> load_crop(int64_t index, bool full_image = false);
+  // Queues frames for the background loader, replacing what was still queued.
+  void prefetch(const std::vector<int64_t>& indices, bool full_image = false);
+
+  // Uncached building blocks (benchmarks, tests): full BGR image; mask [H, W] 0/1 (mesh + refine).
+  cv::Mat decode_image(const FrameInfo& frame) const;
+  cv::Mat compute_mask(const FrameInfo& frame, const cv::Mat& bgr) const;
+  // Posed rig vertices [V, 3] (world, m) of a pose and the rig's faces [F, 3].
+  const std::vector<float>& posed_vertices(int pose_index) const;
+  const std::vector<int64_t>& faces() const;
+
+  const CropCache& cache() const;
+  std::string mask_cache_folder() const;  // "" when masks are not cached on disk
+
+ private:
+  struct Impl;
+  explicit Capture(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace handscs

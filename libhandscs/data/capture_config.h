@@ -1,0 +1,76 @@
+// Configuration of one training capture read from an InterHand2.6M-layout folder: which images
+// (split, capture, sequences, hand, cameras, stride), the train/test split rule, masks and caching.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "data/mask_refine.h"
+
+namespace handscs {
+
+// Decoded-crop cache and background prefetching (memory stays bounded whatever the capture size).
+struct CropCacheConfig {
+  // ~1 GiB holds about 6,000 ROI crops of a 512x334 capture (about 170 KB each with the mask):
+  // a 20,000-image capture then trains within 4 GB resident together with the model.
+  int64_t budget_mb = 1024;  // byte budget of the in-memory LRU cache of ROI crops (MiB)
+  int prefetch_threads = 1;  // background loader threads (0 = load on demand only)
+  bool disk_masks = true;    // cache computed masks as PNG files in the run's mask folder
+
+  template <class V>
+  void visit(V& v) {
+    v.field("budget_mb", budget_mb, "in-memory LRU cache of decoded ROI crops (MiB)", 0, 1 << 20);
+    v.field("prefetch_threads", prefetch_threads, "background image loader threads", 0, 64);
+    v.field("disk_masks", disk_masks, "cache masks as PNG files next to the run");
+  }
+};
+
+struct CaptureConfig {
+  std::string root;                        // dataset folder holding images/ and annotations/
+  std::string split = "test";              // InterHand split folder: train, test or val
+  int capture = 0;                         // Capture{c}
+  std::vector<std::string> sequences;      // seq_name values to use (empty = all of the capture)
+  std::string hand = "right";              // which hand's MANO parameters drive the avatar
+  bool include_interacting = false;        // also use frames annotated "interacting" (both hands)
+  std::vector<std::string> train_cameras;  // camera ids for training (empty = all; see split_rule)
+  std::vector<std::string> test_cameras;   // camera ids for testing (empty: as train_cameras)
+  int frame_stride = 1;                    // keep every k-th pose (by frame index)
+  bool drop_monochrome = true;             // drop cameras whose images are grey (R = G = B)
+  bool skip_black_images = true;           // skip frames whose image is black (camera dropout)
+  std::string split_rule = "novel_pose";   // novel_pose: last held_out_poses poses are the test set
+  int held_out_poses = 50;                 // poses held out by novel_pose (the paper: 50)
+  std::string rig = "builtin";             // rig source for the masks: "builtin" or a rig file
+  bool flat_hand_mean = false;  // false: annotated poses are relative to hands_mean (InterHand)
+  int roi_margin = 16;          // pixels added around the mask's bounding box
+  MaskRefineConfig mask_refine;
+  CropCacheConfig cache;
+
+  template <class V>
+  void visit(V& v) {
+    v.field("root", root, "dataset folder with images/ and annotations/ (InterHand2.6M layout)");
+    v.choice("split", split, {"train", "test", "val"}, "InterHand2.6M split folder");
+    v.field("capture", capture, "capture number (images/{split}/Capture{c})", 0, 1000000);
+    v.field("sequences", sequences, "sequence names to use (empty = all)");
+    v.choice("hand", hand, {"right", "left"}, "hand whose MANO parameters are used");
+    v.field("include_interacting", include_interacting,
+            "also use frames whose hand_type is interacting (the other hand is in view)");
+    v.field("train_cameras", train_cameras, "training camera ids (empty = all)");
+    v.field("test_cameras", test_cameras,
+            "test camera ids (novel_pose: empty = as train_cameras; novel_view: required)");
+    v.field("frame_stride", frame_stride, "keep every k-th pose by frame index", 1, 1000000);
+    v.field("drop_monochrome", drop_monochrome, "drop monochrome (R=G=B) cameras");
+    v.field("skip_black_images", skip_black_images, "skip black (dropped-out) images");
+    v.choice("split_rule", split_rule, {"novel_pose", "novel_view"},
+             "novel_pose: hold out the last poses; novel_view: train vs test cameras");
+    v.field("held_out_poses", held_out_poses, "poses held out by novel_pose", 1, 1000000);
+    v.field("rig", rig, "rig for the masks: builtin or a rig file (hand must match)");
+    v.field("flat_hand_mean", flat_hand_mean,
+            "poses are absolute (true) or relative to hands_mean");
+    v.field("roi_margin", roi_margin, "pixels around the mask's bounding box", 0, 4096);
+    v.section("mask_refine", mask_refine, "mask refinement against the image");
+    v.section("cache", cache, "image cache and prefetching");
+  }
+};
+
+}  // namespace handscs

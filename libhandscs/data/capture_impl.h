@@ -1,0 +1,56 @@
+// Private state of data/capture.h shared by capture.cpp (opening, selection, split) and
+// capture_loader.cpp (decoding, masks, cache, prefetch threads). Not part of the public API.
+#pragma once
+
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <map>
+#include <mutex>
+#include <set>
+#include <thread>
+
+#include "data/capture.h"
+#include "data/capture_layout.h"
+
+namespace handscs {
+
+struct Capture::Impl {
+  CaptureConfig config;
+  CaptureLayout layout;
+  std::vector<FrameInfo> frames, train, test;
+  int num_poses = 0;
+  std::vector<std::vector<float>> posed_vertices;  // [pose][V * 3]
+  std::vector<int64_t> faces;                      // [F * 3]
+  int64_t num_vertices = 0;
+  std::vector<std::string> cameras, monochrome_cameras;
+  std::vector<SkippedImage> skipped;
+  std::string skip_summary;
+  std::string mask_folder;  // "" = no disk cache
+
+  explicit Impl(size_t budget_bytes) : cache(budget_bytes) {}
+  ~Impl() { stop_workers(); }
+
+  // Loader (capture_loader.cpp).
+  CropCache cache;
+  std::mutex mutex;                 // guards queue, in_flight, errors, stopping
+  std::condition_variable work_cv;  // queue filled or stopping
+  std::condition_variable done_cv;  // an in-flight load finished
+  std::deque<uint64_t> queue;
+  std::set<uint64_t> in_flight;
+  std::map<uint64_t, std::exception_ptr> errors;  // prefetch failures, rethrown by load
+  bool stopping = false;
+  std::vector<std::thread> workers;
+
+  static uint64_t key(int64_t index, bool full) { return static_cast<uint64_t>(index) * 2 + full; }
+  void start_workers(int count);
+  void stop_workers();
+  void worker_loop();
+  std::shared_ptr<const CachedCrop> produce(int64_t index, bool full) const;
+  std::shared_ptr<const CachedCrop> get(int64_t index, bool full);
+  cv::Mat decode(const FrameInfo& frame) const;
+  cv::Mat mask_for(const FrameInfo& frame, const cv::Mat& bgr) const;
+  cv::Mat compute_mask(const FrameInfo& frame, const cv::Mat& bgr) const;
+};
+
+}  // namespace handscs

@@ -1,0 +1,44 @@
+#include "data/capture_layout.h"
+
+#include <filesystem>
+
+#include "core/error.h"
+
+namespace handscs {
+
+namespace fs = std::filesystem;
+
+CaptureLayout resolve_capture_layout(const std::string& root, const std::string& split) {
+  require(!root.empty(), "capture.root: empty (set it to the dataset folder)");
+  require(fs::is_directory(root), root + ": capture root is not a folder");
+  // The 5 fps release unpacks its images into InterHand2.6M_5fps_batch1/; annotations are
+  // downloaded separately and may sit beside it or inside it.
+  const fs::path base(root);
+  const fs::path batch = base / "InterHand2.6M_5fps_batch1";
+  CaptureLayout layout;
+  for (const fs::path& candidate : {base / "images" / split, batch / "images" / split}) {
+    if (fs::is_directory(candidate)) {
+      layout.images_dir = candidate.string();
+      break;
+    }
+  }
+  require(!layout.images_dir.empty(), root + ": no images/" + split +
+                                          "/ folder (nor InterHand2.6M_5fps_batch1/images/" +
+                                          split + "/)");
+  fs::path annotations;
+  for (const fs::path& candidate : {base / "annotations" / split, batch / "annotations" / split}) {
+    if (fs::is_directory(candidate)) {
+      annotations = candidate;
+      break;
+    }
+  }
+  require(!annotations.empty(), root + ": no annotations/" + split + "/ folder");
+  const std::string prefix = "InterHand2.6M_" + split + "_";
+  layout.data_json = (annotations / (prefix + "data.json")).string();
+  layout.camera_json = (annotations / (prefix + "camera.json")).string();
+  layout.joint_3d_json = (annotations / (prefix + "joint_3d.json")).string();
+  layout.mano_json = (annotations / (prefix + "MANO_NeuralAnnot.json")).string();
+  return layout;
+}
+
+}  // namespace handscs

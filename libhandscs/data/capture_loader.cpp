@@ -1,0 +1,230 @@
+// Capture's image side: decode, mask (disk cache or mesh + refinement), ROI crop, LRU cache, and
+// the background prefetch threads.
+#include <unistd.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "core/atomic_file.h"  // ensure_directory
+#include "core/error.h"
+#include "data/capture_impl.h"
+#include "data/mask_refine.h"
+#include "data/mesh_mask.h"
+#include "data/roi.h"
+
+namespace handscs {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Writes a cache file via a temporary and a rename, without fsync: a cache entry needs no
+// durability (a missing or torn file is recomputed), and fsync per mask would cost milliseconds.
+void write_cache_file(const fs::path& path, const std::vector<uint8_t>& bytes) {
+  const fs::path temp = path.string() + ".tmp." + std::to_string(::getpid()) + "." +
+                        std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id()));
+  {
+    std::ofstream out(temp, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(bytes.data()),
+              static_cast<std::streamsize>(bytes.size()));
+    if (!out) throw Error(path.string() + ": cannot write mask cache file");
+  }
+  std::error_code ec;
+  fs::rename(temp, path, ec);
+  if (ec) {
+    fs::remove(temp, ec);
+    throw Error(path.string() + ": cannot write mask cache file");
+  }
+}
+
+// Failed prefetches remembered for load() to rethrow; beyond this many the oldest are dropped
+// (load() then simply retries and throws itself).
+constexpr size_t kMaxRememberedErrors = 256;
+}  // namespace
+
+cv::Mat Capture::Impl::decode(const FrameInfo& frame) const {
+  cv::Mat bgr;
+  try {
+    bgr = cv::imread(frame.image_path, cv::IMREAD_COLOR);
+  } catch (const cv::Exception& e) {
+    throw Error(frame.image_path + ": cannot decode image (" + e.what() + ")");
+  }
+  if (bgr.empty()) throw Error(frame.image_path + ": cannot decode image");
+  if (bgr.cols != frame.camera.width || bgr.rows != frame.camera.height)
+    throw Error(frame.image_path + ": image is " + std::to_string(bgr.cols) + "x" +
+                std::to_string(bgr.rows) + " but data.json says " +
+                std::to_string(frame.camera.width) + "x" + std::to_string(frame.camera.height));
+  return bgr;
+}
+
+cv::Mat Capture::Impl::compute_mask(const FrameInfo& frame, const cv::Mat& bgr) const {
+  const std::vector<float>& vertices = posed_vertices.at(frame.pose_index);
+  cv::Mat mask = mesh_mask(vertices.data(), num_vertices, faces.data(),
+                           static_cast<int64_t>(faces.size() / 3), frame.camera);
+  if (config.mask_refine.enabled) {
+    cv::Mat refined = mask.clone();
+    refine_mask(refined, bgr, config.mask_refine);
+    // A refinement that removes everything (e.g. a badly exposed frame) would leave the frame
+    // without supervision: keep the mesh mask then.
+    if (cv::countNonZero(refined) > 0) mask = refined;
+  }
+  return mask;
+}
+
+cv::Mat Capture::Impl::mask_for(const FrameInfo& frame, const cv::Mat& bgr) const {
+  if (mask_folder.empty()) return compute_mask(frame, bgr);
+  const fs::path file = fs::path(mask_folder) / fs::path(frame.file_name).replace_extension(".png");
+  if (fs::is_regular_file(file)) {
+    cv::Mat stored = cv::imread(file.string(), cv::IMREAD_GRAYSCALE);
+    if (stored.cols == bgr.cols && stored.rows == bgr.rows) {
+      cv::Mat mask;
+      cv::threshold(stored, mask, 127, 1, cv::THRESH_BINARY);
+      return mask;
+    }
+    // Unreadable or stale: recompute and overwrite below.
+  }
+  cv::Mat mask = compute_mask(frame, bgr);
+  std::vector<uint8_t> png;
+  cv::Mat visible = mask * 255;  // 0/255 so the cached file can be looked at
+  cv::imencode(".png", visible, png);
+  ensure_directory(file.parent_path().string());
+  write_cache_file(file, png);
+  return mask;
+}
+
+std::shared_ptr<const CachedCrop> Capture::Impl::produce(int64_t index, bool full) const {
+  const FrameInfo& frame = frames.at(index);
+  const cv::Mat bgr = decode(frame);
+  const cv::Mat mask = mask_for(frame, bgr);
+  auto crop = std::make_shared<CachedCrop>();
+  crop->roi = full ? PixelRect{0, 0, bgr.cols, bgr.rows} : roi_from_mask(mask, config.roi_margin);
+  const cv::Rect rect(crop->roi.x0, crop->roi.y0, crop->roi.width(), crop->roi.height());
+  cv::cvtColor(bgr(rect), crop->rgb, cv::COLOR_BGR2RGB);  // new, continuous buffer
+  crop->mask = mask(rect).clone();
+  return crop;
+}
+
+std::shared_ptr<const CachedCrop> Capture::Impl::get(int64_t index, bool full) {
+  require(index >= 0 && index < static_cast<int64_t>(frames.size()),
+          "Capture::load: frame index " + std::to_string(index) + " out of range (" +
+              std::to_string(frames.size()) + " frames)");
+  const uint64_t k = key(index, full);
+  if (auto crop = cache.get(k)) return crop;
+  {
+    std::unique_lock<std::mutex> lock(mutex);
+    // A loader thread is decoding this frame: wait for it instead of decoding twice.
+    done_cv.wait(lock, [&] { return !in_flight.count(k); });
+    auto error = errors.find(k);
+    if (error != errors.end()) {
+      std::exception_ptr e = error->second;
+      errors.erase(error);
+      std::rethrow_exception(e);
+    }
+    if (auto crop = cache.get(k)) return crop;
+    in_flight.insert(k);
+  }
+  std::shared_ptr<const CachedCrop> crop;
+  try {
+    crop = produce(index, full);
+  } catch (...) {
+    std::lock_guard<std::mutex> lock(mutex);
+    in_flight.erase(k);
+    done_cv.notify_all();
+    throw;
+  }
+  cache.put(k, crop);
+  std::lock_guard<std::mutex> lock(mutex);
+  in_flight.erase(k);
+  done_cv.notify_all();
+  return crop;
+}
+
+void Capture::Impl::worker_loop() {
+  while (true) {
+    uint64_t k = 0;
+    {
+      std::unique_lock<std::mutex> lock(mutex);
+      work_cv.wait(lock, [&] { return stopping || !queue.empty(); });
+      if (stopping) return;
+      k = queue.front();
+      queue.pop_front();
+      if (in_flight.count(k) || cache.contains(k)) continue;
+      in_flight.insert(k);
+    }
+    std::shared_ptr<const CachedCrop> crop;
+    std::exception_ptr failure;
+    try {
+      crop = produce(static_cast<int64_t>(k / 2), (k & 1) != 0);
+    } catch (...) {
+      failure = std::current_exception();
+    }
+    if (crop) cache.put(k, crop);
+    std::lock_guard<std::mutex> lock(mutex);
+    if (failure) {
+      if (errors.size() >= kMaxRememberedErrors) errors.erase(errors.begin());
+      errors[k] = failure;
+    }
+    in_flight.erase(k);
+    done_cv.notify_all();
+  }
+}
+
+void Capture::Impl::start_workers(int count) {
+  for (int i = 0; i < count; ++i) workers.emplace_back([this] { worker_loop(); });
+}
+
+void Capture::Impl::stop_workers() {
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    stopping = true;
+    queue.clear();
+  }
+  work_cv.notify_all();
+  for (auto& worker : workers)
+    if (worker.joinable()) worker.join();
+  workers.clear();
+}
+
+FrameSample Capture::load(const FrameInfo& frame, bool full_image) {
+  std::shared_ptr<const CachedCrop> crop = impl_->get(frame.index, full_image);
+  FrameSample sample;
+  sample.index = frame.index;
+  sample.camera = impl_->frames.at(frame.index).camera;
+  sample.roi = crop->roi;
+  const int64_t h = crop->rgb.rows, w = crop->rgb.cols;
+  // Copies (about 0.2 MB for a hand crop), so the cached buffers stay immutable. memcpy rather than
+  // Tensor::clone: clone runs an OpenMP region, whose idle threads then spin and compete with the
+  // loader threads.
+  sample.image = torch::empty({h, w, 3}, torch::kUInt8);
+  sample.mask = torch::empty({h, w}, torch::kUInt8);
+  std::memcpy(sample.image.data_ptr<uint8_t>(), crop->rgb.data, static_cast<size_t>(h * w * 3));
+  std::memcpy(sample.mask.data_ptr<uint8_t>(), crop->mask.data, static_cast<size_t>(h * w));
+  return sample;
+}
+
+std::shared_ptr<const CachedCrop> Capture::load_crop(int64_t index, bool full_image) {
+  return impl_->get(index, full_image);
+}
+
+void Capture::prefetch(const std::vector<int64_t>& indices, bool full_image) {
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    impl_->queue.clear();
+    for (int64_t index : indices)
+      if (index >= 0 && index < static_cast<int64_t>(impl_->frames.size()))
+        impl_->queue.push_back(Impl::key(index, full_image));
+  }
+  impl_->work_cv.notify_all();
+}
+
+cv::Mat Capture::decode_image(const FrameInfo& frame) const { return impl_->decode(frame); }
+
+cv::Mat Capture::compute_mask(const FrameInfo& frame, const cv::Mat& bgr) const {
+  return impl_->compute_mask(frame, bgr);
+}
+
+}  // namespace handscs

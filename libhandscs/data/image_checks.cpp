@@ -1,0 +1,49 @@
+#include "data/image_checks.h"
+
+#include <algorithm>
+#include <cstdlib>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+namespace handscs {
+
+bool is_monochrome(const cv::Mat& bgr) {
+  if (bgr.empty()) return false;
+  if (bgr.channels() == 1) return true;
+  if (bgr.type() != CV_8UC3) return false;
+  size_t coloured = 0;
+  for (int y = 0; y < bgr.rows; ++y) {
+    const uint8_t* row = bgr.ptr<uint8_t>(y);
+    for (int x = 0; x < bgr.cols; ++x) {
+      const int b = row[3 * x], g = row[3 * x + 1], r = row[3 * x + 2];
+      const int spread = std::max({b, g, r}) - std::min({b, g, r});
+      coloured += spread > kColourSpread;
+    }
+  }
+  return static_cast<double>(coloured) < kMonochromeFraction * static_cast<double>(bgr.total());
+}
+
+bool is_black(const cv::Mat& image, int level) {
+  if (image.empty()) return false;
+  double max_value = 0;
+  cv::minMaxLoc(image.reshape(1), nullptr, &max_value);
+  return max_value <= level;
+}
+
+ImageScan scan_image(const std::string& path) {
+  ImageScan scan;
+  try {
+    const cv::Mat small = cv::imread(path, cv::IMREAD_REDUCED_COLOR_8);
+    if (small.empty()) return scan;
+    scan.readable = true;
+    scan.scaled_width = small.cols;
+    scan.scaled_height = small.rows;
+    scan.black = is_black(small);
+    scan.monochrome = !scan.black && is_monochrome(small);
+  } catch (const std::exception&) {
+    scan.readable = false;  // a corrupt file makes libjpeg/OpenCV throw: report, never propagate
+  }
+  return scan;
+}
+
+}  // namespace handscs

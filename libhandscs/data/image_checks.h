@@ -1,0 +1,35 @@
+// Cheap per-image checks run when a capture is opened: readable, black (camera dropout) and
+// monochrome (R = G = B cameras), from a 1/8-scale JPEG decode (DCT scaling: ~4x faster than full).
+#pragma once
+
+#include <opencv2/core/mat.hpp>
+#include <string>
+
+namespace handscs {
+
+struct ImageScan {
+  bool readable = false;    // decoded without error
+  bool black = false;       // brightest (8x8-averaged) value <= kBlackLevel
+  bool monochrome = false;  // fewer than kMonochromeFraction of pixels have a channel spread > 4
+  int scaled_width = 0, scaled_height = 0;  // size of the 1/8 decode: ceil(width / 8) for JPEG
+};
+
+// Brightest 8x8-block average of a black (dropped-out) frame: JPEG noise on a black frame stays a
+// few levels above 0, a lit hand or body is several tens of levels brighter.
+constexpr int kBlackLevel = 16;
+// Channel spread (max - min of B, G, R) above which a pixel counts as coloured: JPEG chroma
+// rounding of a grey image stays within 1-2 levels; skin and clothes differ by tens of levels.
+constexpr int kColourSpread = 4;
+// Fraction of coloured pixels below which an image is monochrome: real colour frames have
+// 50-60% coloured pixels, monochrome cameras exactly 0 (checked on the four InterHand samples).
+constexpr double kMonochromeFraction = 0.01;
+
+// True when fewer than kMonochromeFraction of the pixels of an 8-bit BGR image are coloured.
+bool is_monochrome(const cv::Mat& bgr);
+// True when no pixel of an 8-bit image exceeds `level`.
+bool is_black(const cv::Mat& image, int level = kBlackLevel);
+
+// Decodes `path` at 1/8 scale and runs the checks. Never throws (unreadable files report so).
+ImageScan scan_image(const std::string& path);
+
+}  // namespace handscs

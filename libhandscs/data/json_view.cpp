@@ -1,0 +1,217 @@
+#include "data/json_view.h"
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+
+#include "core/error.h"
+
+namespace handscs {
+
+using json = nlohmann::json;
+
+std::string json_kind(const json& value) {
+  switch (value.type()) {
+    case json::value_t::null: return "null";
+    case json::value_t::boolean: return "boolean";
+    case json::value_t::number_integer:
+    case json::value_t::number_unsigned:
+    case json::value_t::number_float: return "number";
+    case json::value_t::string: return "string";
+    case json::value_t::array: return "array of " + std::to_string(value.size());
+    case json::value_t::object: return "object";
+    default: return "unknown";
+  }
+}
+
+void JsonView::fail(const std::string& problem) const {
+  throw Error(*file_ + ": " + (path_.empty() ? std::string("(top level)") : path_) + ": " +
+              problem);
+}
+
+std::string JsonView::child(const std::string& key) const {
+  return path_.empty() ? key : path_ + "." + key;
+}
+
+void JsonView::require_object() const {
+  if (!value_->is_object()) fail("expected object, got " + json_kind(*value_));
+}
+
+JsonView JsonView::at(const std::string& key) const {
+  require_object();
+  auto it = value_->find(key);
+  if (it == value_->end()) fail("missing key \"" + key + "\"");
+  return JsonView(*it, *file_, child(key));
+}
+
+JsonView JsonView::at(size_t index) const {
+  if (!value_->is_array() || index >= value_->size())
+    fail("expected array with element " + std::to_string(index) + ", got " + json_kind(*value_));
+  return JsonView((*value_)[index], *file_, path_ + "[" + std::to_string(index) + "]");
+}
+
+size_t JsonView::size() const {
+  if (!value_->is_array()) fail("expected array, got " + json_kind(*value_));
+  return value_->size();
+}
+
+size_t JsonView::array(size_t n) const {
+  if (!value_->is_array() || value_->size() != n)
+    fail("expected array of " + std::to_string(n) + ", got " + json_kind(*value_));
+  return n;
+}
+
+double JsonView::number() const {
+  if (!value_->is_number()) fail("expected number, got " + json_kind(*value_));
+  const double x = value_->get<double>();
+  if (!std::isfinite(x)) fail("expected a finite number");
+  return x;
+}
+
+int64_t JsonView::integer() const {
+  if (value_->is_number_integer()) return value_->get<int64_t>();
+  if (value_->is_number_float()) {
+    const double x = value_->get<double>();
+    if (x == std::floor(x) && std::fabs(x) < 9.0e15) return static_cast<int64_t>(x);
+    fail("expected integer, got " + value_->dump());
+  }
+  fail("expected integer, got " + json_kind(*value_));
+}
+
+std::string JsonView::string() const {
+  if (!value_->is_string()) fail("expected string, got " + json_kind(*value_));
+  return value_->get<std::string>();
+}
+
+bool JsonView::flag() const {
+  if (value_->is_boolean()) return value_->get<bool>();
+  if (value_->is_number()) {
+    const double x = value_->get<double>();
+    if (x == 0.0 || x == 1.0) return x == 1.0;
+    fail("expected 0 or 1, got " + value_->dump());
+  }
+  fail("expected boolean or 0/1, got " + json_kind(*value_));
+}
+
+void JsonView::numbers(double* out, size_t n) const {
+  array(n);
+  for (size_t i = 0; i < n; ++i) out[i] = at(i).number();
+}
+
+void JsonView::matrix(double* out, size_t rows, size_t cols) const {
+  if (!value_->is_array() || value_->size() != rows)
+    fail("expected " + std::to_string(rows) + "x" + std::to_string(cols) + " array, got " +
+         json_kind(*value_));
+  for (size_t r = 0; r < rows; ++r) at(r).numbers(out + r * cols, cols);
+}
+
+void JsonView::flags(uint8_t* out, size_t n) const {
+  array(n);
+  for (size_t i = 0; i < n; ++i) {
+    JsonView item = at(i);
+    if (item.raw().is_array()) {
+      item.array(1);
+      item = item.at(0);
+    }
+    out[i] = item.flag() ? 1 : 0;
+  }
+}
+
+namespace {
+
+struct FileCloser {
+  void operator()(std::FILE* f) const {
+    if (f) std::fclose(f);
+  }
+};
+
+[[noreturn]] void throw_parse_error(const std::string& path, const json::parse_error& e) {
+  // Line and column of the byte offset nlohmann reports (1-based), found by re-reading the file.
+  size_t line = 1, column = 1;
+  std::unique_ptr<std::FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
+  if (file) {
+    for (size_t i = 0; i + 1 < e.byte; ++i) {
+      const int c = std::fgetc(file.get());
+      if (c == EOF) break;
+      if (c == '\n') {
+        ++line;
+        column = 1;
+      } else {
+        ++column;
+      }
+    }
+  }
+  throw Error(path + ": malformed JSON at line " + std::to_string(line) + ", column " +
+              std::to_string(column) + " (" + e.what() + ")");
+}
+
+std::unique_ptr<std::FILE, FileCloser> open_json(const std::string& path) {
+  std::unique_ptr<std::FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
+  if (!file) throw Error(path + ": cannot open file");
+  return file;
+}
+
+}  // namespace
+
+json stream_json_elements(const std::string& path,
+                          const std::function<bool(const std::string&)>& keep_top,
+                          const std::function<void(const JsonElement&)>& visit) {
+  auto file = open_json(path);
+  bool root_is_object = false;
+  bool in_array = false;
+  bool skip_top = false;
+  std::string top, second;
+  int64_t index = 0;
+  // nlohmann's depth: the root container's events have depth 0, top-level entries depth 1 and
+  // their elements depth 2 (a discarded value is never stored in the result).
+  auto callback = [&](int depth, json::parse_event_t event, json& parsed) -> bool {
+    using E = json::parse_event_t;
+    if (depth == 0) {
+      if (event == E::object_start) root_is_object = true;
+      return true;
+    }
+    if (!root_is_object) return true;
+    if (depth == 1) {
+      if (event == E::key) {
+        top = parsed.get<std::string>();
+        skip_top = !keep_top(top);
+        return !skip_top;
+      }
+      if (event == E::array_start || event == E::object_start) {
+        in_array = event == E::array_start;
+        index = 0;
+      }
+      return true;
+    }
+    if (depth == 2) {
+      if (skip_top) return false;
+      if (event == E::key) {
+        second = parsed.get<std::string>();
+        return true;
+      }
+      if (event == E::value || event == E::object_end || event == E::array_end) {
+        const std::string name = in_array ? std::to_string(index++) : second;
+        visit(JsonElement{top, name, in_array, parsed});
+        return false;  // drop the element: the visitor kept what it needed
+      }
+      return true;
+    }
+    return !skip_top;
+  };
+  try {
+    return json::parse(file.get(), callback);
+  } catch (const json::parse_error& e) {
+    throw_parse_error(path, e);
+  }
+}
+
+json read_json_file(const std::string& path) {
+  auto file = open_json(path);
+  try {
+    return json::parse(file.get());
+  } catch (const json::parse_error& e) {
+    throw_parse_error(path, e);
+  }
+}
+
+}  // namespace handscs

@@ -1,0 +1,292 @@
+#include "data/synth_capture.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/progress.h"
+#include "data/mesh_mask.h"
+#include "hand/joint_order.h"
+#include "hand/lbs.h"
+
+namespace handscs {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using namespace synth;
+
+namespace {
+
+// World position of the hand's centre (m): away from the origin (like InterHand's world frame,
+// where hands sit about a metre from the origin) so that unit or translation mistakes show.
+const Vec3 kHandCentre = {0.03, -0.08, 1.05};
+// Slow drift of the hand around its centre (m), so trans varies as in real captures.
+constexpr double kDrift = 0.008;
+
+std::string sequence_name(int index) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "%04d_synth_rom", index);
+  return name;
+}
+
+std::string image_file_name(const SynthScene& scene, const SynthFrame& frame,
+                            const SynthCamera& camera) {
+  return "Capture" + std::to_string(scene.config.capture) + "/" + frame.seq_name + "/cam" +
+         camera.id + "/image" + std::to_string(frame.frame_idx) + ".jpg";
+}
+
+json numbers(const double* values, int n) {
+  json out = json::array();
+  for (int i = 0; i < n; ++i) out.push_back(values[i]);
+  return out;
+}
+
+}  // namespace
+
+SynthScene make_synth_scene(const SynthConfig& config) {
+  require(config.num_frames > 0 && config.num_cameras > 0, "synth: empty capture");
+  require(config.num_sequences >= 1 && config.num_sequences <= config.num_frames,
+          "synth: num_sequences must be in [1, num_frames]");
+  SynthScene scene;
+  scene.config = config;
+  scene.rig = load_rig_source("builtin");
+  scene.skin = make_synth_skin(scene.rig, config.seed);
+  {
+    const torch::Tensor faces = scene.rig.faces.to(torch::kInt64).contiguous();
+    scene.faces.assign(faces.data_ptr<int64_t>(), faces.data_ptr<int64_t>() + faces.numel());
+  }
+  const std::vector<SynthPose> poses = make_rom_poses(scene.rig, config.num_frames, config.seed);
+  const int64_t n = config.num_frames;
+  const auto options = torch::TensorOptions().dtype(torch::kFloat64);
+  torch::Tensor pose = torch::empty({n, 48}, options), shape = torch::empty({n, 10}, options);
+  for (int64_t k = 0; k < n; ++k) {
+    std::copy(poses[k].pose.begin(), poses[k].pose.end(), pose[k].data_ptr<double>());
+    std::copy(poses[k].shape.begin(), poses[k].shape.end(), shape[k].data_ptr<double>());
+  }
+  LbsOutput posed;
+  {
+    torch::NoGradGuard no_grad;
+    LbsOptions lbs_options;
+    lbs_options.flat_hand_mean = true;  // absolute poses here; the files get pose - hands_mean
+    posed = lbs(scene.rig, pose, shape, torch::zeros({n, 3}, options), lbs_options);
+  }
+  const torch::Tensor vertices = posed.vertices.contiguous();
+  const torch::Tensor joints = posed.joints.contiguous();
+  const int64_t num_vertices = vertices.size(1);
+  const torch::Tensor hands_mean = scene.rig.hands_mean.to(torch::kFloat64).contiguous();
+  const double* mean = hands_mean.data_ptr<double>();
+
+  SynthRandom drift_random(mix_seed(config.seed, 0x6472696674));  // "drift"
+  const double drift_phase[3] = {drift_random.uniform(0, 2 * M_PI),
+                                 drift_random.uniform(0, 2 * M_PI),
+                                 drift_random.uniform(0, 2 * M_PI)};
+  scene.frames.resize(n);
+  for (int64_t k = 0; k < n; ++k) {
+    SynthFrame& frame = scene.frames[k];
+    const int sequence = static_cast<int>(k * config.num_sequences / n);
+    frame.seq_name = sequence_name(sequence);
+    frame.frame_idx = k * config.frame_step;
+    frame.absolute = poses[k];
+    frame.annotated = poses[k].pose;
+    for (int i = 0; i < 45; ++i) frame.annotated[3 + i] -= mean[i];
+    // Centre the hand's bounding box on kHandCentre, plus a slow drift.
+    const double* v = vertices[k].data_ptr<double>();
+    Vec3 lo = {INFINITY, INFINITY, INFINITY}, hi = {-INFINITY, -INFINITY, -INFINITY};
+    for (int64_t i = 0; i < num_vertices; ++i)
+      for (int d = 0; d < 3; ++d) {
+        lo[d] = std::min(lo[d], v[i * 3 + d]);
+        hi[d] = std::max(hi[d], v[i * 3 + d]);
+      }
+    const double t = 2 * M_PI * static_cast<double>(k) / std::max<int64_t>(n, 20);
+    for (int d = 0; d < 3; ++d)
+      frame.trans[d] = kHandCentre[d] - 0.5 * (lo[d] + hi[d]) +
+                       kDrift * std::sin(t * (1 + 0.3 * d) + drift_phase[d]);
+    frame.vertices.resize(num_vertices * 3);
+    for (int64_t i = 0; i < num_vertices; ++i)
+      for (int d = 0; d < 3; ++d)
+        frame.vertices[i * 3 + d] = static_cast<float>(v[i * 3 + d] + frame.trans[d]);
+    const double* j = joints[k].data_ptr<double>();
+    for (int i = 0; i < 21; ++i)
+      for (int d = 0; d < 3; ++d) frame.joints[i * 3 + d] = j[i * 3 + d] + frame.trans[d];
+  }
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int64_t k = 0; k < n; ++k) {
+    SynthFrame& frame = scene.frames[k];
+    frame.normals = vertex_normals(frame.vertices, scene.faces);
+    frame.occlusion = fold_occlusion(frame.vertices, frame.normals);
+  }
+  // Portrait images show the fingers up: "up" is the rest hand's wrist-to-knuckles direction;
+  // azimuth 0 faces the palm.
+  scene.cameras =
+      make_synth_cameras(config, kHandCentre, scene.skin.palm_long, scene.skin.palm_back);
+  return scene;
+}
+
+SynthView render_synth_frame(const SynthScene& scene, int frame, int camera) {
+  const SynthFrame& f = scene.frames.at(frame);
+  const SynthMeshView mesh{&f.vertices, &f.normals, &f.occlusion, &scene.faces};
+  return render_synth_view(scene.skin, mesh, scene.cameras.at(camera).camera,
+                           scene.config.supersample,
+                           mix_seed(scene.config.seed, static_cast<uint64_t>(camera) + 1,
+                                    static_cast<uint64_t>(frame) + 1));
+}
+
+SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_dir) {
+  const auto start = std::chrono::steady_clock::now();
+  const SynthConfig& c = scene.config;
+  const fs::path root(out_dir);
+  const fs::path images_dir = root / "images" / c.split;
+  const fs::path annotations_dir = root / "annotations" / c.split;
+  ensure_directory(annotations_dir.string());
+  for (const auto& frame : scene.frames)
+    for (const auto& camera : scene.cameras)
+      ensure_directory((images_dir / image_file_name(scene, frame, camera)).parent_path().string());
+
+  const int64_t num_cameras = static_cast<int64_t>(scene.cameras.size());
+  const int64_t num_images = static_cast<int64_t>(scene.frames.size()) * num_cameras;
+  std::vector<std::array<double, 4>> boxes(num_images);
+  std::vector<int64_t> sizes(num_images, 0);
+  std::mutex error_mutex;
+  std::string first_error;
+  ProgressBar progress("synth " + c.preset, num_images);
+  int64_t done = 0;
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int64_t i = 0; i < num_images; ++i) {
+    const int frame = static_cast<int>(i / num_cameras), camera = static_cast<int>(i % num_cameras);
+    try {
+      const SynthView view = render_synth_frame(scene, frame, camera);
+      std::vector<uint8_t> jpeg;
+      cv::imencode(".jpg", view.bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, c.jpeg_quality});
+      const SynthFrame& f = scene.frames[frame];
+      const SynthCamera& cam = scene.cameras[camera];
+      write_file_atomic((images_dir / image_file_name(scene, f, cam)).string(),
+                        std::string(jpeg.begin(), jpeg.end()));
+      sizes[i] = static_cast<int64_t>(jpeg.size());
+      // bbox [x, y, w, h]: the projected mesh's extent, clipped to the image.
+      double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
+      for (size_t v = 0; v < f.vertices.size() / 3; ++v) {
+        const auto uv = cam.camera.project_camera(cam.camera.to_camera(
+            {f.vertices[v * 3], f.vertices[v * 3 + 1], f.vertices[v * 3 + 2]}));
+        x0 = std::min(x0, uv[0]);
+        y0 = std::min(y0, uv[1]);
+        x1 = std::max(x1, uv[0]);
+        y1 = std::max(y1, uv[1]);
+      }
+      x0 = std::clamp(x0, 0.0, double(cam.camera.width));
+      x1 = std::clamp(x1, 0.0, double(cam.camera.width));
+      y0 = std::clamp(y0, 0.0, double(cam.camera.height));
+      y1 = std::clamp(y1, 0.0, double(cam.camera.height));
+      boxes[i] = {x0, y0, x1 - x0, y1 - y0};
+    } catch (const std::exception& e) {
+      std::lock_guard<std::mutex> lock(error_mutex);
+      if (first_error.empty()) first_error = e.what();
+    }
+#pragma omp critical(synth_progress)
+    progress.update(++done);
+  }
+  progress.finish();
+  if (!first_error.empty()) throw Error("synth: " + first_error);
+
+  // data.json (COCO style), camera.json, joint_3d.json, MANO_NeuralAnnot.json.
+  json images = json::array(), annotations = json::array();
+  json joint_valid = json::array();
+  for (int j = 0; j < 42; ++j) joint_valid.push_back(json::array({j < 21 ? 1 : 0}));
+  for (int64_t i = 0; i < num_images; ++i) {
+    const SynthFrame& f = scene.frames[i / num_cameras];
+    const SynthCamera& cam = scene.cameras[i % num_cameras];
+    images.push_back({{"id", i},
+                      {"file_name", image_file_name(scene, f, cam)},
+                      {"width", cam.camera.width},
+                      {"height", cam.camera.height},
+                      {"capture", c.capture},
+                      {"subject", 0},
+                      {"seq_name", f.seq_name},
+                      {"camera", cam.id},
+                      {"frame_idx", f.frame_idx}});
+    annotations.push_back({{"id", i},
+                           {"image_id", i},
+                           {"bbox", numbers(boxes[i].data(), 4)},
+                           {"joint_valid", joint_valid},
+                           {"hand_type", "right"},
+                           {"hand_type_valid", 1}});
+  }
+  const json data = {{"images", images}, {"annotations", annotations}};
+
+  json campos = json::object(), camrot = json::object(), focal = json::object(),
+       princpt = json::object();
+  for (const auto& cam : scene.cameras) {
+    campos[cam.id] = numbers(cam.raw.campos_mm.data(), 3);
+    camrot[cam.id] = json::array({numbers(&cam.raw.camrot[0], 3), numbers(&cam.raw.camrot[3], 3),
+                                  numbers(&cam.raw.camrot[6], 3)});
+    focal[cam.id] = numbers(cam.raw.focal.data(), 2);
+    princpt[cam.id] = numbers(cam.raw.princpt.data(), 2);
+  }
+  const std::string capture_key = std::to_string(c.capture);
+  const json cameras = {
+      {capture_key,
+       {{"campos", campos}, {"camrot", camrot}, {"focal", focal}, {"princpt", princpt}}}};
+
+  json joint_frames = json::object(), mano_frames = json::object();
+  for (const auto& f : scene.frames) {
+    json coords = json::array(), valid = json::array();
+    for (int ih = 0; ih < 42; ++ih) {
+      if (ih < 21) {
+        const int m = kInterHandFromMano21[ih];
+        coords.push_back(
+            {f.joints[m * 3] * 1000.0, f.joints[m * 3 + 1] * 1000.0, f.joints[m * 3 + 2] * 1000.0});
+      } else {
+        coords.push_back({0.0, 0.0, 0.0});  // the left hand is not in the scene
+      }
+      valid.push_back(json::array({ih < 21}));
+    }
+    const std::string key = std::to_string(f.frame_idx);
+    joint_frames[key] = {{"world_coord", coords},
+                         {"joint_valid", valid},
+                         {"hand_type", "right"},
+                         {"hand_type_valid", true}};
+    mano_frames[key] = {{"right",
+                         {{"pose", numbers(f.annotated.data(), 48)},
+                          {"shape", numbers(f.absolute.shape.data(), 10)},
+                          {"trans", numbers(f.trans.data(), 3)}}},
+                        {"left", nullptr}};
+  }
+  const std::string prefix = (annotations_dir / ("InterHand2.6M_" + c.split + "_")).string();
+  int64_t bytes = 0;
+  for (const auto& [kind, value] : std::vector<std::pair<std::string, json>>{
+           {"data", data},
+           {"camera", cameras},
+           {"joint_3d", json{{capture_key, joint_frames}}},
+           {"MANO_NeuralAnnot", json{{capture_key, mano_frames}}}}) {
+    const std::string text = value.dump();
+    write_file_atomic(prefix + kind + ".json", text);
+    bytes += static_cast<int64_t>(text.size());
+  }
+  for (int64_t s : sizes) bytes += s;
+  SynthReport report;
+  report.images = num_images;
+  report.bytes = bytes;
+  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return report;
+}
+
+SynthReport generate_synth_capture(const SynthConfig& config, const std::string& out_dir) {
+  const auto start = std::chrono::steady_clock::now();
+  const SynthScene scene = make_synth_scene(config);
+  SynthReport report = write_synth_capture(scene, out_dir);
+  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  spdlog::info(
+      "synth {}: {} cameras x {} frames = {} images ({}x{} portrait), {:.1f} MB in {:.1f} s -> {}",
+      config.preset, config.num_cameras, config.num_frames, report.images, config.width,
+      config.height, report.bytes / 1e6, report.seconds, out_dir);
+  return report;
+}
+
+}  // namespace handscs

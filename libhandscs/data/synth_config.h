@@ -1,0 +1,53 @@
+// Settings of a synthetic InterHand2.6M-layout capture (handscs-synth) and its named presets:
+// tiny (CI), demo (the demo's default capture) and bench (data/benchmark workloads).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace handscs {
+
+struct SynthConfig {
+  std::string preset = "tiny";
+  int num_cameras = 4;
+  int num_frames = 12;            // poses (frames) over the whole capture
+  int num_sequences = 1;          // frames are split evenly into this many sequences
+  int width = 334, height = 512;  // portrait size; landscape cameras swap the two
+  double focal = 1265.0;  // px at 334x512 (InterHand cameras: 1260-1275 px); scales with size
+  double camera_distance = 1.05;  // m from the hand centre (InterHand: joints at 1.0-1.2 m depth)
+  int landscape_every = 3;        // every k-th camera is landscape (0 = none)
+  int64_t seed = 1;
+  int supersample = 3;  // odd: the centre sub-sample of each pixel is its centre
+  int jpeg_quality = 95;
+  std::string split = "test";  // images/{split}/, annotations/{split}/
+  int capture = 0;             // Capture{c}
+  int frame_step = 6;          // frame_idx step (the 5 fps release keeps every 6th 30 fps frame)
+
+  template <class V>
+  void visit(V& v) {
+    v.field("preset", preset, "preset the values started from");
+    v.field("num_cameras", num_cameras, "cameras on the rig", 1, 1000);
+    v.field("num_frames", num_frames, "poses over the whole capture", 1, 1000000);
+    v.field("num_sequences", num_sequences, "sequences the frames are split into", 1, 1000);
+    v.field("width", width, "portrait image width (px)", 16, 8192);
+    v.field("height", height, "portrait image height (px)", 16, 8192);
+    v.field("focal", focal, "focal length at 334 px width (px)", 1, 1e6);
+    v.field("camera_distance", camera_distance, "camera distance from the hand (m)", 0.1, 100);
+    v.field("landscape_every", landscape_every, "every k-th camera is landscape (0 = none)", 0,
+            1000);
+    v.field("seed", seed, "seed of motion, cameras, shape and noise");
+    v.field("supersample", supersample, "odd sub-samples per pixel side", 1, 9);
+    v.field("jpeg_quality", jpeg_quality, "JPEG quality", 1, 100);
+    v.choice("split", split, {"train", "test", "val"}, "split folder");
+    v.field("capture", capture, "capture number", 0, 1000000);
+    v.field("frame_step", frame_step, "frame_idx step between frames", 1, 1000);
+  }
+};
+
+// Named presets: "tiny" (4 cameras x 12 frames, 167x256, for CI), "demo" (12 x 100, 334x512),
+// "bench" (24 x 150, 334x512). Throws Error listing the known names for anything else.
+SynthConfig synth_preset(const std::string& name);
+std::vector<std::string> synth_preset_names();
+
+}  // namespace handscs

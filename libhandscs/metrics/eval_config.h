@@ -1,0 +1,29 @@
+// Evaluation options shared by handscs-eval's modes: metric conventions, LPIPS weights and the
+// mask protocol (DESIGN.md 4: full image, ground truth composited onto the background with the mask).
+#pragma once
+
+#include <array>
+#include <string>
+
+#include "metrics/lpips.h"
+#include "metrics/ssim.h"
+
+namespace handscs {
+
+struct EvalConfig {
+  SsimConfig ssim;                              // SSIM convention
+  LpipsConfig lpips;                            // LPIPS net and weights (none = LPIPS reported null)
+  std::string mask_mode = "composite_gt";       // what a mask does (only when masks are given)
+  std::array<double, 3> background = {0, 0, 0};  // RGB in [0,1] behind masked/alpha images
+
+  template <class V>
+  void visit(V& v) {
+    v.section("ssim", ssim, "SSIM options");
+    v.section("lpips", lpips, "LPIPS options");
+    v.choice("mask_mode", mask_mode, {"composite_gt", "composite_both"},
+             "with masks: composite the ground truth (or both images) onto the background");
+    v.field("background", background, "background RGB in [0,1] for masks and alpha channels");
+  }
+};
+
+}  // namespace handscs

@@ -1,0 +1,185 @@
+#include "metrics/eval_report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include "core/atomic_file.h"
+#include "metrics/psnr.h"
+
+namespace handscs {
+
+namespace {
+
+using nlohmann::json;
+
+json number(double x) { return std::isfinite(x) ? json(x) : json(x > 0 ? "inf" : "-inf"); }
+
+json optional_number(const std::optional<double>& x) { return x ? number(*x) : json(nullptr); }
+
+std::string format(const char* pattern, double x) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), pattern, x);
+  return buffer;
+}
+
+std::string csv_number(const std::optional<double>& x) {
+  if (!x) return "";
+  if (!std::isfinite(*x)) return *x > 0 ? "inf" : "-inf";
+  return format("%.10g", *x);
+}
+
+std::string csv_field(const std::string& text) {
+  if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (char c : text) quoted += (c == '"') ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
+std::string pad_right(const std::string& text, size_t width) {
+  return text.size() >= width ? text : text + std::string(width - text.size(), ' ');
+}
+
+std::string pad_left(const std::string& text, size_t width) {
+  return text.size() >= width ? text : std::string(width - text.size(), ' ') + text;
+}
+
+std::string table_number(const std::optional<double>& x, const char* pattern) {
+  if (!x) return "-";
+  if (!std::isfinite(*x)) return "inf";
+  return format(pattern, *x);
+}
+
+}  // namespace
+
+EvalSummary EvalReport::summary() const {
+  EvalSummary s;
+  std::vector<double> mse;
+  double ssim_sum = 0, lpips_sum = 0;
+  int64_t lpips_count = 0;
+  for (const auto& entry : entries) {
+    ++s.num_entries;
+    if (!entry.ok) {
+      ++s.num_failed;
+      continue;
+    }
+    ++s.num_scored;
+    mse.push_back(entry.scores.mse);
+    ssim_sum += entry.scores.ssim;
+    if (entry.scores.lpips) {
+      lpips_sum += *entry.scores.lpips;
+      ++lpips_count;
+    }
+  }
+  if (s.num_scored > 0) {
+    const PsnrSummary psnr = summarize_psnr(mse);
+    s.psnr = psnr.mean_psnr;
+    s.psnr_pooled = psnr.pooled_psnr;
+    s.mse = psnr.pooled_mse;
+    s.ssim = ssim_sum / s.num_scored;
+    // LPIPS is all or nothing per run; a partial mean would silently cover fewer images.
+    if (lpips_count == s.num_scored) s.lpips = lpips_sum / s.num_scored;
+  }
+  return s;
+}
+
+json eval_report_to_json(const EvalReport& report) {
+  const EvalSummary s = report.summary();
+  json out;
+  out["mode"] = report.mode;
+  out["inputs"] = report.inputs;
+  out["config"] = report.config;
+  out["lpips"] = {{"enabled", report.lpips_skip_reason.empty()},
+                  {"skipped_reason", report.lpips_skip_reason.empty()
+                                         ? json(nullptr)
+                                         : json(report.lpips_skip_reason)}};
+  out["summary"] = {{"images", s.num_entries},   {"scored", s.num_scored},
+                    {"failed", s.num_failed},    {"psnr", optional_number(s.psnr)},
+                    {"psnr_pooled_mse", optional_number(s.psnr_pooled)},
+                    {"mse", optional_number(s.mse)}, {"ssim", optional_number(s.ssim)},
+                    {"lpips", optional_number(s.lpips)}};
+  json images = json::array();
+  json failed = json::array();
+  for (const auto& entry : report.entries) {
+    json item = {{"name", entry.name}, {"sources", entry.sources}};
+    if (entry.width > 0) {
+      item["width"] = entry.width;
+      item["height"] = entry.height;
+    }
+    if (entry.ok) {
+      item["psnr"] = number(entry.scores.psnr);
+      item["ssim"] = number(entry.scores.ssim);
+      item["lpips"] = optional_number(entry.scores.lpips);
+      item["mse"] = number(entry.scores.mse);
+      images.push_back(item);
+    } else {
+      item["error"] = entry.error;
+      failed.push_back(item);
+    }
+  }
+  out["images"] = images;
+  out["failed"] = failed;
+  return out;
+}
+
+std::string eval_report_to_csv(const EvalReport& report) {
+  std::string text = "name,status,psnr,ssim,lpips,mse,width,height,error\n";
+  for (const auto& entry : report.entries) {
+    const bool ok = entry.ok;
+    text += csv_field(entry.name) + "," + (ok ? "ok" : "failed") + ",";
+    text += (ok ? csv_number(entry.scores.psnr) : "") + ",";
+    text += (ok ? csv_number(entry.scores.ssim) : "") + ",";
+    text += (ok ? csv_number(entry.scores.lpips) : "") + ",";
+    text += (ok ? csv_number(entry.scores.mse) : "") + ",";
+    text += (entry.width > 0 ? std::to_string(entry.width) : "") + ",";
+    text += (entry.height > 0 ? std::to_string(entry.height) : "") + ",";
+    text += csv_field(entry.error) + "\n";
+  }
+  return text;
+}
+
+std::string format_eval_table(const EvalReport& report) {
+  const EvalSummary s = report.summary();
+  size_t name_width = 10;
+  for (const auto& entry : report.entries) name_width = std::max(name_width, entry.name.size() + 2);
+  std::string text = pad_right("image", name_width) + pad_left("PSNR", 9) + pad_left("SSIM", 9) +
+                     pad_left("LPIPS", 9) + "\n";
+  for (const auto& entry : report.entries) {
+    if (!entry.ok) continue;
+    text += pad_right(entry.name, name_width) + pad_left(table_number(entry.scores.psnr, "%.3f"), 9) +
+            pad_left(table_number(entry.scores.ssim, "%.5f"), 9) +
+            pad_left(table_number(entry.scores.lpips, "%.5f"), 9) + "\n";
+  }
+  text += pad_right("mean (" + std::to_string(s.num_scored) + ")", name_width) +
+          pad_left(table_number(s.psnr, "%.3f"), 9) + pad_left(table_number(s.ssim, "%.5f"), 9) +
+          pad_left(table_number(s.lpips, "%.5f"), 9) + "\n";
+  text += "PSNR of the pooled MSE: " + table_number(s.psnr_pooled, "%.3f") + " dB\n";
+  const auto& config = report.config;
+  if (config.contains("ssim") && config.contains("lpips"))
+    text += "SSIM " + config["ssim"].value("variant", std::string("?")) + ", LPIPS " +
+            config["lpips"].value("net", std::string("?")) + " v0.1 (" +
+            config["lpips"].value("input_range", std::string("?")) + ")\n";
+  if (!report.lpips_skip_reason.empty())
+    text += "LPIPS skipped (reported as null): " + report.lpips_skip_reason + "\n";
+  if (s.num_failed > 0) {
+    text += std::to_string(s.num_failed) + " of " + std::to_string(s.num_entries) +
+            " images failed and are excluded from the means:\n";
+    for (const auto& entry : report.entries)
+      if (!entry.ok) text += "  " + entry.name + ": " + entry.error + "\n";
+  }
+  return text;
+}
+
+void write_eval_outputs(const EvalReport& report, const std::string& json_path,
+                        const std::string& csv_path) {
+  auto write = [](const std::string& path, const std::string& bytes) {
+    const auto parent = std::filesystem::path(path).parent_path();
+    if (!parent.empty()) ensure_directory(parent.string());
+    write_file_atomic(path, bytes);
+  };
+  if (!json_path.empty()) write(json_path, eval_report_to_json(report).dump(2) + "\n");
+  if (!csv_path.empty()) write(csv_path, eval_report_to_csv(report));
+}
+
+}  // namespace handscs

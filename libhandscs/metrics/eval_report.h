@@ -1,0 +1,61 @@
+// The result of an evaluation run: one entry per image (scores or a failure reason), the summary
+// over the scored images, and its JSON / CSV / text-table forms. Failed images never enter a mean.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "metrics/image_scorer.h"
+
+namespace handscs {
+
+struct EvalEntry {
+  std::string name;        // pairing key (file stem in folder mode)
+  nlohmann::json sources;  // where the images came from, e.g. {"pred": path, "gt": path}
+  int64_t width = 0;       // image size (0 when unknown)
+  int64_t height = 0;
+  bool ok = false;         // scored; otherwise `error` says why not
+  ImageScores scores;
+  std::string error;
+};
+
+struct EvalSummary {
+  int64_t num_entries = 0;             // scored + failed
+  int64_t num_scored = 0;
+  int64_t num_failed = 0;
+  std::optional<double> psnr;          // mean of per-image PSNR
+  std::optional<double> psnr_pooled;   // PSNR of the mean MSE
+  std::optional<double> mse;           // mean MSE
+  std::optional<double> ssim;          // mean SSIM
+  std::optional<double> lpips;         // mean LPIPS (empty when skipped)
+};
+
+struct EvalReport {
+  std::string mode;               // "folder" (later also "model")
+  nlohmann::json inputs;          // what was evaluated (directories, ...)
+  nlohmann::json config;          // the resolved EvalConfig
+  std::string lpips_skip_reason;  // "" when LPIPS ran
+  std::vector<EvalEntry> entries;
+
+  EvalSummary summary() const;
+};
+
+// {"mode", "inputs", "config", "lpips": {"enabled", "skipped_reason"}, "summary", "images",
+//  "failed"}. Non-finite numbers (PSNR of identical images) are written as the string "inf".
+nlohmann::json eval_report_to_json(const EvalReport& report);
+
+// One row per entry: name,status,psnr,ssim,lpips,mse,width,height,error (empty cells for null).
+std::string eval_report_to_csv(const EvalReport& report);
+
+// Human-readable table: per-image rows, the mean row, the failures and the LPIPS note.
+std::string format_eval_table(const EvalReport& report);
+
+// Writes the JSON (and the CSV when csv_path is not empty) atomically, creating parent folders.
+void write_eval_outputs(const EvalReport& report, const std::string& json_path,
+                        const std::string& csv_path);
+
+}  // namespace handscs

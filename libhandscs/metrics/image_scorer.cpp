@@ -1,0 +1,94 @@
+#include "metrics/image_scorer.h"
+
+#include <cstdio>
+
+#include <ATen/ATen.h>
+#include <c10/core/InferenceMode.h>
+
+#include "core/error.h"
+#include "metrics/image_tensor.h"
+#include "metrics/psnr.h"
+#include "metrics/ssim.h"
+
+namespace handscs {
+
+namespace {
+
+std::string size_text(const torch::Tensor& image) {
+  return std::to_string(image.size(1)) + "x" + std::to_string(image.size(0));  // W x H
+}
+
+void check_image(const torch::Tensor& image, const char* what) {
+  require(image.defined() && image.dim() == 3 && image.size(2) == 3,
+          std::string(what) + " must be [H, W, 3]");
+  const int64_t bad = image.numel() - image.isfinite().sum().item<int64_t>();
+  require(bad == 0, std::string(what) + " has " + std::to_string(bad) +
+                        " non-finite values (NaN or inf)");
+  // Float images can hold anything; every metric's constants assume the data range [0, 1].
+  // The slack admits rounding in float renders, not real out-of-range values.
+  constexpr double kRangeSlack = 1e-5;
+  const int64_t outside =
+      (image.lt(-kRangeSlack) | image.gt(1 + kRangeSlack)).sum().item<int64_t>();
+  if (outside > 0) {
+    char range[96];
+    std::snprintf(range, sizeof(range), " (min %.6g, max %.6g)", image.min().item<double>(),
+                  image.max().item<double>());
+    throw Error(std::string(what) + " has " + std::to_string(outside) +
+                " values outside [0, 1]" + range);
+  }
+}
+
+}  // namespace
+
+ImageScorer::ImageScorer(const EvalConfig& config) : config_(config) {
+  lpips_net_spec(config_.lpips.net);  // unknown names fail here, even without weights
+  // Evaluation images are always in [0, 1]; "minus_one_one" would silently mean "unscaled".
+  require(config_.lpips.input_range != "minus_one_one",
+          "lpips.input_range: evaluation images are in [0,1]; use zero_one (official) or "
+          "zero_one_unscaled");
+  if (config_.lpips.weights.empty()) {
+    lpips_skip_reason_ = "no LPIPS weight file given (--lpips-weights FILE or lpips.weights)";
+  } else {
+    lpips_ = std::make_shared<const Lpips>(config_.lpips);
+  }
+}
+
+ImageScores ImageScorer::score(const torch::Tensor& pred, const torch::Tensor& gt,
+                               const torch::Tensor& mask) const {
+  c10::InferenceMode inference;
+  check_image(pred, "prediction");
+  check_image(gt, "ground truth");
+  require(pred.sizes() == gt.sizes(), "size mismatch: prediction " + size_text(pred) +
+                                          ", ground truth " + size_text(gt));
+  require(pred.size(0) >= kSsimWindow && pred.size(1) >= kSsimWindow,
+          "image " + size_text(pred) + " is smaller than the " + std::to_string(kSsimWindow) + "x" +
+              std::to_string(kSsimWindow) + " SSIM window");
+  auto p = pred.to(torch::kDouble);
+  auto g = gt.to(torch::kDouble);
+  if (mask.defined()) {
+    require(mask.dim() == 2 && mask.size(0) == pred.size(0) && mask.size(1) == pred.size(1),
+            "mask size differs from the images (" + size_text(pred) + ")");
+    require(mask.isfinite().all().item<bool>() && mask.min().item<double>() >= 0 &&
+                mask.max().item<double>() <= 1,
+            "mask values must be finite and in [0, 1]");
+    const auto m = mask.to(torch::kDouble).unsqueeze(2);
+    const auto bg = torch::tensor({config_.background[0], config_.background[1], config_.background[2]},
+                                  torch::kDouble)
+                        .view({1, 1, 3});
+    g = g * m + bg * (1 - m);
+    if (config_.mask_mode == "composite_both") p = p * m + bg * (1 - m);
+  }
+  const auto p4 = hwc_to_bchw(p);
+  const auto g4 = hwc_to_bchw(g);
+  ImageScores scores;
+  scores.mse = mse_per_image(p4, g4).item<double>();
+  scores.psnr = psnr_from_mse(scores.mse);
+  scores.ssim = ssim(p4, g4, config_.ssim).item<double>();
+  if (lpips_) {
+    const auto dtype = lpips_->dtype();
+    scores.lpips = lpips_->distance(p4.to(dtype), g4.to(dtype)).item<double>();
+  }
+  return scores;
+}
+
+}  // namespace handscs

@@ -1,0 +1,139 @@
+#include "metrics/lpips.h"
+
+#include <ATen/ATen.h>
+
+#include "core/error.h"
+
+namespace handscs {
+
+namespace {
+
+// LPIPS's normalisation epsilon (lpips.normalize_tensor): keeps n(f) finite for zero features.
+constexpr double kNormEps = 1e-10;
+
+// LPIPS ScalingLayer constants: the ImageNet mean/std expressed for inputs in [-1, 1].
+const double kShift[3] = {-0.030, -0.088, -0.188};
+const double kScale[3] = {0.458, 0.448, 0.450};
+
+}  // namespace
+
+torch::Tensor unit_normalize_channels(const torch::Tensor& features) {
+  TORCH_CHECK(features.dim() == 4, "unit_normalize_channels: expected [B, C, H, W], got ",
+              features.sizes());
+  const auto sum_sq = features.square().sum(1, /*keepdim=*/true);
+  const auto nonzero = sum_sq > 0;
+  // sqrt only sees positive values, so neither branch of `where` produces a NaN gradient.
+  const auto norm =
+      at::where(nonzero, at::where(nonzero, sum_sq, at::ones_like(sum_sq)).sqrt(),
+                at::zeros_like(sum_sq));
+  return features / (norm + kNormEps);
+}
+
+Lpips::Lpips(const LpipsConfig& config)
+    : Lpips(lpips_net_spec(config.net),
+            [&] {
+              require(!config.weights.empty(), "LPIPS: no weight file given (lpips.weights)");
+              return read_tensor_dict(config.weights);
+            }(),
+            config.input_range, config.weights) {}
+
+Lpips::Lpips(const LpipsNetSpec& spec, const TensorDict& weights, const std::string& input_range,
+             const std::string& source)
+    : spec_(spec), input_range_(input_range) {
+  require(input_range == "zero_one" || input_range == "minus_one_one" ||
+              input_range == "zero_one_unscaled",
+          "LPIPS: unknown input_range \"" + input_range +
+              "\" (known: zero_one, minus_one_one, zero_one_unscaled)");
+  const TensorDict selected = select_lpips_weights(weights, spec_, source);
+  for (size_t t = 0; t < spec_.stages.size(); ++t) {
+    std::vector<std::pair<torch::Tensor, torch::Tensor>> stage;
+    for (const auto& conv : spec_.stages[t].convs)
+      stage.emplace_back(selected.at(conv.key + ".weight"), selected.at(conv.key + ".bias"));
+    convs_.push_back(std::move(stage));
+    lins_.push_back(selected.at("lin" + std::to_string(t) + ".model.1.weight"));
+  }
+  shift_ = torch::tensor({kShift[0], kShift[1], kShift[2]}, at::kDouble).view({1, 3, 1, 1}).to(at::kFloat);
+  scale_ = torch::tensor({kScale[0], kScale[1], kScale[2]}, at::kDouble).view({1, 3, 1, 1}).to(at::kFloat);
+}
+
+torch::Dtype Lpips::dtype() const { return shift_.scalar_type(); }
+
+Lpips Lpips::to(torch::Dtype dtype) const {
+  Lpips copy = *this;
+  for (auto& stage : copy.convs_)
+    for (auto& [w, b] : stage) {
+      w = w.to(dtype);
+      b = b.to(dtype);
+    }
+  for (auto& lin : copy.lins_) lin = lin.to(dtype);
+  copy.shift_ = shift_.to(dtype);
+  copy.scale_ = scale_.to(dtype);
+  return copy;
+}
+
+std::vector<torch::Tensor> Lpips::features(const torch::Tensor& images) const {
+  TORCH_CHECK(images.dim() == 4 && images.size(1) == 3, "lpips: images must be [B, 3, H, W], got ",
+              images.sizes());
+  TORCH_CHECK(images.scalar_type() == dtype(), "lpips: images are ", images.scalar_type(),
+              " but the weights are ", dtype(), " (use Lpips::to)");
+  auto h = input_range_ == "zero_one" ? images * 2.0 - 1.0 : images;
+  h = (h - shift_) / scale_;
+  std::vector<torch::Tensor> taps;
+  for (size_t t = 0; t < spec_.stages.size(); ++t) {
+    const auto& stage = spec_.stages[t];
+    if (stage.pool_kernel > 0) {
+      TORCH_CHECK(h.size(2) >= stage.pool_kernel && h.size(3) >= stage.pool_kernel, "lpips: images ",
+                  images.size(2), "x", images.size(3), " are too small for LPIPS net '", spec_.name,
+                  "' (stage ", t + 1, " gets ", h.size(2), "x", h.size(3), ")");
+      h = at::max_pool2d(h, {stage.pool_kernel, stage.pool_kernel},
+                         {stage.pool_stride, stage.pool_stride});
+    }
+    for (size_t c = 0; c < stage.convs.size(); ++c) {
+      const auto& conv = stage.convs[c];
+      const int64_t reach = conv.kernel - 2 * conv.padding;
+      TORCH_CHECK(h.size(2) >= reach && h.size(3) >= reach, "lpips: images ", images.size(2), "x",
+                  images.size(3), " are too small for LPIPS net '", spec_.name, "' (stage ", t + 1,
+                  " gets ", h.size(2), "x", h.size(3), ")");
+      h = at::relu(at::conv2d(h, convs_[t][c].first, convs_[t][c].second, {conv.stride, conv.stride},
+                              {conv.padding, conv.padding}));
+    }
+    taps.push_back(h);
+  }
+  return taps;
+}
+
+torch::Tensor Lpips::distance(const torch::Tensor& x, const torch::Tensor& y) const {
+  TORCH_CHECK(x.sizes() == y.sizes(), "lpips: image sizes differ: ", x.sizes(), " vs ", y.sizes());
+  const int64_t batch = x.size(0);
+  std::vector<torch::Tensor> taps_x, taps_y;
+  if (at::GradMode::is_enabled() && x.requires_grad() != y.requires_grad()) {
+    // The training loss: only one side needs gradients. The other runs without a graph, so
+    // backward skips its conv input gradients (about half of the backward cost).
+    auto run = [this](const torch::Tensor& images) {
+      if (images.requires_grad()) return features(images);
+      at::NoGradGuard no_grad;
+      return features(images);
+    };
+    taps_x = run(x);
+    taps_y = run(y);
+  } else {
+    // Evaluation (or both sides need gradients): one batched pass over both images.
+    for (const auto& tap : features(at::cat({x, y}, 0))) {
+      taps_x.push_back(tap.narrow(0, 0, batch));
+      taps_y.push_back(tap.narrow(0, batch, batch));
+    }
+  }
+  torch::Tensor total;
+  for (size_t t = 0; t < taps_x.size(); ++t) {
+    const auto diff = (unit_normalize_channels(taps_x[t]) - unit_normalize_channels(taps_y[t])).square();
+    const auto layer = at::conv2d(diff, lins_[t]).mean({1, 2, 3});  // 1x1 lin, spatial mean
+    total = total.defined() ? total + layer : layer;
+  }
+  return total;
+}
+
+torch::Tensor lpips_loss(const Lpips& lpips, const torch::Tensor& pred, const torch::Tensor& target) {
+  return lpips.distance(pred, target).mean();
+}
+
+}  // namespace handscs

@@ -1,0 +1,76 @@
+#include "metrics/ssim.h"
+
+#include <ATen/ATen.h>
+
+#include "core/error.h"
+#include "metrics/separable_blur.h"
+
+namespace handscs {
+
+namespace {
+
+void check_pair(const torch::Tensor& x, const torch::Tensor& y, const char* what) {
+  TORCH_CHECK(x.dim() == 4, what, ": images must be [B, C, H, W], got ", x.sizes());
+  TORCH_CHECK(x.sizes() == y.sizes(), what, ": image sizes differ: ", x.sizes(), " vs ", y.sizes());
+  TORCH_CHECK(x.scalar_type() == y.scalar_type(), what, ": dtypes differ: ", x.scalar_type(),
+              " vs ", y.scalar_type());
+  TORCH_CHECK(x.size(2) >= kSsimWindow && x.size(3) >= kSsimWindow, what, ": images must be at least ",
+              kSsimWindow, "x", kSsimWindow, ", got ", x.size(2), "x", x.size(3));
+}
+
+// The SSIM formula on one padding choice; differentiable through separable_blur.
+torch::Tensor ssim_map_padded(const torch::Tensor& x, const torch::Tensor& y, int64_t pad) {
+  const auto taps = gaussian_taps(kSsimWindow, kSsimSigma, x.scalar_type());
+  const int64_t batch = x.size(0);
+  // Two blur calls for the five local moments, grouped so that when only x needs gradients (the
+  // training loss) backward blurs three moments, not five.
+  const auto moments_x = separable_blur(at::cat({x, x * x, x * y}, 0), taps, pad);
+  const auto moments_y = separable_blur(at::cat({y, y * y}, 0), taps, pad);
+  const auto mu_x = moments_x.narrow(0, 0, batch);
+  const auto mu_y = moments_y.narrow(0, 0, batch);
+  const auto mu_xx = mu_x * mu_x;
+  const auto mu_yy = mu_y * mu_y;
+  const auto mu_xy = mu_x * mu_y;
+  const auto sigma_xx = moments_x.narrow(0, batch, batch) - mu_xx;
+  const auto sigma_yy = moments_y.narrow(0, batch, batch) - mu_yy;
+  const auto sigma_xy = moments_x.narrow(0, 2 * batch, batch) - mu_xy;
+  const double c1 = kSsimK1 * kSsimK1;
+  const double c2 = kSsimK2 * kSsimK2;
+  return ((2 * mu_xy + c1) * (2 * sigma_xy + c2)) / ((mu_xx + mu_yy + c1) * (sigma_xx + sigma_yy + c2));
+}
+
+}  // namespace
+
+torch::Tensor rgb_to_gray_matlab(const torch::Tensor& rgb) {
+  TORCH_CHECK(rgb.dim() == 4 && rgb.size(1) == 3, "rgb_to_gray_matlab: expected [B, 3, H, W], got ",
+              rgb.sizes());
+  // MATLAB's rgb2gray coefficients (the inverse of its NTSC YIQ matrix, first row), applied to uint8.
+  const double coefficients[3] = {0.298936021293775, 0.587043074451121, 0.114020904255103};
+  const auto quantised = (rgb.to(at::kDouble) * 255.0).round().clamp(0.0, 255.0);
+  const auto gray = quantised.select(1, 0) * coefficients[0] +
+                    quantised.select(1, 1) * coefficients[1] + quantised.select(1, 2) * coefficients[2];
+  // rgb2gray on uint8 rounds to the nearest integer (no ties occur with these coefficients).
+  return (gray.round().clamp(0.0, 255.0) / 255.0).unsqueeze(1);
+}
+
+torch::Tensor ssim_map(const torch::Tensor& x, const torch::Tensor& y, const SsimConfig& config) {
+  check_pair(x, y, "ssim");
+  if (config.variant == "3dgs") return ssim_map_padded(x, y, kSsimWindow / 2);
+  if (config.variant == "valid") return ssim_map_padded(x, y, 0);
+  if (config.variant == "matlab") {
+    // L = 255 on integer gray levels equals L = 1 on gray/255: C1, C2 scale with L^2.
+    return ssim_map_padded(rgb_to_gray_matlab(x), rgb_to_gray_matlab(y), 0).to(x.scalar_type());
+  }
+  throw Error("ssim: unknown variant \"" + config.variant + "\" (known: 3dgs, valid, matlab)");
+}
+
+torch::Tensor ssim(const torch::Tensor& x, const torch::Tensor& y, const SsimConfig& config) {
+  return ssim_map(x, y, config).mean({1, 2, 3});
+}
+
+torch::Tensor ssim_loss(const torch::Tensor& pred, const torch::Tensor& target,
+                        const SsimConfig& config) {
+  return 1.0 - ssim(pred, target, config).mean();
+}
+
+}  // namespace handscs

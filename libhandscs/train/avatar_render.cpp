@@ -1,0 +1,167 @@
+#include "train/avatar_render.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+#include <spdlog/spdlog.h>
+#include <torch/torch.h>
+
+#include "avatar/avatar.h"
+#include "core/atomic_file.h"
+#include "core/config.h"
+#include "core/error.h"
+#include "core/progress.h"
+#include "io/ply.h"
+#include "metrics/image_tensor.h"
+#include "render/camera_json.h"
+#include "train/avatar_state_io.h"
+#include "train/evaluate.h"
+#include "train/orbit.h"
+#include "train/pose_source.h"
+#include "train/run_config.h"
+
+namespace handscs {
+
+namespace {
+
+void write_png(const std::string& path, const cv::Mat& image) {
+  std::vector<uchar> bytes;
+  if (!cv::imencode(".png", image, bytes)) throw Error(path + ": PNG encoding failed");
+  write_file_atomic(path, std::string(bytes.begin(), bytes.end()));
+}
+
+// Posed Gaussians as 3DGS PLY: scales and rotation from the eigen-decomposition of each covariance.
+void write_posed_ply(const std::string& path, const PosedGaussians& p) {
+  const auto c = p.covariances;
+  const auto cov = torch::stack({c.select(1, 0), c.select(1, 1), c.select(1, 2), c.select(1, 1),
+                                 c.select(1, 3), c.select(1, 4), c.select(1, 2), c.select(1, 4),
+                                 c.select(1, 5)}, 1).view({-1, 3, 3}).to(torch::kFloat64);
+  auto [eigenvalues, eigenvectors] = torch::linalg::eigh(cov, "L");
+  // A proper rotation (det +1): flip the last axis where the eigenvector basis is a reflection.
+  const auto det = torch::linalg::det(eigenvectors);
+  eigenvectors.select(2, 2).mul_(torch::where(det < 0, -1.0, 1.0).unsqueeze(1));
+  const auto r = eigenvectors;
+  // Rotation matrix -> quaternion (w, x, y, z), robust branch-free form via copysign.
+  const auto m00 = r.select(1, 0).select(1, 0), m11 = r.select(1, 1).select(1, 1),
+             m22 = r.select(1, 2).select(1, 2);
+  const auto w = (1 + m00 + m11 + m22).clamp_min(0).sqrt() / 2;
+  auto x = (1 + m00 - m11 - m22).clamp_min(0).sqrt() / 2;
+  auto y = (1 - m00 + m11 - m22).clamp_min(0).sqrt() / 2;
+  auto z = (1 - m00 - m11 + m22).clamp_min(0).sqrt() / 2;
+  x = torch::copysign(x, r.select(1, 2).select(1, 1) - r.select(1, 1).select(1, 2));
+  y = torch::copysign(y, r.select(1, 0).select(1, 2) - r.select(1, 2).select(1, 0));
+  z = torch::copysign(z, r.select(1, 1).select(1, 0) - r.select(1, 0).select(1, 1));
+  const auto quats = torch::stack({w, x, y, z}, 1).to(torch::kFloat32);
+  const auto scales = eigenvalues.clamp_min(1e-20).sqrt().to(torch::kFloat32);
+  write_gaussian_ply(path, make_gaussian_ply(p.means.to(torch::kFloat32),
+                                             p.colors.clamp(0, 1).to(torch::kFloat32),
+                                             p.opacities.to(torch::kFloat32), scales, quats));
+}
+
+std::string frame_name(int64_t k) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "frame_%04lld", static_cast<long long>(k));
+  return name;
+}
+
+}  // namespace
+
+AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
+  require(!options.out_dir.empty(), "--out DIR is required");
+  const std::string ckpt_path = resolve_checkpoint_path(options.checkpoint);
+  const Checkpoint ckpt = load_checkpoint(ckpt_path);
+  RunConfig config;
+  config_from_json(ckpt.meta.at("config"), ckpt_path + " (stored config)", config);
+  Avatar avatar = restore_avatar(ckpt, config.model, load_rig_source(config.model.rig), ckpt_path);
+  const std::vector<PoseFrame> poses = read_pose_source(options.poses);
+
+  std::vector<Camera> cameras;
+  if (!options.camera.empty()) {
+    cameras.push_back(read_camera_json(options.camera));
+  } else if (options.orbit > 0) {
+    // Orbit around the first pose: centre and long axis from its posed joints.
+    c10::InferenceMode guard;
+    const auto& f = poses.front();
+    const auto state = avatar.pose(torch::tensor(std::vector<float>(f.pose.begin(), f.pose.end())),
+                                   torch::tensor(std::vector<float>(f.shape.begin(), f.shape.end())),
+                                   torch::tensor(std::vector<float>(f.trans.begin(), f.trans.end())));
+    const auto joints = state.lbs.joints[0].to(torch::kFloat64);
+    const auto means = state.posed.means.to(torch::kFloat64);
+    const auto centre = means.mean(0);
+    const auto axis = joints[18] - joints[0];  // wrist -> middle fingertip (MANO21)
+    const double extent = (means.amax(0) - means.amin(0)).norm().item<double>();
+    OrbitSpec spec;
+    spec.count = options.orbit;
+    cameras = orbit_cameras({centre[0].item<double>(), centre[1].item<double>(), centre[2].item<double>()},
+                            {axis[0].item<double>(), axis[1].item<double>(), axis[2].item<double>()},
+                            extent, spec);
+  } else {
+    for (const auto& f : poses)
+      require(f.camera.has_value(),
+              "no camera: give --camera CAM.json or --orbit N (or a POSES capture selection)");
+  }
+
+  ensure_directory(options.out_dir);
+  const int64_t count = std::max<int64_t>(poses.size(), cameras.empty() ? poses.size() : cameras.size());
+  cv::VideoWriter video;
+  std::string video_temp;
+  AvatarRenderResult result;
+  RasterSettings settings;
+  settings.background = options.background;
+  std::vector<double> forward_ms;
+  ProgressBar bar("render", count);
+  c10::InferenceMode guard;
+  for (int64_t k = 0; k < count; ++k) {
+    const PoseFrame& f = poses[k % poses.size()];
+    const Camera camera = cameras.empty() ? *f.camera : cameras[k % cameras.size()];
+    const auto t0 = std::chrono::steady_clock::now();
+    auto out = avatar.forward(torch::from_blob(const_cast<float*>(f.pose.data()), {48}),
+                              torch::from_blob(const_cast<float*>(f.shape.data()), {10}),
+                              torch::from_blob(const_cast<float*>(f.trans.data()), {3}), camera,
+                              settings);
+    forward_ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    const cv::Mat rgb = rgb_tensor_to_mat(out.render.rgb.clamp(0, 1));
+    const auto alpha8 = out.render.alpha.clamp(0, 1).mul(255).round().to(torch::kUInt8).contiguous();
+    const cv::Mat alpha(alpha8.size(0), alpha8.size(1), CV_8UC1, alpha8.data_ptr<uint8_t>());
+    const std::string base = options.out_dir + "/" + frame_name(k);
+    write_png(base + ".png", rgb);
+    write_png(base + "_alpha.png", alpha);
+    if (options.export_ply) write_posed_ply(base + ".ply", out.state.posed);
+    if (!options.video.empty()) {
+      if (!video.isOpened()) {
+        // Written beside the target and renamed at the end, so a failed run leaves no torn MP4.
+        video_temp = options.video + ".tmp.mp4";
+        video.open(video_temp, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), options.video_fps,
+                   cv::Size(camera.width, camera.height));
+        require(video.isOpened(), options.video + ": OpenCV cannot write MP4 video here");
+      }
+      cv::Mat frame = rgb;
+      if (rgb.cols != camera.width || rgb.rows != camera.height)
+        throw Error(options.video + ": all frames of a video need one image size");
+      video.write(frame);
+    }
+    result.width = camera.width;
+    result.height = camera.height;
+    bar.update(k + 1);
+  }
+  bar.finish();
+  if (video.isOpened()) {
+    video.release();
+    std::filesystem::rename(video_temp, options.video);
+  }
+  result.frames = count;
+  result.gaussians = avatar.gaussians().size();
+  double total = 0;
+  for (double ms : forward_ms) total += ms;
+  result.fps = total > 0 ? count / (total / 1000.0) : 0;
+  std::sort(forward_ms.begin(), forward_ms.end());
+  result.forward_ms = forward_ms.empty() ? 0 : forward_ms[forward_ms.size() / 2];
+  return result;
+}
+
+}  // namespace handscs

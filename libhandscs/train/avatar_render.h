@@ -1,0 +1,34 @@
+// handscs-render's avatar mode: a trained avatar in new poses and views. Writes per frame RGB and
+// alpha PNGs, optionally an MP4 (OpenCV VideoWriter) and the posed Gaussians as 3DGS PLY files, and
+// measures frames per second over the whole forward (LBS, SCS, decoders, rasterizer).
+#pragma once
+
+#include <array>
+#include <string>
+
+namespace handscs {
+
+struct AvatarRenderOptions {
+  std::string checkpoint;  // file, or run folder (latest checkpoint)
+  std::string poses;       // POSES file (train/pose_source.h)
+  std::string camera;      // camera JSON (K, R, t, width, height); or
+  int orbit = 0;           // N turntable views around the hand; or the capture frames' own cameras
+  std::string out_dir;     // frame_XXXX.png, frame_XXXX_alpha.png
+  std::string video;       // MP4 path ("" = none)
+  double video_fps = 30;
+  bool export_ply = false;  // frame_XXXX.ply with the posed Gaussians
+  std::array<float, 3> background{0, 0, 0};
+};
+
+struct AvatarRenderResult {
+  int64_t frames = 0;
+  double fps = 0;           // frames / total forward seconds
+  double forward_ms = 0;    // median forward per frame
+  int64_t gaussians = 0;
+  int width = 0, height = 0;
+};
+
+// Frames = max(#poses, #cameras); frame k uses pose k mod #poses and camera k mod #cameras.
+AvatarRenderResult render_avatar(const AvatarRenderOptions& options);
+
+}  // namespace handscs

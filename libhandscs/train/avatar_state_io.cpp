@@ -1,0 +1,63 @@
+#include "train/avatar_state_io.h"
+
+#include <torch/torch.h>
+
+#include "core/error.h"
+
+namespace handscs {
+
+namespace {
+std::vector<std::pair<std::string, torch::Tensor>> network_tensors(Avatar& avatar) {
+  std::vector<std::pair<std::string, torch::Tensor>> out;
+  auto add = [&](const std::string& prefix, torch::nn::Module& module) {
+    for (const auto& item : module.named_parameters()) out.push_back({prefix + item.key(), item.value()});
+    for (const auto& item : module.named_buffers()) out.push_back({prefix + item.key(), item.value()});
+  };
+  add("network/decoders.", *avatar.decoders());
+  if (avatar.generator()) add("network/generator.", *avatar.generator());
+  return out;
+}
+}  // namespace
+
+void store_avatar(Avatar& avatar, Checkpoint& checkpoint) {
+  for (auto& [name, tensor] : avatar.gaussians().all())
+    checkpoint.tensors["gaussians/" + name] = tensor->detach().clone();
+  for (auto& [name, tensor] : network_tensors(avatar))
+    checkpoint.tensors[name] = tensor.detach().clone();
+}
+
+Avatar restore_avatar(const Checkpoint& checkpoint, const AvatarConfig& config, Rig rig,
+                      const std::string& source) {
+  Avatar avatar(config, std::move(rig));
+  auto find = [&](const std::string& name) -> const torch::Tensor& {
+    auto it = checkpoint.tensors.find(name);
+    if (it == checkpoint.tensors.end()) throw Error(source + ": checkpoint lacks tensor " + name);
+    return it->second;
+  };
+  for (auto& [name, tensor] : avatar.gaussians().all()) {
+    const auto& stored = find("gaussians/" + name);
+    if (stored.dim() != tensor->dim() || (stored.dim() > 1 && stored.size(1) != tensor->size(1)))
+      throw Error(source + ": gaussians/" + name + " has shape " + c10::str(stored.sizes()) +
+                  ", the config expects [N, " + std::to_string(tensor->dim() > 1 ? tensor->size(1) : 0) +
+                  "]");
+    const bool learn = tensor->requires_grad();
+    *tensor = stored.clone();
+    if (learn) tensor->set_requires_grad(true);
+  }
+  const int64_t n = avatar.gaussians().size();
+  for (auto& [name, tensor] : avatar.gaussians().all())
+    if (tensor->size(0) != n)
+      throw Error(source + ": gaussians/" + name + " has " + std::to_string(tensor->size(0)) +
+                  " rows, means has " + std::to_string(n));
+  torch::NoGradGuard no_grad;
+  for (auto& [name, tensor] : network_tensors(avatar)) {
+    const auto& stored = find(name);
+    if (stored.sizes() != tensor.sizes())
+      throw Error(source + ": " + name + " has shape " + c10::str(stored.sizes()) +
+                  ", the config expects " + c10::str(tensor.sizes()));
+    tensor.copy_(stored);
+  }
+  return avatar;
+}
+
+}  // namespace handscs

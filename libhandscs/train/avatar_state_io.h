@@ -1,0 +1,19 @@
+// Moves an avatar's learnable state (Gaussians, embeddings, generator and decoder weights) into and
+// out of a Checkpoint, by name; loading checks every name and shape.
+#pragma once
+
+#include <string>
+
+#include "avatar/avatar.h"
+#include "train/checkpoint.h"
+
+namespace handscs {
+
+// Adds "gaussians/<name>" and "network/<module>.<param>" tensors.
+void store_avatar(Avatar& avatar, Checkpoint& checkpoint);
+
+// Restores an avatar built from `config` and `rig`; `source` names the file in errors.
+Avatar restore_avatar(const Checkpoint& checkpoint, const AvatarConfig& config, Rig rig,
+                      const std::string& source);
+
+}  // namespace handscs

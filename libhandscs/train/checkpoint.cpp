@@ -1,0 +1,84 @@
+#include "train/checkpoint.h"
+
+#include <cstring>
+
+#include <ATen/core/Dict.h>
+#include <torch/serialize.h>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+
+namespace handscs {
+
+namespace {
+constexpr char kMagic[8] = {'H', 'S', 'C', 'S', 'C', 'K', 'P', '1'};
+constexpr size_t kTrailer = 24;  // magic (8) + payload length (8) + FNV-1a hash (8)
+
+uint64_t fnv1a(const char* data, size_t size) {
+  uint64_t hash = 1469598103934665603ull;  // FNV-1a 64-bit offset basis
+  for (size_t i = 0; i < size; ++i) {
+    hash ^= static_cast<unsigned char>(data[i]);
+    hash *= 1099511628211ull;  // FNV-1a 64-bit prime
+  }
+  return hash;
+}
+
+void put_u64(std::string& out, uint64_t value) {
+  char bytes[8];
+  std::memcpy(bytes, &value, 8);
+  out.append(bytes, 8);
+}
+
+uint64_t get_u64(const std::string& in, size_t offset) {
+  uint64_t value;
+  std::memcpy(&value, in.data() + offset, 8);
+  return value;
+}
+}  // namespace
+
+void save_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
+  c10::Dict<std::string, at::Tensor> dict;
+  for (const auto& [name, tensor] : checkpoint.tensors)
+    dict.insert(name, tensor.detach().contiguous());
+  const std::vector<char> pickled = torch::pickle_save(c10::IValue(dict));
+  const std::string meta = checkpoint.meta.dump();
+  std::string bytes;
+  bytes.reserve(16 + meta.size() + pickled.size() + kTrailer);
+  put_u64(bytes, meta.size());
+  bytes += meta;
+  bytes.append(pickled.data(), pickled.size());
+  const uint64_t payload = bytes.size();
+  const uint64_t hash = fnv1a(bytes.data(), bytes.size());
+  bytes.append(kMagic, 8);
+  put_u64(bytes, payload);
+  put_u64(bytes, hash);
+  write_file_atomic(path, bytes);
+}
+
+Checkpoint load_checkpoint(const std::string& path) {
+  const std::string bytes = read_file(path);
+  if (bytes.size() < kTrailer + 8 ||
+      std::memcmp(bytes.data() + bytes.size() - kTrailer, kMagic, 8) != 0)
+    throw Error(path + ": not a complete HandSCS checkpoint (truncated or another format)");
+  const uint64_t payload = get_u64(bytes, bytes.size() - 16);
+  const uint64_t hash = get_u64(bytes, bytes.size() - 8);
+  if (payload != bytes.size() - kTrailer)
+    throw Error(path + ": checkpoint length does not match its trailer (truncated or appended to)");
+  if (fnv1a(bytes.data(), payload) != hash)
+    throw Error(path + ": checkpoint is corrupted (checksum mismatch)");
+  const uint64_t meta_size = get_u64(bytes, 0);
+  if (meta_size > payload - 8) throw Error(path + ": checkpoint metadata length is invalid");
+  Checkpoint checkpoint;
+  try {
+    checkpoint.meta = nlohmann::json::parse(bytes.substr(8, meta_size));
+    const std::vector<char> pickled(bytes.begin() + 8 + meta_size, bytes.begin() + payload);
+    const auto value = torch::pickle_load(pickled);
+    for (const auto& item : value.toGenericDict())
+      checkpoint.tensors[item.key().toStringRef()] = item.value().toTensor();
+  } catch (const std::exception& e) {
+    throw Error(path + ": checkpoint payload unreadable (" + std::string(e.what()) + ")");
+  }
+  return checkpoint;
+}
+
+}  // namespace handscs

@@ -1,0 +1,41 @@
+// 3DGS-style adaptive density control for the avatar's canonical Gaussians: Gaussians whose mean
+// view-space gradient exceeds a threshold are cloned (small) or split in two (large, scales / 1.6),
+// transparent ones are pruned, and the count never exceeds a cap. Every per-Gaussian tensor
+// (embeddings, skinning weights, optimiser moments) follows.
+#pragma once
+
+#include <cstdint>
+
+#include <torch/types.h>
+
+#include "avatar/gaussians.h"
+#include "train/adam.h"
+#include "train/train_config.h"
+
+namespace handscs {
+
+class Densifier {
+ public:
+  explicit Densifier(const DensifyConfig& config) : config_(config) {}
+
+  // After a backward: accumulates |dL/d mean2d| of the Gaussians visible in this view.
+  void accumulate(const torch::Tensor& means2d_grad,  // [N, 2]
+                  const torch::Tensor& radii);        // [N] int32, 0 = culled
+  // Clones/splits/prunes; returns the number of Gaussians after the change.
+  int64_t densify_and_prune(GaussianState& gaussians, Adam& optimizer, uint64_t seed);
+
+  bool due(int64_t iteration) const {
+    return config_.enabled && iteration >= config_.start && iteration <= config_.stop &&
+           iteration % config_.interval == 0;
+  }
+  torch::Tensor& grad_sum() { return grad_sum_; }      // [N] float
+  torch::Tensor& visible_count() { return count_; }    // [N] float
+
+ private:
+  void reset(int64_t n);
+  DensifyConfig config_;
+  torch::Tensor grad_sum_;
+  torch::Tensor count_;
+};
+
+}  // namespace handscs

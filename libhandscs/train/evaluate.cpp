@@ -1,0 +1,174 @@
+#include "train/evaluate.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <spdlog/spdlog.h>
+#include <torch/torch.h>
+
+#include "avatar/avatar.h"
+#include "core/atomic_file.h"
+#include "core/config.h"
+#include "core/error.h"
+#include "core/progress.h"
+#include "data/capture.h"
+#include "metrics/image_scorer.h"
+#include "metrics/image_tensor.h"
+#include "train/avatar_state_io.h"
+#include "train/trainer.h"
+
+namespace handscs {
+
+namespace {
+std::string format_or_null(const std::optional<double>& value, int digits) {
+  if (!value) return "n/a";
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%.*f", digits, *value);
+  return buffer;
+}
+
+// Prediction | ground truth | per-pixel error (mean absolute RGB error, x4, JET colour map).
+cv::Mat side_by_side(const torch::Tensor& pred, const torch::Tensor& gt) {
+  const auto err = (pred - gt).abs().mean(2).mul(4.0).clamp(0, 1).mul(255).to(torch::kUInt8).contiguous();
+  cv::Mat err8(err.size(0), err.size(1), CV_8UC1, err.data_ptr<uint8_t>());
+  cv::Mat heat;
+  cv::applyColorMap(err8, heat, cv::COLORMAP_JET);
+  cv::Mat out;
+  cv::hconcat(std::vector<cv::Mat>{rgb_tensor_to_mat(pred), rgb_tensor_to_mat(gt), heat}, out);
+  return out;
+}
+}  // namespace
+
+std::string resolve_checkpoint_path(const std::string& path) {
+  if (std::filesystem::is_directory(path)) {
+    const auto latest = Trainer::latest_checkpoint(path);
+    require(!latest.empty(), path + ": no checkpoints/step_*.ckpt in this run folder");
+    return latest;
+  }
+  require(std::filesystem::exists(path), path + ": checkpoint not found");
+  return path;
+}
+
+std::string paper_table(const std::string& label, const EvalSummary& s, double fps) {
+  std::string t;
+  t += "| Method | " + label + " PSNR ↑ | SSIM ↑ | LPIPS ↓ | FPS (CPU) |\n";
+  t += "|---|---|---|---|---|\n";
+  char fps_text[32];
+  std::snprintf(fps_text, sizeof(fps_text), "%.1f", fps);
+  t += "| HandSCS (this run) | " + format_or_null(s.psnr, 2) + " | " + format_or_null(s.ssim, 3) +
+       " | " + format_or_null(s.lpips, 4) + " | " + fps_text + " |\n";
+  return t;
+}
+
+ModelEvalResult evaluate_avatar(const RunConfig& config_in, const ModelEvalOptions& options) {
+  const std::string ckpt_path = resolve_checkpoint_path(options.checkpoint);
+  const Checkpoint ckpt = load_checkpoint(ckpt_path);
+  RunConfig config = config_in;
+  // The architecture comes from the checkpoint; data and evaluation settings from the caller.
+  RunConfig stored;
+  config_from_json(ckpt.meta.at("config"), ckpt_path + " (stored config)", stored);
+  config.model = stored.model;
+  config.data.rig = stored.model.rig;
+  config.data.flat_hand_mean = stored.model.flat_hand_mean;
+
+  ensure_directory(options.out_dir);
+  // Masks are cached beside the run the checkpoint came from when there is one.
+  const auto run_dir = std::filesystem::path(ckpt_path).parent_path().parent_path();
+  const std::string cache = std::filesystem::exists(run_dir / "config.json")
+                                ? (run_dir / "cache").string()
+                                : options.out_dir + "/cache";
+  Capture capture = Capture::open(config.data, cache);
+  Avatar avatar = restore_avatar(ckpt, config.model, load_rig_source(config.model.rig), ckpt_path);
+  ImageScorer scorer(config.eval);
+  if (!scorer.has_lpips()) spdlog::warn("LPIPS skipped: {}", scorer.lpips_skip_reason());
+
+  std::vector<FrameInfo> frames = options.split == "train" ? capture.train() : capture.test();
+  require(!frames.empty(), "evaluation: the capture has no " + options.split + " frames");
+  if (options.max_images > 0 && static_cast<int64_t>(frames.size()) > options.max_images)
+    frames.resize(options.max_images);
+
+  ModelEvalResult result;
+  result.report.mode = "model";
+  result.report.inputs = {{"checkpoint", ckpt_path},
+                          {"capture_root", config.data.root},
+                          {"split", config.data.split},
+                          {"capture", config.data.capture},
+                          {"frames", options.split}};
+  result.report.config = config_to_json(config.eval);
+  result.report.lpips_skip_reason = scorer.has_lpips() ? "" : scorer.lpips_skip_reason();
+  if (options.side_by_side) ensure_directory(options.out_dir + "/side_by_side");
+
+  const auto& bg = config.eval.background;
+  const auto bg_tensor = torch::tensor({float(bg[0]), float(bg[1]), float(bg[2])});
+  RasterSettings settings;
+  settings.background = {float(bg[0]), float(bg[1]), float(bg[2])};
+  std::vector<double> forward_ms;
+  ProgressBar bar("eval", static_cast<int64_t>(frames.size()));
+  c10::InferenceMode guard;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const auto& frame = frames[i];
+    if (i + 1 < frames.size()) capture.prefetch({frames[i + 1].index}, true);
+    EvalEntry entry;
+    entry.name = frame.file_name;
+    entry.sources = {{"image", frame.image_path}, {"camera", frame.camera_id}};
+    try {
+      FrameSample sample = capture.load(frame, /*full_image=*/true);
+      entry.width = sample.image.size(1);
+      entry.height = sample.image.size(0);
+      const auto mask = sample.mask.to(torch::kFloat32).unsqueeze(2);
+      const auto gt = sample.image.to(torch::kFloat32).div(255.0) * mask + bg_tensor * (1 - mask);
+      const auto t0 = std::chrono::steady_clock::now();
+      auto out = avatar.forward(torch::from_blob(const_cast<float*>(frame.pose.data()), {48}),
+                                torch::from_blob(const_cast<float*>(frame.shape.data()), {10}),
+                                torch::from_blob(const_cast<float*>(frame.trans.data()), {3}),
+                                sample.camera, settings);
+      forward_ms.push_back(std::chrono::duration<double, std::milli>(
+                               std::chrono::steady_clock::now() - t0).count());
+      const auto pred = out.render.rgb.clamp(0, 1);
+      entry.scores = scorer.score(pred, gt);
+      entry.ok = true;
+      if (options.side_by_side) {
+        std::string name = frame.file_name;
+        std::replace(name.begin(), name.end(), '/', '_');
+        name = name.substr(0, name.rfind('.')) + ".png";
+        cv::imwrite(options.out_dir + "/side_by_side/" + name, side_by_side(pred, gt));
+      }
+    } catch (const Error& e) {
+      entry.ok = false;
+      entry.error = e.what();
+    }
+    result.report.entries.push_back(std::move(entry));
+    bar.update(static_cast<int64_t>(i + 1));
+  }
+  bar.finish();
+
+  result.frames = static_cast<int64_t>(forward_ms.size());
+  if (!forward_ms.empty()) {
+    double total = 0;
+    for (double ms : forward_ms) total += ms;
+    result.fps = forward_ms.size() / (total / 1000.0);
+    std::sort(forward_ms.begin(), forward_ms.end());
+    result.forward_ms = forward_ms[forward_ms.size() / 2];
+  }
+  const auto summary = result.report.summary();
+  auto json = eval_report_to_json(result.report);
+  json["rendering"] = {{"frames", result.frames},
+                       {"forward_ms_median", result.forward_ms},
+                       {"fps", result.fps},
+                       {"gaussians", avatar.gaussians().size()},
+                       {"width", frames.front().camera.width},
+                       {"height", frames.front().camera.height}};
+  write_file_atomic(options.out_dir + "/summary.json", json.dump(2) + "\n");
+  write_file_atomic(options.out_dir + "/per_image.csv", eval_report_to_csv(result.report));
+  const std::string label = options.label.empty()
+                                ? config.data.split + "/Capture" + std::to_string(config.data.capture)
+                                : options.label;
+  write_file_atomic(options.out_dir + "/table.md", paper_table(label, summary, result.fps));
+  return result;
+}
+
+}  // namespace handscs

@@ -1,0 +1,39 @@
+// Model-mode evaluation (paper protocol, DESIGN.md §4): render every held-out frame of a capture with
+// a trained avatar on the full image, composite the ground truth onto the same background with its
+// mask, score PSNR/SSIM/LPIPS per image, and time the whole forward (LBS, SCS, decoders, rasterizer).
+#pragma once
+
+#include <string>
+
+#include "metrics/eval_report.h"
+#include "train/run_config.h"
+
+namespace handscs {
+
+struct ModelEvalOptions {
+  std::string checkpoint;      // checkpoint file, or a run folder (its latest checkpoint)
+  std::string out_dir;         // per_image.csv, summary.json, table.md, side_by_side/
+  std::string split = "test";  // "test" (held out) or "train"
+  bool side_by_side = false;   // write prediction | ground truth | error heat map PNGs
+  int64_t max_images = 0;      // 0 = all
+  std::string label;           // column-group label of table.md (default "<split>/Capture<c>")
+};
+
+struct ModelEvalResult {
+  EvalReport report;
+  int64_t frames = 0;
+  double forward_ms = 0;  // median per frame, whole forward
+  double fps = 0;         // frames / total forward seconds
+};
+
+// Loads the checkpoint (its stored model config is authoritative), opens the capture of `config`
+// and evaluates; writes the outputs into options.out_dir.
+ModelEvalResult evaluate_avatar(const RunConfig& config, const ModelEvalOptions& options);
+
+// Resolves a checkpoint argument: a file as is, a run folder to its latest checkpoint.
+std::string resolve_checkpoint_path(const std::string& path);
+
+// The paper-style Markdown table for one capture column group.
+std::string paper_table(const std::string& label, const EvalSummary& summary, double fps);
+
+}  // namespace handscs

@@ -1,0 +1,55 @@
+#include "train/losses.h"
+
+#include <torch/torch.h>
+
+#include "metrics/image_tensor.h"
+#include "metrics/ssim.h"
+
+namespace handscs {
+
+namespace {
+// sqrt(|v|^2 + eps^2) - eps: equals |v| up to eps, zero at zero, and differentiable there (the
+// decoders start with exactly zero offsets). eps = 1e-6 is far below any offset that matters.
+torch::Tensor smooth_norm(const torch::Tensor& v, int64_t first_dim) {
+  constexpr double kEps = 1e-6;
+  std::vector<int64_t> dims;
+  for (int64_t d = first_dim; d < v.dim(); ++d) dims.push_back(d);
+  return (v.pow(2).sum(dims) + kEps * kEps).sqrt() - kEps;
+}
+}  // namespace
+
+torch::Tensor offset_regularizer(const DecodedOffsets& o) {
+  const auto eye = torch::eye(3, o.dsigma.options()).unsqueeze(0);
+  const auto per_gaussian = smooth_norm(o.dx, 1) + smooth_norm(o.dx_f, 1) +
+                            smooth_norm(o.dsigma - eye, 1) + smooth_norm(o.dsigma_f - eye, 1) +
+                            smooth_norm(o.dc, 1) + smooth_norm(o.dc_f, 1);
+  return per_gaussian.mean();
+}
+
+Objective::Objective(const LossWeights& weights, std::shared_ptr<const Lpips> lpips)
+    : weights_(weights), lpips_(std::move(lpips)) {}
+
+LossResult Objective::compute(const LossInputs& in) const {
+  LossResult result;
+  std::vector<torch::Tensor> parts;
+  auto add = [&](const char* name, double weight, const torch::Tensor& value) {
+    result.terms[name] = value.item<double>();
+    parts.push_back(weight * value);
+  };
+  if (weights_.rgb > 0) add("rgb", weights_.rgb, (in.rgb - in.target).abs().mean());
+  if (weights_.mask > 0) add("mask", weights_.mask, (in.alpha - in.mask).pow(2).mean());
+  if (weights_.ssim > 0 || uses_lpips()) {
+    const auto pred = hwc_to_bchw(in.rgb);
+    const auto target = hwc_to_bchw(in.target);
+    if (weights_.ssim > 0) add("ssim", weights_.ssim, ssim_loss(pred, target, SsimConfig{"3dgs"}));
+    if (uses_lpips()) add("lpips", weights_.lpips, lpips_loss(*lpips_, pred, target));
+  }
+  if (weights_.reg > 0 && in.offsets) add("reg", weights_.reg, offset_regularizer(*in.offsets));
+  if (weights_.consistency > 0 && in.consistency.defined())
+    add("consistency", weights_.consistency, in.consistency);
+  result.total = parts.empty() ? torch::zeros({}, in.rgb.options()) : parts[0];
+  for (size_t i = 1; i < parts.size(); ++i) result.total = result.total + parts[i];
+  return result;
+}
+
+}  // namespace handscs

@@ -1,0 +1,168 @@
+#include "train/pose_source.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include <nlohmann/json.hpp>
+
+#include "core/atomic_file.h"
+#include "core/config.h"
+#include "core/error.h"
+#include "data/capture.h"
+
+namespace handscs {
+
+namespace {
+
+using json = nlohmann::json;
+
+template <size_t N>
+void read_numbers(const json& parent, const char* key, std::array<float, N>& out, bool required,
+                  const std::string& where) {
+  auto it = parent.find(key);
+  if (it == parent.end()) {
+    if (required) throw Error(where + "." + key + ": missing");
+    return;
+  }
+  if (!it->is_array() || it->size() != N)
+    throw Error(where + "." + key + ": expected " + std::to_string(N) + " numbers, got " +
+                (it->is_array() ? std::to_string(it->size()) + " values" : json_type_name(*it)));
+  for (size_t i = 0; i < N; ++i) {
+    const auto& v = (*it)[i];
+    if (!v.is_number())
+      throw Error(where + "." + key + "[" + std::to_string(i) + "]: expected number, got " +
+                  json_type_name(v));
+    out[i] = v.get<float>();
+    if (!std::isfinite(out[i]))
+      throw Error(where + "." + key + "[" + std::to_string(i) + "]: not a finite number");
+  }
+}
+
+PoseFrame read_frame(const json& item, const std::string& where) {
+  if (!item.is_object()) throw Error(where + ": expected object, got " + json_type_name(item));
+  for (auto it = item.begin(); it != item.end(); ++it)
+    if (it.key() != "pose" && it.key() != "shape" && it.key() != "trans" && it.key() != "name")
+      throw Error(where + "." + it.key() + ": unknown key (pose, shape, trans, name)");
+  PoseFrame frame;
+  read_numbers(item, "pose", frame.pose, true, where);
+  read_numbers(item, "shape", frame.shape, false, where);
+  read_numbers(item, "trans", frame.trans, false, where);
+  if (item.contains("name")) frame.name = item["name"].get<std::string>();
+  return frame;
+}
+
+// Axis-angle <-> unit quaternion (w, x, y, z).
+std::array<double, 4> to_quat(const float* aa) {
+  const double angle = std::sqrt(double(aa[0]) * aa[0] + double(aa[1]) * aa[1] + double(aa[2]) * aa[2]);
+  if (angle < 1e-12) return {1, 0, 0, 0};
+  const double s = std::sin(angle / 2) / angle;
+  return {std::cos(angle / 2), aa[0] * s, aa[1] * s, aa[2] * s};
+}
+void from_quat(std::array<double, 4> q, float* aa) {
+  if (q[0] < 0)
+    for (auto& c : q) c = -c;
+  const double v = std::sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  const double angle = 2 * std::atan2(v, q[0]);
+  const double s = v < 1e-12 ? 2.0 : angle / v;
+  for (int i = 0; i < 3; ++i) aa[i] = static_cast<float>(q[i + 1] * s);
+}
+
+std::string numbered(const char* prefix, size_t i) {
+  char name[64];
+  std::snprintf(name, sizeof(name), "%s_%04zu", prefix, i);
+  return name;
+}
+
+}  // namespace
+
+PoseFrame interpolate_pose(const PoseFrame& a, const PoseFrame& b, double t) {
+  PoseFrame out;
+  for (int j = 0; j < 16; ++j) {
+    auto qa = to_quat(&a.pose[3 * j]);
+    auto qb = to_quat(&b.pose[3 * j]);
+    double dot = qa[0] * qb[0] + qa[1] * qb[1] + qa[2] * qb[2] + qa[3] * qb[3];
+    if (dot < 0) {  // the shorter way round
+      for (auto& c : qb) c = -c;
+      dot = -dot;
+    }
+    std::array<double, 4> q;
+    if (dot > 0.9995) {  // nearly equal: normalised lerp avoids dividing by sin(~0)
+      for (int i = 0; i < 4; ++i) q[i] = qa[i] + t * (qb[i] - qa[i]);
+    } else {
+      const double theta = std::acos(dot);
+      const double wa = std::sin((1 - t) * theta) / std::sin(theta);
+      const double wb = std::sin(t * theta) / std::sin(theta);
+      for (int i = 0; i < 4; ++i) q[i] = wa * qa[i] + wb * qb[i];
+    }
+    const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    for (auto& c : q) c /= norm;
+    from_quat(q, &out.pose[3 * j]);
+  }
+  for (int i = 0; i < 10; ++i) out.shape[i] = float((1 - t) * a.shape[i] + t * b.shape[i]);
+  for (int i = 0; i < 3; ++i) out.trans[i] = float((1 - t) * a.trans[i] + t * b.trans[i]);
+  return out;
+}
+
+std::vector<PoseFrame> read_pose_source(const std::string& path) {
+  json root;
+  try {
+    root = json::parse(read_file(path));
+  } catch (const json::parse_error& e) {
+    throw Error(path + ": malformed JSON (" + std::string(e.what()) + ")");
+  }
+  std::vector<PoseFrame> frames;
+  if (root.is_array() || (root.is_object() && root.contains("poses"))) {
+    const json& list = root.is_array() ? root : root["poses"];
+    const std::string base = path + ": " + (root.is_array() ? std::string("") : std::string("poses"));
+    if (!list.is_array()) throw Error(path + ": poses: expected array, got " + json_type_name(list));
+    for (size_t i = 0; i < list.size(); ++i) {
+      frames.push_back(read_frame(list[i], base + "[" + std::to_string(i) + "]"));
+      if (frames.back().name.empty()) frames.back().name = numbered("pose", i);
+    }
+  } else if (root.is_object() && root.contains("interpolate")) {
+    const json& spec = root["interpolate"];
+    const std::string where = path + ": interpolate";
+    if (!spec.is_object()) throw Error(where + ": expected object, got " + json_type_name(spec));
+    if (!spec.contains("from") || !spec.contains("to"))
+      throw Error(where + ": needs \"from\" and \"to\" poses");
+    const PoseFrame a = read_frame(spec["from"], where + ".from");
+    const PoseFrame b = read_frame(spec["to"], where + ".to");
+    const int steps = spec.value("steps", 30);
+    if (steps < 2) throw Error(where + ".steps: at least 2");
+    for (int i = 0; i < steps; ++i) {
+      frames.push_back(interpolate_pose(a, b, double(i) / (steps - 1)));
+      frames.back().name = numbered("pose", i);
+    }
+  } else if (root.is_object() && root.contains("capture")) {
+    CaptureConfig capture_config;
+    config_from_json(root["capture"], path + ": capture", capture_config);
+    const std::string which = root.value("frames", "test");
+    if (which != "test" && which != "train" && which != "all")
+      throw Error(path + ": frames: expected \"test\", \"train\" or \"all\", got \"" + which + "\"");
+    const std::string camera_id = root.value("camera", "");
+    const int64_t max_frames = root.value("max_frames", int64_t{0});
+    Capture capture = Capture::open(capture_config, "");
+    const auto& source = which == "test" ? capture.test() : which == "train" ? capture.train()
+                                                                             : capture.frames();
+    for (const auto& f : source) {
+      if (!camera_id.empty() && f.camera_id != camera_id) continue;
+      PoseFrame frame;
+      frame.pose = f.pose;
+      frame.shape = f.shape;
+      frame.trans = f.trans;
+      frame.camera = f.camera;
+      frame.name = f.file_name;
+      for (auto& c : frame.name)
+        if (c == '/') c = '_';
+      frame.name = frame.name.substr(0, frame.name.rfind('.'));
+      frames.push_back(frame);
+      if (max_frames > 0 && static_cast<int64_t>(frames.size()) >= max_frames) break;
+    }
+  } else {
+    throw Error(path + ": expected {\"poses\": [...]}, {\"interpolate\": {...}} or {\"capture\": {...}}");
+  }
+  if (frames.empty()) throw Error(path + ": no poses selected");
+  return frames;
+}
+
+}  // namespace handscs

@@ -1,0 +1,33 @@
+// POSES files for handscs-render: the hand poses to render, from one of three JSON forms:
+//   {"poses": [{"pose": [48], "shape": [10], "trans": [3]}, ...]}      (a bare list works too)
+//   {"interpolate": {"from": {pose...}, "to": {pose...}, "steps": N}}  (per-joint slerp, linear trans/shape)
+//   {"capture": {CaptureConfig keys}, "frames": "test"|"train"|"all", "camera": "id", "max_frames": N}
+// Poses are MANO axis-angle (relative to hands_mean unless the model is flat_hand_mean); shape and
+// trans default to zeros. A capture selection also provides each frame's camera.
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/camera.h"
+
+namespace handscs {
+
+struct PoseFrame {
+  std::array<float, 48> pose{};
+  std::array<float, 10> shape{};
+  std::array<float, 3> trans{};
+  std::optional<Camera> camera;  // from a capture selection
+  std::string name;              // e.g. "pose_0003" or the capture image's name
+};
+
+// Reads a POSES file; errors name the file and the key path (e.g. "poses[2].pose: expected 48
+// numbers, got 45").
+std::vector<PoseFrame> read_pose_source(const std::string& path);
+
+// Per-joint spherical interpolation of axis-angle poses (t in [0, 1]); shape and trans linear.
+PoseFrame interpolate_pose(const PoseFrame& a, const PoseFrame& b, double t);
+
+}  // namespace handscs

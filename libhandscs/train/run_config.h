@@ -1,0 +1,32 @@
+// The whole configuration of a run: capture (data), avatar (model), training and evaluation.
+// configs/base.json holds its defaults and docs/CONFIG.md documents every key (both generated from
+// this struct by `handscs-train --print-defaults` / `--print-docs`, and checked by a test).
+#pragma once
+
+#include "avatar/avatar_config.h"
+#include "data/capture_config.h"
+#include "metrics/eval_config.h"
+#include "train/train_config.h"
+
+namespace handscs {
+
+struct RunConfig {
+  CaptureConfig data;
+  AvatarConfig model;
+  TrainConfig train;
+  EvalConfig eval;
+
+  template <class V>
+  void visit(V& v) {
+    v.section("data", data, "capture: which images, split rule, masks, cache");
+    v.section("model", model, "avatar: rig, Gaussians, embeddings, decoders, SCS");
+    v.section("train", train, "optimisation: losses, learning rates, densification, checkpoints");
+    v.section("eval", eval, "evaluation protocol: SSIM variant, LPIPS, masks, background");
+  }
+};
+
+// Cross-section checks that single fields cannot express (e.g. data.rig and model.rig must agree).
+// `source` names the config in errors.
+void validate_run_config(const RunConfig& config, const std::string& source);
+
+}  // namespace handscs

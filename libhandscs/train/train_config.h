@@ -1,0 +1,131 @@
+// Training configuration: loss weights, learning-rate groups and schedules, densification,
+// inter-pose consistency, checkpoints, validation and NaN handling. Defaults: paper §3.3 and
+// DESIGN.md §4.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace handscs {
+
+struct LossWeights {
+  double rgb = 1.0;           // L1 on RGB (paper: the unit term)
+  double mask = 0.1;          // lambda_1, L2 between rendered alpha and mask
+  double ssim = 0.01;         // lambda_2, 1 - SSIM ("3dgs" variant) on the ROI crop
+  double lpips = 0.01;        // lambda_3, LPIPS on the ROI crop with eval.lpips (skipped without
+                              // a weight file there)
+  double reg = 0.1;           // lambda_reg, offset regularisation L_reg
+  double consistency = 0.01;  // lambda_con, inter-pose consistency L_con
+
+  template <class V>
+  void visit(V& v) {
+    v.field("rgb", rgb, "weight of the L1 RGB loss", 0.0, 1e6);
+    v.field("mask", mask, "weight of the L2 mask loss", 0.0, 1e6);
+    v.field("ssim", ssim, "weight of 1 - SSIM", 0.0, 1e6);
+    v.field("lpips", lpips, "weight of LPIPS (0 = never computed)", 0.0, 1e6);
+    v.field("reg", reg, "weight of the offset regulariser L_reg", 0.0, 1e6);
+    v.field("consistency", consistency, "weight of the inter-pose loss L_con (0 = off)", 0.0, 1e6);
+  }
+};
+
+struct LearningRates {
+  double means = 1.6e-4;        // m per step at the start (3DGS, for a scene of ~1 m; a hand is 0.2 m)
+  double means_final = 1.6e-6;  // reached at the last iteration (exponential decay, as 3DGS)
+  double log_scales = 5e-3;
+  double rotations = 1e-3;
+  double colors = 2.5e-3;
+  double opacity = 0.05;
+  double embeddings = 1e-3;
+  double networks = 1e-3;        // decoders and virtual-bone generator
+  double networks_final = 1e-4;  // decayed exponentially like the means
+  double gates = 1e-3;
+
+  template <class V>
+  void visit(V& v) {
+    v.field("means", means, "initial learning rate of canonical means", 0.0, 1.0);
+    v.field("means_final", means_final, "final learning rate of canonical means", 0.0, 1.0);
+    v.field("log_scales", log_scales, "learning rate of log-scales", 0.0, 1.0);
+    v.field("rotations", rotations, "learning rate of rotations", 0.0, 1.0);
+    v.field("colors", colors, "learning rate of colours", 0.0, 1.0);
+    v.field("opacity", opacity, "learning rate of opacity logits", 0.0, 10.0);
+    v.field("embeddings", embeddings, "learning rate of e_g, e_a", 0.0, 1.0);
+    v.field("networks", networks, "initial learning rate of decoders and generator", 0.0, 1.0);
+    v.field("networks_final", networks_final, "final learning rate of the networks", 0.0, 1.0);
+    v.field("gates", gates, "learning rate of the decoder gates", 0.0, 1.0);
+  }
+};
+
+struct DensifyConfig {
+  bool enabled = false;          // 3DGS clone/split/prune; off: the rig's vertex count is kept
+  int64_t start = 300;           // first densification step (gradients need a few hundred steps)
+  int64_t stop = 4000;           // last densification step
+  int64_t interval = 100;        // steps between densifications
+  double grad_threshold = 2e-4;  // mean view-space gradient norm (pixels^-1, as 3DGS) to densify
+  double split_extent = 0.004;   // m: larger Gaussians split, smaller clone (a finger is ~1.6 cm wide)
+  double min_opacity = 0.005;    // prune below (3DGS)
+  int64_t max_gaussians = 10000; // hard cap on the count
+
+  template <class V>
+  void visit(V& v) {
+    v.field("enabled", enabled, "densify and prune (3DGS style)");
+    v.field("start", start, "first densification step", 0, 1e9);
+    v.field("stop", stop, "last densification step", 0, 1e9);
+    v.field("interval", interval, "steps between densifications", 1, 1e9);
+    v.field("grad_threshold", grad_threshold, "view-space gradient threshold", 0.0, 1.0);
+    v.field("split_extent", split_extent, "largest scale (m) above which Gaussians split", 0.0, 1.0);
+    v.field("min_opacity", min_opacity, "prune Gaussians below this opacity", 0.0, 1.0);
+    v.field("max_gaussians", max_gaussians, "maximum Gaussian count", 1, 1e8);
+  }
+};
+
+struct ConsistencyConfig {
+  std::string search = "candidates";  // "candidates" (K nearest in canonical space) or "exact"
+  int candidates = 32;                // K (DESIGN.md §4)
+  int64_t refresh_every = 100;        // steps between recomputing the canonical K-NN candidates
+  double delta = 1.3;                 // pose similarity bandwidth (paper)
+  std::string reduction = "mean";     // "sum" (paper's formula) or "mean" over Gaussians
+
+  template <class V>
+  void visit(V& v) {
+    v.choice("search", search, {"candidates", "exact"}, "correspondence search");
+    v.field("candidates", candidates, "K nearest canonical neighbours searched", 1, 4096);
+    v.field("refresh_every", refresh_every, "steps between candidate refreshes", 1, 1e9);
+    v.field("delta", delta, "pose similarity bandwidth delta", 1e-6, 1e6);
+    v.choice("reduction", reduction, {"sum", "mean"}, "reduction over Gaussians");
+  }
+};
+
+struct TrainConfig {
+  int64_t iterations = 3000;        // optimisation steps
+  int64_t seed = 0;                 // frame order, backgrounds
+  std::string background = "black";  // "black", "white" or "random" (per step) in training
+  double resolution_scale = 1.0;    // train on images scaled by this factor (0.5 = half size)
+  int64_t checkpoint_every = 1000;  // steps between checkpoints (and one at the end)
+  int64_t validate_every = 500;     // steps between validation renders (0 = never)
+  int64_t log_every = 10;           // steps between metrics-log lines
+  int64_t max_bad_steps = 5;        // consecutive NaN/Inf steps before a rollback
+  double rollback_lr_factor = 0.5;  // learning rates are multiplied by this at each rollback
+  LossWeights loss;
+  LearningRates lr;
+  DensifyConfig densify;
+  ConsistencyConfig consistency;
+
+  template <class V>
+  void visit(V& v) {
+    v.field("iterations", iterations, "optimisation steps", 1, 1e9);
+    v.field("seed", seed, "seed of frame order and backgrounds", 0, 9.0e15);
+    v.choice("background", background, {"black", "white", "random"}, "training background");
+    v.field("resolution_scale", resolution_scale, "image scale in training", 0.05, 1.0);
+    v.field("checkpoint_every", checkpoint_every, "steps between checkpoints", 1, 1e9);
+    v.field("validate_every", validate_every, "steps between validation renders (0 = never)", 0, 1e9);
+    v.field("log_every", log_every, "steps between metrics-log lines", 1, 1e9);
+    v.field("max_bad_steps", max_bad_steps, "consecutive NaN/Inf steps before rollback", 1, 1e6);
+    v.field("rollback_lr_factor", rollback_lr_factor, "learning-rate factor per rollback", 0.0, 1.0);
+    v.section("loss", loss, "loss weights");
+    v.section("lr", lr, "learning rates");
+    v.section("densify", densify, "densification and pruning");
+    v.section("consistency", consistency, "inter-pose consistency");
+  }
+};
+
+}  // namespace handscs

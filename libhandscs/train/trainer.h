@@ -1,0 +1,100 @@
+// The training loop (paper §3.2-3.3): one view per step, render the ROI crop, losses, backward,
+// Adam, optional densification; metrics log, validation renders, atomic checkpoints, exact resume,
+// SIGINT/SIGTERM handling, and NaN/Inf steps that never reach the parameters (skip, then rollback).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "avatar/avatar.h"
+#include "data/capture.h"
+#include "train/adam.h"
+#include "train/checkpoint.h"
+#include "train/densify.h"
+#include "train/losses.h"
+#include "train/run_config.h"
+
+namespace handscs {
+
+struct StepTimes {
+  double data_ms = 0, forward_ms = 0, losses_ms = 0, backward_ms = 0, optimizer_ms = 0;
+};
+
+struct StepResult {
+  int64_t iteration = 0;     // the step just taken (1-based count of steps done)
+  bool skipped = false;      // non-finite loss or gradient: parameters untouched
+  bool rolled_back = false;  // too many skipped steps in a row: reloaded the last checkpoint
+  double loss = 0;
+  double psnr = 0;           // of this step's ROI crop
+  std::map<std::string, double> terms;
+  StepTimes times;
+};
+
+struct TrainSummary {
+  int64_t iterations = 0;
+  double seconds = 0;
+  int64_t skipped_steps = 0;
+  int64_t rollbacks = 0;
+  int64_t gaussians = 0;
+  bool interrupted = false;
+  std::string checkpoint;  // path of the last checkpoint written
+};
+
+class Trainer {
+ public:
+  // Opens the capture, builds the avatar and optimiser, writes config.json into run_dir.
+  Trainer(const RunConfig& config, const std::string& run_dir);
+  ~Trainer();
+
+  // Loads the newest valid checkpoint of run_dir (an unreadable newest one is reported and the
+  // previous one used). Returns false when run_dir has none.
+  bool resume();
+  StepResult step();
+  // Runs to config.train.iterations (or until SIGINT/SIGTERM), with a progress bar.
+  TrainSummary run();
+
+  std::string save_checkpoint();  // writes checkpoints/step_<iteration>.ckpt; returns the path
+  int64_t iteration() const { return iteration_; }
+  Avatar& avatar() { return *avatar_; }
+  Capture& capture() { return *capture_; }
+  const RunConfig& config() const { return config_; }
+
+  // Latest checkpoint file of a run folder ("" if none).
+  static std::string latest_checkpoint(const std::string& run_dir);
+
+ private:
+  void build_optimizer();
+  Checkpoint make_checkpoint();
+  void load_from(const Checkpoint& checkpoint, const std::string& source);
+  bool rollback();
+  const FrameInfo& frame_for(int64_t iteration);
+  std::array<float, 3> background_for(int64_t iteration) const;
+  torch::Tensor consistency_loss(const AvatarState& state, const FrameInfo& frame);
+  void validate();
+  void log_step(const StepResult& result);
+
+  RunConfig config_;
+  std::string run_dir_;
+  std::unique_ptr<Capture> capture_;
+  std::unique_ptr<Avatar> avatar_;
+  std::unique_ptr<Adam> optimizer_;
+  std::unique_ptr<Densifier> densifier_;
+  std::unique_ptr<Objective> objective_;
+  int64_t iteration_ = 0;
+  int64_t skipped_total_ = 0;
+  int64_t bad_in_a_row_ = 0;
+  int64_t rollbacks_ = 0;
+  std::string last_checkpoint_;
+  // Inter-pose state of the previous step (detached) and the canonical K-NN candidate sets.
+  torch::Tensor prev_descriptor_, prev_attributes_, prev_pose_feature_, candidates_;
+  torch::Tensor next_descriptor_, next_attributes_, next_pose_feature_;  // this step's, pending
+  std::vector<torch::Tensor> network_params_;  // the optimiser points into this vector
+  double elapsed_seconds_ = 0;                 // training wall time, across resumes
+  std::vector<int64_t> order_;  // frame permutation of the current epoch
+  int64_t order_epoch_ = -1;
+  double running_psnr_ = 0;
+};
+
+}  // namespace handscs

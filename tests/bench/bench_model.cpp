@@ -1,0 +1,174 @@
+// handscs-bench-model: forward and backward ms of the full avatar step (no losses) for several
+// Gaussian counts, split by stage (LBS, SCS = descriptor + virtual-bone generator, decoders,
+// rasterizer). Prints one JSON object. Usage:
+//   handscs-bench-model [--gaussians 778,5000,10000,20000] [--width 512] [--height 334]
+//                       [--threads 2] [--repeats 10]
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <sstream>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <torch/torch.h>
+
+#include "avatar/avatar.h"
+#include "core/threads.h"
+#include "hand/lbs.h"
+#include "scs/descriptor.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0.0 : v[v.size() / 2];
+}
+
+// Grows the avatar to n Gaussians by duplicating random ones with a small jitter (as clones would).
+void grow(handscs::Avatar& avatar, int64_t n) {
+  auto& g = avatar.gaussians();
+  if (n <= g.size()) {
+    g = g.select(torch::arange(n, torch::kInt64));
+    return;
+  }
+  torch::NoGradGuard no_grad;
+  const auto index = torch::randint(g.size(), {n - g.size()}, torch::kInt64);
+  auto extra = g.select(index);
+  extra.means = (extra.means.detach() + torch::randn_like(extra.means) * 0.002).requires_grad_(true);
+  extra.log_scales = (extra.log_scales.detach() - std::log(2.0)).requires_grad_(true);
+  g.append(extra);
+}
+
+handscs::Camera capture_camera(int width, int height) {
+  handscs::Camera camera;
+  camera.width = width;
+  camera.height = height;
+  const double f = 1.2 * std::max(width, height);  // InterHand-like focal for 512x334
+  camera.K = {f, 0, width / 2.0, 0, f, height / 2.0, 0, 0, 1};
+  camera.t = {0, 0, 0.55};
+  return camera;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Avatar forward/backward benchmark (prints JSON)"};
+  std::string counts = "778,5000,10000,20000";
+  int width = 512, height = 334, threads = 2, repeats = 10;
+  app.add_option("--gaussians", counts, "comma-separated Gaussian counts");
+  app.add_option("--width", width);
+  app.add_option("--height", height);
+  app.add_option("--threads", threads);
+  app.add_option("--repeats", repeats);
+  CLI11_PARSE(app, argc, argv);
+  handscs::set_threads(threads);
+  torch::manual_seed(0);
+
+  nlohmann::json result;
+  result["width"] = width;
+  result["height"] = height;
+  result["threads"] = threads;
+  result["repeats"] = repeats;
+  result["blas"] = handscs::blas_in_use();
+  const auto camera = capture_camera(width, height);
+  const auto pose = torch::randn({48}) * 0.2;
+  const auto shape = torch::zeros({10});
+  const auto trans = torch::zeros({3});
+
+  std::stringstream list(counts);
+  std::string item;
+  while (std::getline(list, item, ',')) {
+    const int64_t n = std::stoll(item);
+    handscs::AvatarConfig config;
+    handscs::Avatar avatar(config, handscs::load_rig_source("builtin"));
+    grow(avatar, n);
+    {
+      torch::NoGradGuard no_grad;
+      for (auto& p : avatar.decoders()->parameters())
+        if (p.numel() == 1) p.fill_(0.05);  // open gates: realistic, non-zero offsets
+    }
+    std::vector<double> t_lbs, t_scs, t_dec, t_raster_fwd, t_forward, t_backward, t_raster_bwd;
+    for (int r = 0; r < repeats + 2; ++r) {  // two warm-up runs
+      // Full step, timed as a whole.
+      auto t0 = Clock::now();
+      auto out = avatar.forward(pose, shape, trans, camera, {});
+      const double fwd = ms_since(t0);
+      const auto cotangent = torch::rand_like(out.render.rgb);
+      t0 = Clock::now();
+      ((out.render.rgb * cotangent).sum() + out.render.alpha.sum()).backward();
+      const double bwd = ms_since(t0);
+      for (auto& [name, tensor] : avatar.gaussians().learnable())
+        if (tensor->grad().defined()) tensor->mutable_grad().reset();
+      avatar.decoders()->zero_grad();
+      if (avatar.generator()) avatar.generator()->zero_grad();
+
+      // Stages, each timed on its own with the same inputs.
+      t0 = Clock::now();
+      const auto l = handscs::lbs(avatar.rig(), pose.view({1, 48}), shape.view({1, 10}),
+                                  trans.view({1, 3}));
+      const double lbs_ms = ms_since(t0);
+      auto state = avatar.pose(pose, shape, trans);  // everything but the rasterizer
+      const auto& p = state.posed;
+      const auto means = p.means.detach().requires_grad_(true);
+      const auto covs = p.covariances.detach().requires_grad_(true);
+      const auto colors = p.colors.detach().requires_grad_(true);
+      const auto opac = p.opacities.detach().requires_grad_(true);
+      t0 = Clock::now();
+      auto raster = handscs::rasterize_gaussians(means, covs, colors, opac, camera, {});
+      const double raster_ms = ms_since(t0);
+      t0 = Clock::now();
+      ((raster.rgb * cotangent).sum() + raster.alpha.sum()).backward();
+      const double raster_bwd_ms = ms_since(t0);
+      // Descriptor + generator, then decoders alone.
+      t0 = Clock::now();
+      torch::Tensor descriptor;
+      {
+        handscs::VirtualBones bones;
+        const auto x = state.lbs_means.detach();
+        descriptor = handscs::static_descriptor(x, state.lbs.joints[0].detach(), avatar.topology(),
+                                                config.scs.tau, config.scs.norm_eps);
+        if (avatar.generator()) {
+          bones = avatar.generator()->forward(pose, state.lbs.rest_joints[0].detach(),
+                                              state.lbs.rest_joints[0].detach());
+          descriptor = torch::cat({descriptor, handscs::virtual_descriptor(
+                                                   avatar.gaussians().means, bones.start,
+                                                   bones.end, config.scs.norm_eps)},
+                                  1);
+        }
+      }
+      const double scs_ms = ms_since(t0);
+      const auto transforms = torch::randn({n, 12});
+      t0 = Clock::now();
+      auto dec = avatar.decoders()->forward(descriptor.detach(), avatar.gaussians().embed_geometry,
+                                            avatar.gaussians().embed_appearance, transforms);
+      const double dec_ms = ms_since(t0);
+      (void)dec.dx;
+      if (r < 2) continue;
+      t_forward.push_back(fwd);
+      t_backward.push_back(bwd);
+      t_lbs.push_back(lbs_ms);
+      t_scs.push_back(scs_ms);
+      t_dec.push_back(dec_ms);
+      t_raster_fwd.push_back(raster_ms);
+      t_raster_bwd.push_back(raster_bwd_ms);
+    }
+    nlohmann::json row;
+    row["gaussians"] = n;
+    row["forward_ms"] = median(t_forward);
+    row["backward_ms"] = median(t_backward);
+    row["forward_backward_ms"] = median(t_forward) + median(t_backward);
+    row["stage_forward_ms"] = {{"lbs", median(t_lbs)},
+                               {"scs", median(t_scs)},
+                               {"decoders", median(t_dec)},
+                               {"rasterizer", median(t_raster_fwd)}};
+    row["rasterizer_backward_ms"] = median(t_raster_bwd);
+    row["other_backward_ms"] = median(t_backward) - median(t_raster_bwd);
+    result["runs"].push_back(row);
+  }
+  std::printf("%s\n", result.dump(2).c_str());
+  return 0;
+}

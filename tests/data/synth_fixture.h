@@ -1,0 +1,56 @@
+// The tiny synthetic capture shared by the round-trip tests: generated once per test process into a
+// process-private temporary folder (ctest may run test cases in parallel), removed at exit.
+#pragma once
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "data/capture.h"
+#include "data/synth_capture.h"
+#include "data_test_helpers.h"
+
+namespace data_test {
+
+struct TinyCapture {
+  handscs::SynthScene scene;
+  std::string root;
+  ~TinyCapture() {
+    std::error_code ec;
+    std::filesystem::remove_all(root, ec);
+  }
+};
+
+inline const TinyCapture& tiny_capture() {
+  static std::unique_ptr<TinyCapture> tiny = [] {
+    auto t = std::make_unique<TinyCapture>();
+    t->root = (std::filesystem::temp_directory_path() /
+               ("handscs_test_data_tiny_" + std::to_string(::getpid())))
+                  .string();
+    std::filesystem::remove_all(t->root);
+    t->scene = handscs::make_synth_scene(handscs::synth_preset("tiny"));
+    handscs::write_synth_capture(t->scene, t->root);
+    return t;
+  }();
+  return *tiny;
+}
+
+// Copies the tiny capture into a fresh folder `name` (for tests that damage it).
+inline std::string copy_of_tiny(const std::string& name) {
+  const std::string dir = fresh_dir(name);
+  std::filesystem::copy(tiny_capture().root, dir, std::filesystem::copy_options::recursive);
+  return dir;
+}
+
+// Capture config for the tiny capture (12 poses: hold out 3).
+inline handscs::CaptureConfig tiny_config(const std::string& root) {
+  handscs::CaptureConfig config;
+  config.root = root;
+  config.held_out_poses = 3;
+  config.cache.prefetch_threads = 0;
+  return config;
+}
+
+}  // namespace data_test

@@ -1,0 +1,199 @@
+// Bad captures: a camera listed but absent, null MANO entries / missing / black images (skipped
+// with one summary line), monochrome cameras, bad camera lists, too many held-out poses, missing
+// files.
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "data/json_view.h"
+#include "data_test_helpers.h"
+#include "synth_fixture.h"
+
+// Catch last: LibTorch pulls in glog, whose CHECK macro would otherwise replace Catch's.
+#include <catch2/catch.hpp>
+
+using namespace handscs;
+using data_test::error_of;
+using nlohmann::json;
+
+namespace {
+
+std::string annotation(const std::string& root, const std::string& kind) {
+  return root + "/annotations/test/InterHand2.6M_test_" + kind + ".json";
+}
+
+void rewrite(const std::string& path, const std::function<void(json&)>& edit) {
+  json value = read_json_file(path);
+  edit(value);
+  data_test::write_text(path, value.dump());
+}
+
+std::string image_path(const std::string& root, const std::string& camera, int64_t frame) {
+  return root + "/images/test/Capture0/0000_synth_rom/cam" + camera + "/image" +
+         std::to_string(frame) + ".jpg";
+}
+
+}  // namespace
+
+TEST_CASE("capture errors: a camera listed in data.json but absent from camera.json") {
+  const std::string root = data_test::copy_of_tiny("absent_camera");
+  rewrite(annotation(root, "camera"), [](json& c) { c["0"]["campos"].erase("400004"); });
+  CHECK(error_of([&] { Capture::open(data_test::tiny_config(root)); }) ==
+        annotation(root, "camera") + ": 0.campos: missing key \"400004\" (camera of " +
+            "Capture0/0000_synth_rom/cam400004/image0.jpg in " + annotation(root, "data") + ")");
+  // Present in campos but not in focal: named by the camera reader.
+  const std::string root2 = data_test::copy_of_tiny("absent_focal");
+  rewrite(annotation(root2, "camera"), [](json& c) { c["0"]["focal"].erase("400006"); });
+  CHECK(error_of([&] { Capture::open(data_test::tiny_config(root2)); }) ==
+        annotation(root2, "camera") + ": 0.focal: missing key \"400006\"");
+}
+
+TEST_CASE("capture errors: null MANO, missing and black images are skipped with one summary line") {
+  const std::string root = data_test::copy_of_tiny("skips");
+  const auto& scene = data_test::tiny_capture().scene;
+  const int64_t null_frame = scene.frames[4].frame_idx;
+  rewrite(annotation(root, "MANO_NeuralAnnot"),
+          [&](json& m) { m["0"][std::to_string(null_frame)]["right"] = nullptr; });
+  const std::string missing = image_path(root, "400002", scene.frames[7].frame_idx);
+  std::filesystem::remove(missing);
+  const std::string black = image_path(root, "400006", scene.frames[1].frame_idx);
+  const cv::Mat original = cv::imread(black);
+  cv::imwrite(black, cv::Mat(original.rows, original.cols, CV_8UC3, cv::Scalar(0, 0, 0)));
+  Capture capture = Capture::open(data_test::tiny_config(root));
+  CHECK(capture.frames().size() == 48 - 6);
+  REQUIRE(capture.skipped().size() == 6);
+  const std::string images = root + "/images/test/";
+  std::vector<std::string> null_paths;
+  for (const char* id : {"400002", "400004", "400006", "400008"})
+    null_paths.push_back(image_path(root, id, null_frame));
+  // Summary: counts by reason, then the first five paths in data.json order.
+  const std::string expected =
+      annotation(root, "data") +
+      ": skipped 6 of 48 images (null MANO 4, missing image 1, black image 1): " + null_paths[0] +
+      ", " + null_paths[1] + ", " + null_paths[2] + ", " + null_paths[3] + ", " + missing + ", ...";
+  CHECK(capture.skip_summary() == expected);
+  CHECK(capture.skipped()[4].reason == "missing image");
+  CHECK(capture.skipped()[5].path == black);
+  CHECK(capture.skipped()[5].reason == "black image");
+  // An image whose size differs from data.json's, and an undecodable one, are skipped too.
+  const std::string small = image_path(root, "400008", scene.frames[2].frame_idx);
+  cv::imwrite(small, cv::Mat(100, 80, CV_8UC3, cv::Scalar(90, 120, 160)));
+  const std::string corrupt = image_path(root, "400008", scene.frames[3].frame_idx);
+  data_test::write_text(corrupt, "not a jpeg");
+  Capture more = Capture::open(data_test::tiny_config(root));
+  CHECK(more.frames().size() == 48 - 8);
+  CHECK(more.skip_summary().rfind(
+            annotation(root, "data") +
+                ": skipped 8 of 48 images (null MANO 4, missing image 1, unreadable "
+                "image 1, wrong image size 1, black image 1): ",
+            0) == 0);
+  // With black-image skipping off, the black frame is used.
+  CaptureConfig keep_black = data_test::tiny_config(root);
+  keep_black.skip_black_images = false;
+  CHECK(Capture::open(keep_black).frames().size() == 48 - 7);
+}
+
+TEST_CASE("capture errors: frames whose hand is outside the view are skipped") {
+  const std::string root = data_test::copy_of_tiny("outside");
+  // Turn camera 400004 around (180 degrees about its y axis): the hand is behind it.
+  rewrite(annotation(root, "camera"), [](json& c) {
+    json& r = c["0"]["camrot"]["400004"];
+    for (int k = 0; k < 3; ++k) {
+      r[0][k] = -r[0][k].get<double>();
+      r[2][k] = -r[2][k].get<double>();
+    }
+  });
+  Capture capture = Capture::open(data_test::tiny_config(root));
+  CHECK(capture.frames().size() == 36);
+  CHECK(capture.skip_summary().rfind(annotation(root, "data") +
+                                         ": skipped 12 of 48 images (hand outside image 12): " +
+                                         image_path(root, "400004", 0),
+                                     0) == 0);
+}
+
+TEST_CASE("capture errors: monochrome cameras are detected and dropped") {
+  const std::string root = data_test::copy_of_tiny("monochrome");
+  for (const auto& frame : data_test::tiny_capture().scene.frames) {
+    const std::string path = image_path(root, "400008", frame.frame_idx);
+    cv::Mat grey = cv::imread(path, cv::IMREAD_GRAYSCALE), bgr;
+    cv::cvtColor(grey, bgr, cv::COLOR_GRAY2BGR);
+    cv::imwrite(path, bgr);
+  }
+  CaptureConfig config = data_test::tiny_config(root);
+  Capture dropped = Capture::open(config);
+  CHECK(dropped.monochrome_cameras() == std::vector<std::string>{"400008"});
+  CHECK(dropped.frames().size() == 36);
+  for (const auto& f : dropped.frames()) CHECK(f.camera_id != "400008");
+  config.drop_monochrome = false;
+  Capture kept = Capture::open(config);
+  CHECK(kept.monochrome_cameras() == std::vector<std::string>{"400008"});
+  CHECK(kept.frames().size() == 48);
+}
+
+TEST_CASE("capture errors: bad configuration values name the key") {
+  const std::string root = data_test::tiny_capture().root;
+  const std::string data = annotation(root, "data");
+  CaptureConfig config = data_test::tiny_config(root);
+  config.train_cameras = {"400002", "499999"};
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        "capture.train_cameras: camera \"499999\" has no images in capture 0 of " + data);
+
+  config = data_test::tiny_config(root);
+  config.held_out_poses = 12;
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        "capture.held_out_poses: 12 held-out poses leave nothing to train on (the selection has 12 "
+        "poses)");
+
+  config = data_test::tiny_config(root);
+  config.split_rule = "novel_view";
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        "capture.test_cameras: split_rule novel_view needs a list of test cameras");
+  config.test_cameras = {"400002"};
+  config.train_cameras = {"400002", "400004"};
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        "capture.test_cameras: camera \"400002\" is also a training camera (novel_view needs "
+        "disjoint lists)");
+
+  config = data_test::tiny_config(root);
+  config.sequences = {"9999_nothing"};
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        data + ": no images of capture 0 in sequences 9999_nothing");
+
+  config = data_test::tiny_config(root);
+  config.capture = 5;
+  CHECK(error_of([&] { Capture::open(config); }) == data + ": no images of capture 5");
+
+  config = data_test::tiny_config(root);
+  config.hand = "left";  // the tiny capture annotates only the right hand
+  const std::string message = error_of([&] { Capture::open(config); });
+  CHECK(message.rfind(data + ": no usable images in capture 0 (48 considered; " + data +
+                          ": skipped 48 of 48 images (null MANO 48): ",
+                      0) == 0);
+}
+
+TEST_CASE("capture errors: missing folders and annotation files") {
+  CaptureConfig config;
+  config.root = "/nonexistent/handscs_capture";
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        "/nonexistent/handscs_capture: capture root is not a folder");
+  config.root = "";
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        "capture.root: empty (set it to the dataset folder)");
+
+  const std::string empty = data_test::fresh_dir("empty_root");
+  config.root = empty;
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        empty + ": no images/test/ folder (nor InterHand2.6M_5fps_batch1/images/test/)");
+
+  const std::string root = data_test::copy_of_tiny("no_mano");
+  std::filesystem::remove(annotation(root, "MANO_NeuralAnnot"));
+  CHECK(error_of([&] { Capture::open(data_test::tiny_config(root)); }) ==
+        annotation(root, "MANO_NeuralAnnot") + ": cannot open file");
+
+  // The 5 fps release's image folder is found under InterHand2.6M_5fps_batch1/.
+  const std::string batch = data_test::copy_of_tiny("batch_layout");
+  std::filesystem::create_directories(batch + "/InterHand2.6M_5fps_batch1");
+  std::filesystem::rename(batch + "/images", batch + "/InterHand2.6M_5fps_batch1/images");
+  CHECK(Capture::open(data_test::tiny_config(batch)).frames().size() == 48);
+}

@@ -1,0 +1,125 @@
+// The three commands end to end on the tiny capture, as a user runs them: handscs-train (then
+// --resume), handscs-eval in model mode, handscs-render with novel poses and a video; plus kill -9
+// during checkpoint writes and a bad POSES file.
+#include "catch_torch.h"
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "core/atomic_file.h"
+#include "tiny_capture.h"
+#include "train/checkpoint.h"
+#include "train/trainer.h"
+
+using handscs_test::fresh_dir;
+using handscs_test::tiny_capture_dir;
+
+namespace {
+const std::string kBin = HANDSCS_BIN_DIR;
+const std::string kSource = HANDSCS_SOURCE_DIR;
+
+int run(const std::string& command) {
+  const int status = std::system((command + " > /tmp/handscs_cli_test.log 2>&1").c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+std::string log_text() { return handscs::read_file("/tmp/handscs_cli_test.log"); }
+}  // namespace
+
+TEST_CASE("cli: train, resume, evaluate and render the tiny capture") {
+  const auto run_dir = fresh_dir("cli_run");
+  const std::string common = " --threads 2 --set data.root=" + tiny_capture_dir();
+  REQUIRE(run(kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
+              common + " train.iterations=40") == 0);
+  CHECK(handscs::Trainer::latest_checkpoint(run_dir).find("step_00000040.ckpt") != std::string::npos);
+  REQUIRE(run(kBin + "/handscs-train --resume --out " + run_dir +
+              " --threads 2 --set train.iterations=50") == 0);
+  INFO(log_text());
+  CHECK(log_text().find("resumed from") != std::string::npos);
+  CHECK(handscs::Trainer::latest_checkpoint(run_dir).find("step_00000050.ckpt") != std::string::npos);
+
+  const auto eval_dir = run_dir + "/eval";
+  REQUIRE(run(kBin + "/handscs-eval --config " + kSource + "/configs/tiny.json --checkpoint " +
+              run_dir + " --out " + eval_dir + common + " --side-by-side") == 0);
+  const auto summary = nlohmann::json::parse(handscs::read_file(eval_dir + "/summary.json"));
+  CHECK(summary["summary"]["scored"].get<int>() == 12);  // 3 held-out poses x 4 cameras
+  CHECK(summary["summary"]["psnr"].get<double>() > 10.0);
+  CHECK(summary["rendering"]["fps"].get<double>() > 0);
+  CHECK(std::filesystem::exists(eval_dir + "/per_image.csv"));
+  CHECK(std::filesystem::exists(eval_dir + "/table.md"));
+
+  const auto poses = run_dir + "/poses.json";
+  std::ofstream(poses) << R"({"poses": [{"pose": [0,0,0, 0.3,0,0, 0.3,0,0, 0.3,0,0, 0,0,0,0,0,0,0,0,0,
+      0,0,0,0,0,0,0,0,0, 0,0,0,0,0,0,0,0,0, 0,0,0,0,0,0,0,0,0]},
+      {"pose": [0.2,0.1,0, 0,0,-0.5, 0,0,-0.5, 0,0,-0.5, 0,0,0,0,0,0,0,0,0,
+      0,0,0,0,0,0,0,0,0, 0,0,0,0,0,0,0,0,0, 0.1,0.2,0,0,0,0,0,0,0], "trans": [0, 0, 0.01]}]})";
+  const auto frames = run_dir + "/frames";
+  REQUIRE(run(kBin + "/handscs-render --checkpoint " + run_dir + " --poses " + poses +
+              " --orbit 4 --out " + frames + " --video " + frames + "/orbit.mp4 --export-ply --threads 2") == 0);
+  for (int k = 0; k < 4; ++k) {
+    const std::string name = frames + "/frame_000" + std::to_string(k);
+    CHECK(std::filesystem::exists(name + ".png"));
+    CHECK(std::filesystem::exists(name + "_alpha.png"));
+    CHECK(std::filesystem::exists(name + ".ply"));
+  }
+  CHECK(std::filesystem::file_size(frames + "/orbit.mp4") > 1000);
+  CHECK(log_text().find("FPS") != std::string::npos);
+}
+
+TEST_CASE("cli: a bad POSES file gives a clear error") {
+  const auto dir = fresh_dir("cli_poses");
+  std::filesystem::create_directories(dir);
+  auto config = handscs_test::tiny_run_config();
+  config.train.iterations = 1;
+  {
+    handscs::Trainer t(config, dir + "/run");
+    t.step();
+    t.save_checkpoint();
+  }
+  std::ofstream(dir + "/short.json") << R"({"poses": [{"pose": [0, 0, 0]}]})";
+  CHECK(run(kBin + "/handscs-render --checkpoint " + dir + "/run --poses " + dir +
+            "/short.json --orbit 2 --out " + dir + "/out") == 1);
+  CHECK(log_text().find(dir + "/short.json: poses[0].pose: expected 48 numbers, got 3 values") !=
+        std::string::npos);
+  std::ofstream(dir + "/broken.json") << "{\"poses\": [";
+  CHECK(run(kBin + "/handscs-render --checkpoint " + dir + "/run --poses " + dir +
+            "/broken.json --orbit 2 --out " + dir + "/out") == 1);
+  CHECK(log_text().find(dir + "/broken.json: malformed JSON") != std::string::npos);
+}
+
+TEST_CASE("cli: kill -9 during checkpoint writes leaves a loadable checkpoint") {
+  const auto run_dir = fresh_dir("cli_kill");
+  // A checkpoint every step, so the kill lands inside or between writes; a few kills at
+  // different times.
+  const std::string command = kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " +
+                              run_dir + " --threads 1 --log-level error --set data.root=" +
+                              tiny_capture_dir() + " train.iterations=100000 train.checkpoint_every=1";
+  for (int delay_ms : {1500, 2300, 3100}) {
+    const pid_t pid = fork();
+    REQUIRE(pid >= 0);
+    if (pid == 0) {
+      execl("/bin/sh", "sh", "-c", ("exec " + command + " > /dev/null 2>&1").c_str(), nullptr);
+      _exit(127);
+    }
+    // Wait until the first checkpoint exists, then kill at an arbitrary moment.
+    for (int i = 0; i < 600 && handscs::Trainer::latest_checkpoint(run_dir).empty(); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
+    kill(pid, SIGKILL);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    const auto latest = handscs::Trainer::latest_checkpoint(run_dir);
+    REQUIRE_FALSE(latest.empty());
+    INFO(latest);
+    CHECK_NOTHROW(handscs::load_checkpoint(latest));
+    // Every file that looks like a checkpoint is complete (temporaries have another name).
+    for (const auto& entry : std::filesystem::directory_iterator(run_dir + "/checkpoints"))
+      if (entry.path().extension() == ".ckpt") CHECK_NOTHROW(handscs::load_checkpoint(entry.path()));
+  }
+}

@@ -1,0 +1,49 @@
+// The shipped configs: base.json equals the compiled-in defaults, docs/CONFIG.md documents every
+// key, and every config under configs/ loads and validates.
+#include "catch_torch.h"
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "core/atomic_file.h"
+#include "core/config.h"
+#include "train/run_config.h"
+
+namespace {
+const std::string kSource = HANDSCS_SOURCE_DIR;
+}
+
+TEST_CASE("configs: base.json holds exactly the defaults") {
+  handscs::RunConfig defaults;
+  const auto base = handscs::load_json_file(kSource + "/configs/base.json");
+  // Regenerate with: build/bin/handscs-train --print-defaults > configs/base.json
+  CHECK(base == handscs::config_to_json(defaults));
+}
+
+TEST_CASE("configs: docs/CONFIG.md documents every key") {
+  handscs::RunConfig defaults;
+  const std::string doc = handscs::read_file(kSource + "/docs/CONFIG.md");
+  // Regenerate the table with: build/bin/handscs-train --print-docs
+  CHECK(doc.find(handscs::config_markdown(defaults)) != std::string::npos);
+}
+
+TEST_CASE("configs: every shipped config loads and validates") {
+  int count = 0;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(kSource + "/configs")) {
+    if (entry.path().extension() != ".json") continue;
+    INFO(entry.path().string());
+    handscs::RunConfig config;
+    CHECK_NOTHROW(config = handscs::load_config<handscs::RunConfig>(entry.path().string(), {}));
+    CHECK_NOTHROW(handscs::validate_run_config(config, entry.path().string()));
+    ++count;
+  }
+  CHECK(count >= 2);
+}
+
+TEST_CASE("configs: cross-section mismatches are errors naming both keys") {
+  handscs::RunConfig config;
+  config.model.rig = "builtin:left";
+  CHECK_THROWS_WITH(handscs::validate_run_config(config, "x.json"),
+                    Catch::StartsWith("x.json: data.rig (\"builtin\") and model.rig (\"builtin:left\")"));
+}
