@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "core/config.h"
 #include "core/error.h"
 
 namespace handscs {
@@ -11,17 +12,8 @@ namespace handscs {
 using json = nlohmann::json;
 
 std::string json_kind(const json& value) {
-  switch (value.type()) {
-    case json::value_t::null: return "null";
-    case json::value_t::boolean: return "boolean";
-    case json::value_t::number_integer:
-    case json::value_t::number_unsigned:
-    case json::value_t::number_float: return "number";
-    case json::value_t::string: return "string";
-    case json::value_t::array: return "array of " + std::to_string(value.size());
-    case json::value_t::object: return "object";
-    default: return "unknown";
-  }
+  // As core's json_type_name, with the length of arrays (shape errors read better with it).
+  return value.is_array() ? "array of " + std::to_string(value.size()) : json_type_name(value);
 }
 
 void JsonView::fail(const std::string& problem) const {
