@@ -36,7 +36,7 @@ JSON
 echo
 echo "Demo finished in $(( $(date +%s) - start )) s. Novel-pose quality (50 held-out poses x 12 cameras):"
 cat "$out/eval/table.md"
-tail -n 1 "$out/eval.log"
+grep "^rendering:" "$out/eval.log" || true
 echo
 echo "Outputs:"
 echo "  synthetic capture (InterHand2.6M layout): $out/capture"
