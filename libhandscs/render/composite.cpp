@@ -154,6 +154,16 @@ TileBwdFn<T> pick_bwd() {
 // Tiles in decreasing order of list length: with dynamic scheduling the long tiles start first and the short
 // ones fill the gaps, so threads finish together (a dense hand puts most of the work in a few tiles). Each tile
 // writes only its own pixels and gradient slots, so the order changes no result.
+// Small frames (fewer entries than this, or a single tile) are composited on the calling thread: waking the team
+// costs more than the work, and on a busy machine a barrier can cost a scheduler time slice.
+constexpr int32_t kParallelMinEntries = 1024;
+// The per-splat gradient sum is ~10 adds per entry: below this many splats it stays on the calling thread.
+constexpr int64_t kParallelMinSplats = 4096;
+
+static bool worth_parallel(const RasterFrame& frame, const int32_t* tile_offsets) {
+  return frame.num_tiles() > 1 && tile_offsets[frame.num_tiles()] >= kParallelMinEntries;
+}
+
 static std::vector<int> tiles_by_cost(const RasterFrame& frame, const int32_t* tile_offsets) {
   std::vector<int> order(frame.num_tiles());
   for (int k = 0; k < frame.num_tiles(); ++k) order[k] = k;
@@ -172,7 +182,8 @@ void composite_fwd(const RasterFrame& frame, const CompositeInputs<T>& in, T* rg
   const bool with_depth = depth != nullptr, count = contributing_pairs != nullptr;
   const int num_tiles = frame.num_tiles();
   int64_t blended = 0;
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : blended)
+  const bool parallel = worth_parallel(frame, in.tile_offsets);
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : blended) if (parallel)
   for (int k = 0; k < num_tiles; ++k) blended += fn(args, order[k], with_depth, count);
   if (contributing_pairs) *contributing_pairs = blended;
 }
@@ -185,13 +196,14 @@ void composite_bwd(const RasterFrame& frame, const CompositeInputs<T>& in, const
   const TileBwdFn<T> fn = pick_bwd<T>();
   const bool with_depth = v_depth != nullptr;
   const int num_tiles = frame.num_tiles();
-#pragma omp parallel for schedule(dynamic, 1)
+  const bool parallel = worth_parallel(frame, in.tile_offsets);
+#pragma omp parallel for schedule(dynamic, 1) if (parallel)
   for (int k = 0; k < num_tiles; ++k) fn(args, order[k], with_depth);
 }
 
 template <class T>
 void reduce_entry_grads(int64_t n, const int32_t* gaussian_offsets, const T* entry_grads, T* v_splats) {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelMinSplats)
   for (int64_t i = 0; i < n; ++i) {
     T sum[kSplatGradFields] = {};
     for (int32_t j = gaussian_offsets[i]; j < gaussian_offsets[i + 1]; ++j) {

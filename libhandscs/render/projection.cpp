@@ -15,6 +15,9 @@ constexpr double kMinAlpha = 1.0 / 255.0;
 constexpr double kExtentMargin = 1e-2;
 constexpr double kExtentRelMargin = 1e-4;
 constexpr double kLn2 = 0.69314718055994530942;
+// Below this many Gaussians the projection runs on the calling thread: the work (~0.1 us each) would not pay for
+// waking the team, and on a busy machine every parallel region's barrier can cost a scheduler time slice.
+constexpr int64_t kParallelMinGaussians = 2048;
 constexpr double kLog2Of255 = 7.9943534368588578;
 
 // Camera-space quantities of one Gaussian, shared by the forward and the backward pass.
@@ -230,7 +233,7 @@ void unproject_one(const RasterFrame& f, int64_t i, const T* means, const T* cov
 template <class T>
 void project_fwd(const RasterFrame& frame, int64_t n, const T* means, const T* covs, const T* colors,
                  const T* opacities, const T* probe, T* splats, int32_t* rects, int32_t* radii) {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelMinGaussians)
   for (int64_t i = 0; i < n; ++i)
     project_one(frame, i, means, covs, colors, opacities, probe, splats + kSplatFields * i, rects + kRectFields * i,
                 radii + i);
@@ -240,7 +243,7 @@ template <class T>
 void project_bwd(const RasterFrame& frame, int64_t n, const T* means, const T* covs, const T* colors,
                  const int32_t* radii, const T* v_splats, T* v_means, T* v_covs, T* v_colors, T* v_opacities,
                  T* v_probe) {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelMinGaussians)
   for (int64_t i = 0; i < n; ++i) {
     if (radii[i] <= 0) {
       std::fill(v_means + 3 * i, v_means + 3 * i + 3, T(0));

@@ -119,6 +119,7 @@ RasterOutput run_reference(const Inputs& in, const Camera& cam, const RasterSett
 }  // namespace
 
 TEST_CASE("reference rasterizer matches finite differences (double)") {
+  const SingleThreadScope single_thread;
   for (uint64_t seed : {11, 12}) {
     Camera cam;
     const Inputs in = smooth_scene(seed, cam);
@@ -135,6 +136,7 @@ TEST_CASE("reference rasterizer matches finite differences (double)") {
 }
 
 TEST_CASE("kernel gradients match finite differences (double), incl. the 6-entry covariance convention") {
+  const SingleThreadScope single_thread;
   for (uint64_t seed : {11, 12, 13}) {
     Camera cam;
     const Inputs in = smooth_scene(seed, cam);

@@ -114,6 +114,7 @@ Errors compare(const FuzzScene& s, torch::Dtype dtype, uint64_t seed, torch::Dty
 }  // namespace
 
 TEST_CASE("fuzz: 2000 random small scenes are finite and agree with the reference") {
+  const SingleThreadScope single_thread;
   std::mt19937_64 rng(20240601);
   constexpr int kScenes = 2000;
   int float_outliers = 0;

@@ -83,7 +83,11 @@ void check_agreement(torch::Dtype dtype, double image_tol, double grad_tol) {
 }  // namespace
 
 TEST_CASE("kernel agrees with the reference in float (image 1e-5, VJP 1e-4)") {
+  const SingleThreadScope single_thread;
   check_agreement(torch::kFloat32, 1e-5, 1e-4);
 }
 
-TEST_CASE("kernel agrees with the reference in double") { check_agreement(torch::kFloat64, 1e-12, 1e-9); }
+TEST_CASE("kernel agrees with the reference in double") {
+  const SingleThreadScope single_thread;
+  check_agreement(torch::kFloat64, 1e-12, 1e-9);
+}

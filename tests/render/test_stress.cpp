@@ -64,6 +64,7 @@ std::array<double, 3> at_pixel(const Camera& cam, double u, double v, double z) 
 }
 
 void run(const Stress& st) {
+  const SingleThreadScope single_thread;
   const int64_t n = st.means.size(0);
   for (auto dtype : {torch::kFloat32, torch::kFloat64}) {
     INFO("dtype " << (dtype == torch::kFloat32 ? "float" : "double"));
