@@ -1,5 +1,6 @@
 #include "data/interhand_annotations.h"
 
+#include <functional>
 #include <unordered_map>
 
 #include "core/error.h"
@@ -136,6 +137,17 @@ std::map<std::string, InterHandCamera> read_interhand_cameras(const std::string&
   return cameras;
 }
 
+// Streams the per-frame elements of capture `key` of a {capture: {frame: ...}} file into `visit`;
+// the capture must be present and be an object.
+static void stream_capture_frames(const std::string& path, const std::string& key,
+                           const std::function<void(const JsonElement&)>& visit) {
+  const json skeleton = stream_json_elements(
+      path, [&](const std::string& top) { return top == key; }, visit);
+  require_top_key(skeleton, path, key);
+  if (!skeleton[key].is_object())
+    throw Error(path + ": " + key + ": expected object, got " + json_kind(skeleton[key]));
+}
+
 std::map<int64_t, InterHandJoints> read_interhand_joints(const std::string& path, int capture) {
   const std::string key = std::to_string(capture);
   std::map<int64_t, InterHandJoints> frames;
@@ -150,11 +162,7 @@ std::map<int64_t, InterHandJoints> read_interhand_joints(const std::string& path
     joints.hand_type_valid = item.at("hand_type_valid").flag();
     frames[frame] = std::move(joints);
   };
-  const json skeleton = stream_json_elements(
-      path, [&](const std::string& top) { return top == key; }, visit);
-  require_top_key(skeleton, path, key);
-  if (!skeleton[key].is_object())
-    throw Error(path + ": " + key + ": expected object, got " + json_kind(skeleton[key]));
+  stream_capture_frames(path, key, visit);
   return frames;
 }
 
@@ -183,11 +191,7 @@ std::map<int64_t, InterHandMano> read_interhand_mano(const std::string& path, in
     }
     frames[frame] = std::move(mano);
   };
-  const json skeleton = stream_json_elements(
-      path, [&](const std::string& top) { return top == key; }, visit);
-  require_top_key(skeleton, path, key);
-  if (!skeleton[key].is_object())
-    throw Error(path + ": " + key + ": expected object, got " + json_kind(skeleton[key]));
+  stream_capture_frames(path, key, visit);
   return frames;
 }
 
