@@ -3,6 +3,7 @@
 #include <torch/torch.h>
 
 #include "core/error.h"
+#include "core/threads.h"
 #include "scs/descriptor.h"
 
 namespace handscs {
@@ -21,8 +22,10 @@ Avatar::Avatar(const AvatarConfig& config, Rig rig)
   if (config_.scs.enabled && config_.scs.virtual_bones > 0)
     generator_ = VirtualBoneGenerator(config_.scs, topology_);
   const int64_t embedding = config_.embeddings ? config_.embedding_dim : 0;
+  const bool bf16 = config_.decoder_precision == "bf16" ||
+                    (config_.decoder_precision == "auto" && has_native_bf16_matmul());
   decoders_ = OffsetDecoders(config_.scs.enabled ? descriptor_dim() : 0, embedding,
-                             config_.decoder_hidden);
+                             config_.decoder_hidden, bf16);
 }
 
 bool Avatar::uses_static_bones() const {

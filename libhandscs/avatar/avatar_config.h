@@ -16,6 +16,11 @@ struct AvatarConfig {
   int embedding_dim = 32;       // d of e_g and e_a (paper)
   double embedding_init_std = 1e-2;  // N(0, 1e-2): small so decoders start from structure alone
   int decoder_hidden = 256;     // width of the two hidden layers of each decoder (paper)
+  // Arithmetic of the decoder matmuls when the avatar is in float: "bf16" runs them in bfloat16
+  // with float accumulation and float master weights (2.7x faster where the CPU has AVX512-BF16,
+  // docs/BENCHMARKS.md), "float" keeps float; "auto" picks bf16 only where the CPU has it natively.
+  // A double avatar (gradient checks) always stays in double.
+  std::string decoder_precision = "auto";
   double opacity_init_min = 0.5;  // random initial opacity U(min, max): opaque enough to cover skin
   double opacity_init_max = 0.95;
   double scale_init_factor = 1.0;  // initial isotropic scale = factor x mean 3-NN vertex distance
@@ -31,6 +36,8 @@ struct AvatarConfig {
     v.field("embedding_init_std", embedding_init_std, "std of the embeddings' initial values", 0.0,
             10.0);
     v.field("decoder_hidden", decoder_hidden, "hidden width of the decoder MLPs", 1, 4096);
+    v.choice("decoder_precision", decoder_precision, {"auto", "float", "bf16"},
+             "decoder matmul arithmetic for a float avatar: auto = bf16 where the CPU has AVX512-BF16");
     v.field("opacity_init_min", opacity_init_min, "lower bound of random initial opacity", 1e-4,
             0.9999);
     v.field("opacity_init_max", opacity_init_max, "upper bound of random initial opacity", 1e-4,

@@ -11,7 +11,8 @@ constexpr int64_t kTransformDim = 12;  // vec of the 3x4 blend transform T
 constexpr int64_t kSpdRaw = 7;         // 3 log-scales + 4 quaternion-delta values
 }  // namespace
 
-GatedMlpImpl::GatedMlpImpl(int64_t inputs, int64_t hidden, int64_t outputs) {
+GatedMlpImpl::GatedMlpImpl(int64_t inputs, int64_t hidden, int64_t outputs, bool bf16)
+    : bf16_(bf16) {
   layer1_ = register_module("layer1", torch::nn::Linear(inputs, hidden));
   layer2_ = register_module("layer2", torch::nn::Linear(hidden, hidden));
   layer3_ = register_module("layer3", torch::nn::Linear(hidden, outputs));
@@ -19,19 +20,30 @@ GatedMlpImpl::GatedMlpImpl(int64_t inputs, int64_t hidden, int64_t outputs) {
 }
 
 torch::Tensor GatedMlpImpl::forward(const torch::Tensor& x) {
-  auto h = torch::relu(layer1_->forward(x));
-  h = torch::relu(layer2_->forward(h));
-  return gate * layer3_->forward(h);
+  if (!bf16_ || x.scalar_type() != torch::kFloat) {
+    auto h = torch::relu(layer1_->forward(x));
+    h = torch::relu(layer2_->forward(h));
+    return gate * layer3_->forward(h);
+  }
+  // Mixed precision: bf16 operands, float accumulation inside oneDNN, float master weights (the
+  // casts are differentiable, so Adam updates float parameters).
+  auto linear = [](const torch::nn::Linear& layer, const torch::Tensor& in) {
+    return torch::linear(in, layer->weight.to(torch::kBFloat16), layer->bias.to(torch::kBFloat16));
+  };
+  auto h = torch::relu(linear(layer1_, x.to(torch::kBFloat16)));
+  h = torch::relu(linear(layer2_, h));
+  return gate * linear(layer3_, h).to(torch::kFloat);
 }
 
 OffsetDecodersImpl::OffsetDecodersImpl(int64_t descriptor_dim, int64_t embedding_dim,
-                                       int64_t hidden) {
+                                       int64_t hidden, bool bf16) {
   geometry = register_module(
-      "geometry", GatedMlp(descriptor_dim + embedding_dim + kTransformDim, hidden, 3 + kSpdRaw));
+      "geometry",
+      GatedMlp(descriptor_dim + embedding_dim + kTransformDim, hidden, 3 + kSpdRaw, bf16));
   appearance = register_module(
-      "appearance", GatedMlp(descriptor_dim + embedding_dim + kTransformDim, hidden, 3));
+      "appearance", GatedMlp(descriptor_dim + embedding_dim + kTransformDim, hidden, 3, bf16));
   fusion = register_module("fusion", GatedMlp(descriptor_dim + 2 * embedding_dim + kTransformDim,
-                                              hidden, 3 + kSpdRaw + 3));
+                                              hidden, 3 + kSpdRaw + 3, bf16));
 }
 
 torch::Tensor spd_from_raw(const torch::Tensor& raw) {

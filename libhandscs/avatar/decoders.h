@@ -10,15 +10,17 @@
 
 namespace handscs {
 
-// One gated MLP: gate * L3(relu(L2(relu(L1(x))))).
+// One gated MLP: gate * L3(relu(L2(relu(L1(x))))). With bf16 set, a float input runs its matmuls
+// in bfloat16 (float accumulation) and returns float; other dtypes are computed as they come.
 class GatedMlpImpl : public torch::nn::Module {
  public:
-  GatedMlpImpl(int64_t inputs, int64_t hidden, int64_t outputs);
+  GatedMlpImpl(int64_t inputs, int64_t hidden, int64_t outputs, bool bf16 = false);
   torch::Tensor forward(const torch::Tensor& x);  // [N, inputs] -> [N, outputs]
   torch::Tensor gate;                             // [1], starts at 0
 
  private:
   torch::nn::Linear layer1_{nullptr}, layer2_{nullptr}, layer3_{nullptr};
+  bool bf16_;
 };
 TORCH_MODULE(GatedMlp);
 
@@ -33,8 +35,9 @@ struct DecodedOffsets {
 
 class OffsetDecodersImpl : public torch::nn::Module {
  public:
-  // descriptor_dim = |P| (0 without SCS), embedding_dim = d (0 without embeddings).
-  OffsetDecodersImpl(int64_t descriptor_dim, int64_t embedding_dim, int64_t hidden);
+  // descriptor_dim = |P| (0 without SCS), embedding_dim = d (0 without embeddings), bf16 as in
+  // GatedMlp.
+  OffsetDecodersImpl(int64_t descriptor_dim, int64_t embedding_dim, int64_t hidden, bool bf16);
 
   // descriptor [N, |P|] (may be empty), e_g, e_a [N, d], transforms [N, 12] = vec of the 3x4 T.
   DecodedOffsets forward(const torch::Tensor& descriptor, const torch::Tensor& embed_geometry,

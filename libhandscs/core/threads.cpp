@@ -54,4 +54,8 @@ std::string blas_in_use() {
   return "unknown";
 }
 
+bool has_native_bf16_matmul() {
+  return __builtin_cpu_supports("avx512bf16") && at::hasMKLDNN();
+}
+
 }  // namespace handscs
