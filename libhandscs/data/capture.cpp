@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -166,6 +167,24 @@ std::string capture_rig_source(const CaptureConfig& config) {
                                                             : config.rig;
 }
 
+void choose_novel_view_cameras(const std::set<std::string>& available, int train_views,
+                               int test_views, std::set<std::string>& train,
+                               std::set<std::string>& test) {
+  const std::vector<std::string> ids(available.begin(), available.end());
+  if (ids.size() < 2)
+    throw Error("capture: split_rule novel_view needs at least 2 cameras, the capture has " +
+                std::to_string(ids.size()));
+  const int wanted = train_views + test_views;
+  const int n = std::min<int>(wanted, static_cast<int>(ids.size()));
+  const int n_test =
+      std::clamp(static_cast<int>(std::lround(double(n) * test_views / wanted)), 1, n - 1);
+  for (int k = 0; k < n; ++k) {
+    const std::string& id = ids[static_cast<size_t>(k) * ids.size() / static_cast<size_t>(n)];
+    const bool to_test = (k + 1) * n_test / n > k * n_test / n;
+    (to_test ? test : train).insert(id);
+  }
+}
+
 Capture::Capture(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 Capture::Capture(Capture&&) noexcept = default;
 Capture& Capture::operator=(Capture&&) noexcept = default;
@@ -175,8 +194,9 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   auto impl = std::make_unique<Impl>(static_cast<size_t>(config.cache.budget_mb) << 20);
   impl->config = config;
   const CaptureConfig& c = impl->config;
-  require(c.split_rule != "novel_view" || !c.test_cameras.empty(),
-          "capture.test_cameras: split_rule novel_view needs a list of test cameras");
+  require(c.split_rule != "novel_view" || !c.test_cameras.empty() || c.train_cameras.empty(),
+          "capture.test_cameras: split_rule novel_view with train_cameras needs a list of test "
+          "cameras");
   impl->layout = resolve_capture_layout(c.root, c.split);
   const CaptureLayout& layout = impl->layout;
 
@@ -214,6 +234,9 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   std::set<std::string> train_cams(c.train_cameras.begin(), c.train_cameras.end());
   std::set<std::string> test_cams(c.test_cameras.begin(), c.test_cameras.end());
   if (c.split_rule == "novel_view") {
+    if (train_cams.empty() && test_cams.empty())
+      choose_novel_view_cameras(data_cameras, c.novel_view_train_views, c.novel_view_test_views,
+                                train_cams, test_cams);
     if (train_cams.empty())
       for (const auto& id : data_cameras)
         if (!test_cams.count(id)) train_cams.insert(id);

@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <memory>
 #include <opencv2/core/mat.hpp>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -74,6 +75,13 @@ struct SkippedImage {
 // The rig source the capture poses for its masks (and the trainer should load): config.rig, with
 // "builtin" meaning "builtin:left" for a left hand.
 std::string capture_rig_source(const CaptureConfig& config);
+
+// novel_view camera choice when the config names none: n = min(train + test, available) cameras
+// evenly spaced over the sorted ids; test views are spread among them in proportion (Bresenham),
+// so each test view sits between training views. Each side gets at least one camera.
+void choose_novel_view_cameras(const std::set<std::string>& available, int train_views,
+                               int test_views, std::set<std::string>& train,
+                               std::set<std::string>& test);
 
 class Capture {
  public:

@@ -40,6 +40,11 @@ struct CaptureConfig {
   bool skip_black_images = true;           // skip frames whose image is black (camera dropout)
   std::string split_rule = "novel_pose";   // novel_pose: last held_out_poses poses are the test set
   int held_out_poses = 50;                 // poses held out by novel_pose (the paper: 50)
+  // novel_view without camera lists: this many cameras, evenly spaced over the sorted ids, test
+  // views interleaved between training views (the paper: 10 train, 15 test; its exact ids are in a
+  // supplement we do not have). Counted before monochrome cameras are dropped.
+  int novel_view_train_views = 10;
+  int novel_view_test_views = 15;
   std::string rig = "builtin";             // rig source for the masks: "builtin" or a rig file
   bool flat_hand_mean = false;  // false: annotated poses are relative to hands_mean (InterHand)
   int roi_margin = 16;          // pixels added around the mask's bounding box
@@ -57,13 +62,18 @@ struct CaptureConfig {
             "also use frames whose hand_type is interacting (the other hand is in view)");
     v.field("train_cameras", train_cameras, "training camera ids (empty = all)");
     v.field("test_cameras", test_cameras,
-            "test camera ids (novel_pose: empty = as train_cameras; novel_view: required)");
+            "test camera ids (novel_pose: empty = as train_cameras; novel_view: empty = chosen "
+            "with train_cameras by novel_view_*_views)");
     v.field("frame_stride", frame_stride, "keep every k-th pose by frame index", 1, 1000000);
     v.field("drop_monochrome", drop_monochrome, "drop monochrome (R=G=B) cameras");
     v.field("skip_black_images", skip_black_images, "skip black (dropped-out) images");
     v.choice("split_rule", split_rule, {"novel_pose", "novel_view"},
              "novel_pose: hold out the last poses; novel_view: train vs test cameras");
     v.field("held_out_poses", held_out_poses, "poses held out by novel_pose", 1, 1000000);
+    v.field("novel_view_train_views", novel_view_train_views,
+            "novel_view without camera lists: number of training cameras chosen", 1, 100000);
+    v.field("novel_view_test_views", novel_view_test_views,
+            "novel_view without camera lists: number of test cameras chosen", 1, 100000);
     v.field("rig", rig, "rig for the masks: builtin or a rig file (hand must match)");
     v.field("flat_hand_mean", flat_hand_mean,
             "poses are absolute (true) or relative to hands_mean");

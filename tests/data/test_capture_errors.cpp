@@ -147,8 +147,10 @@ TEST_CASE("capture errors: bad configuration values name the key") {
 
   config = data_test::tiny_config(root);
   config.split_rule = "novel_view";
+  config.train_cameras = {"400002"};
   CHECK(error_of([&] { Capture::open(config); }) ==
-        "capture.test_cameras: split_rule novel_view needs a list of test cameras");
+        "capture.test_cameras: split_rule novel_view with train_cameras needs a list of test "
+        "cameras");
   config.test_cameras = {"400002"};
   config.train_cameras = {"400002", "400004"};
   CHECK(error_of([&] { Capture::open(config); }) ==

@@ -1,7 +1,9 @@
 // Round trip: synthesise the tiny capture in the InterHand2.6M layout, read it back with the real
 // reader, and check counts, splits, cameras, MANO parameters, masks against the synthetic
 // renderer's own coverage, joint projections, ROI crops, the disk mask cache and the LRU cache.
+#include <algorithm>
 #include <filesystem>
+#include <set>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -192,6 +194,17 @@ TEST_CASE("capture roundtrip: novel_view split, sequences and frame stride") {
   for (const auto& f : view.test()) CHECK(f.camera_id == ids[3]);
   for (const auto& f : view.train()) CHECK(f.camera_id != ids[3]);
 
+  // No camera lists: 4 cameras, 10:15 asked -> 2 train, 2 test, alternating by sorted id.
+  config.test_cameras.clear();
+  Capture chosen = Capture::open(config);
+  std::set<std::string> train_ids, test_ids;
+  for (const auto& f : chosen.train()) train_ids.insert(f.camera_id);
+  for (const auto& f : chosen.test()) test_ids.insert(f.camera_id);
+  std::vector<std::string> sorted(ids.begin(), ids.end());
+  std::sort(sorted.begin(), sorted.end());
+  CHECK(train_ids == std::set<std::string>{sorted[0], sorted[2]});
+  CHECK(test_ids == std::set<std::string>{sorted[1], sorted[3]});
+
   config = data_test::tiny_config(tiny.root);
   config.frame_stride = 2;
   config.held_out_poses = 2;
@@ -206,6 +219,31 @@ TEST_CASE("capture roundtrip: novel_view split, sequences and frame stride") {
   config = data_test::tiny_config(tiny.root);
   config.sequences = {"0000_synth_rom"};
   CHECK(Capture::open(config).frames().size() == 48);
+}
+
+TEST_CASE("capture roundtrip: novel_view cameras chosen like the paper's 10 train / 15 test") {
+  std::set<std::string> available;
+  for (int k = 0; k < 40; ++k) available.insert(std::to_string(400002 + 2 * k));
+  std::set<std::string> train, test;
+  choose_novel_view_cameras(available, 10, 15, train, test);
+  CHECK(train.size() == 10);
+  CHECK(test.size() == 15);
+  for (const auto& id : test) CHECK(!train.count(id));
+  // Interleaved: between two consecutive training ids (sorted) there is at least one test id.
+  const std::vector<std::string> t(train.begin(), train.end());
+  for (size_t k = 0; k + 1 < t.size(); ++k) {
+    auto next = test.upper_bound(t[k]);
+    CHECK((next != test.end() && *next < t[k + 1]));
+  }
+  train.clear();
+  test.clear();
+  choose_novel_view_cameras({"a", "b", "c"}, 10, 15, train, test);
+  CHECK(train.size() + test.size() == 3);
+  CHECK(!train.empty());
+  CHECK(!test.empty());
+  train.clear();
+  CHECK_THROWS_WITH(choose_novel_view_cameras({"a"}, 10, 15, train, test),
+                    "capture: split_rule novel_view needs at least 2 cameras, the capture has 1");
 }
 
 TEST_CASE("capture roundtrip: masks are cached on disk and read back") {

@@ -41,6 +41,41 @@ TEST_CASE("configs: every shipped config loads and validates") {
   CHECK(count >= 2);
 }
 
+TEST_CASE("configs: the paper's InterHand2.6M protocol configs resolve to their capture and split") {
+  struct Expected {
+    const char* file;
+    const char* split;
+    int capture;
+    const char* rule;
+  };
+  // Paper tables: novel pose on five subjects, novel view on the first three.
+  const Expected expected[] = {
+      {"test_capture0_novel_pose", "test", 0, "novel_pose"},
+      {"test_capture1_novel_pose", "test", 1, "novel_pose"},
+      {"val_capture0_novel_pose", "val", 0, "novel_pose"},
+      {"train_capture5_novel_pose", "train", 5, "novel_pose"},
+      {"train_capture6_novel_pose", "train", 6, "novel_pose"},
+      {"test_capture0_novel_view", "test", 0, "novel_view"},
+      {"test_capture1_novel_view", "test", 1, "novel_view"},
+      {"val_capture0_novel_view", "val", 0, "novel_view"},
+  };
+  for (const auto& e : expected) {
+    INFO(e.file);
+    const std::string path = kSource + "/configs/interhand/" + e.file + ".json";
+    const auto config = handscs::load_config<handscs::RunConfig>(path, {"data.root=/data/ih26m"});
+    handscs::validate_run_config(config, path);
+    CHECK(config.data.split == e.split);
+    CHECK(config.data.capture == e.capture);
+    CHECK(config.data.split_rule == e.rule);
+    CHECK(config.data.hand == "right");
+    CHECK(config.data.held_out_poses == 50);
+    CHECK(config.data.test_cameras.empty());  // novel_view: 10 train / 15 test chosen by id
+    CHECK(config.data.novel_view_train_views == 10);
+    CHECK(config.data.novel_view_test_views == 15);
+    CHECK_FALSE(config.data.include_interacting);
+  }
+}
+
 TEST_CASE("configs: cross-section mismatches are errors naming both keys") {
   handscs::RunConfig config;
   config.model.rig = "builtin:left";
