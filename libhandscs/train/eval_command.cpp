@@ -24,7 +24,7 @@ void add_model_eval_options(CLI::App& app, ModelEvalCommandLine& cli) {
       ->check(CLI::IsMember({"test", "train"}));
   group->add_flag("--side-by-side", cli.side_by_side,
                   "also write prediction | ground truth | error heat map PNGs");
-  group->add_option("--max-images", cli.max_images, "score at most this many frames (0 = all)");
+  group->add_option("--max-images", cli.max_images, "score at most this many frames, evenly spaced over the split (0 = all)");
   group->add_option("--label", cli.label, "column label of table.md (default split/CaptureN)");
 }
 

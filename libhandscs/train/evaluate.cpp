@@ -88,8 +88,13 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, const ModelEvalOptio
 
   std::vector<FrameInfo> frames = options.split == "train" ? capture.train() : capture.test();
   require(!frames.empty(), "evaluation: the capture has no " + options.split + " frames");
-  if (options.max_images > 0 && static_cast<int64_t>(frames.size()) > options.max_images)
-    frames.resize(options.max_images);
+  if (options.max_images > 0 && static_cast<int64_t>(frames.size()) > options.max_images) {
+    // Evenly spaced over the split, so a subset still covers every pose range and camera.
+    std::vector<FrameInfo> subset;
+    const size_t total = frames.size(), wanted = static_cast<size_t>(options.max_images);
+    for (size_t k = 0; k < wanted; ++k) subset.push_back(frames[k * total / wanted]);
+    frames = std::move(subset);
+  }
 
   ModelEvalResult result;
   result.report.mode = "model";

@@ -15,7 +15,7 @@ struct ModelEvalOptions {
   std::string out_dir;         // per_image.csv, summary.json, table.md, side_by_side/
   std::string split = "test";  // "test" (held out) or "train"
   bool side_by_side = false;   // write prediction | ground truth | error heat map PNGs
-  int64_t max_images = 0;      // 0 = all
+  int64_t max_images = 0;      // 0 = all; else this many, evenly spaced over the split
   std::string label;           // column-group label of table.md (default "<split>/Capture<c>")
 };
 

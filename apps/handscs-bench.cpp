@@ -1,0 +1,50 @@
+// handscs-bench: the speed-accuracy sweep (docs/BENCHMARKS.md). Trains and scores every point of a
+// sweep file at every budget, times the rasterizer over N, and writes results.csv, raster.csv,
+// summary.md and the plots; a second call resumes where the first stopped.
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+
+#include "core/error.h"
+#include "sweep/subprocess.h"
+#include "sweep/sweep_config.h"
+#include "sweep/sweep_runner.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "handscs-bench: run time against error. Trains and evaluates each point of a sweep file at\n"
+      "each training budget (handscs-train, handscs-eval as child processes: wall time, ms/step,\n"
+      "peak memory, Gaussians, novel-pose PSNR/SSIM/LPIPS), times the rasterizer over N, and\n"
+      "writes OUT/results.csv, OUT/raster.csv, OUT/summary.md and OUT/*.png. Rerunning with the\n"
+      "same OUT resumes: finished rows are kept."};
+  std::string sweep_path, lpips;
+  handscs::SweepOptions options;
+  bool plots_only = false;
+  app.add_option("--sweep", sweep_path, "sweep file, e.g. configs/bench/quick.json")
+      ->check(CLI::ExistingFile);
+  app.add_option("--out", options.out_dir, "results folder (resumed if it holds results)")
+      ->required();
+  app.add_option("--capture", options.capture,
+                 "capture root (default: OUT/capture, synthesised from the sweep's preset)");
+  app.add_option("--lpips-weights", options.lpips_weights,
+                 "LPIPS weights (loss and metric); without them LPIPS is neither trained nor "
+                 "reported");
+  app.add_flag("--keep-runs", options.keep_runs, "keep each run's checkpoints after scoring");
+  app.add_flag("--plots-only", plots_only, "redraw plots and summary.md from OUT's CSVs");
+  CLI11_PARSE(app, argc, argv);
+  try {
+    if (plots_only) {
+      handscs::draw_sweep_plots(options.out_dir);
+      return 0;
+    }
+    if (sweep_path.empty()) throw handscs::Error("--sweep is required (or --plots-only)");
+    options.bin_dir = handscs::executable_dir();
+    handscs::run_sweep(handscs::load_sweep_config(sweep_path), options);
+    spdlog::info("handscs-bench: results in {}/results.csv, plots {}/*.png, table {}/summary.md",
+                 options.out_dir, options.out_dir, options.out_dir);
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,368 @@
+#include "sweep/sweep_runner.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/progress.h"
+#include "sweep/csv_table.h"
+#include "sweep/pareto.h"
+#include "sweep/plot.h"
+#include "sweep/subprocess.h"
+
+namespace handscs {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::vector<std::string> kResultColumns = {
+    "point",     "budget",      "threads",  "settings",     "status",      "train_wall_s",
+    "loop_s",    "ms_per_step", "peak_rss_mb", "gaussians", "skipped_steps", "rollbacks",
+    "eval_images", "psnr",      "ssim",     "lpips",        "eval_wall_s", "render_fps",
+    "data_ms",   "forward_ms",  "losses_ms", "backward_ms", "optimizer_ms"};
+// Step stages logged by the trainer (metrics.csv), reported as medians over the run's second half.
+const std::vector<std::string> kStageColumns = {"data_ms", "forward_ms", "losses_ms",
+                                                "backward_ms", "optimizer_ms"};
+const std::vector<std::string> kRasterColumns = {"gaussians", "threads", "forward_ms",
+                                                 "backward_ms", "total_ms", "load_average"};
+
+std::string fixed(double x, int digits) {
+  if (!std::isfinite(x)) return "";
+  std::ostringstream out;
+  out.precision(digits);
+  out << std::fixed << x;
+  return out.str();
+}
+
+double number(const std::string& cell) {
+  if (cell.empty()) return std::nan("");
+  try {
+    return std::stod(cell);
+  } catch (const std::exception&) {
+    return std::nan("");
+  }
+}
+
+std::string join(const std::vector<std::string>& items, const std::string& sep) {
+  std::string out;
+  for (size_t i = 0; i < items.size(); ++i) out += (i ? sep : "") + items[i];
+  return out;
+}
+
+CsvTable load_or_start(const std::string& path, const std::vector<std::string>& columns) {
+  if (!fs::exists(path)) return CsvTable{columns, {}};
+  CsvTable table = read_csv(path);
+  if (table.header != columns)
+    throw Error(path + ": columns differ from this version's (" + join(columns, ",") +
+                "); move the file away to start a new sweep");
+  return table;
+}
+
+// Last data row of a run's metrics.csv by column name, plus "<stage>_median" for each step stage
+// over the rows of the second half (after start-up and, usually, densification).
+std::map<std::string, double> summarise_metrics(const std::string& path) {
+  const CsvTable metrics = read_csv(path);
+  if (metrics.rows.empty()) throw Error(path + ": no rows");
+  std::map<std::string, double> row;
+  for (size_t c = 0; c < metrics.header.size(); ++c)
+    row[metrics.header[c]] = number(metrics.rows.back()[c]);
+  const double half = row["iteration"] / 2;
+  for (const auto& stage : kStageColumns) {
+    if (metrics.column(stage) < 0) continue;
+    std::vector<double> values;
+    for (size_t r = 0; r < metrics.rows.size(); ++r)
+      if (number(metrics.at(r, "iteration")) > half) values.push_back(number(metrics.at(r, stage)));
+    if (values.empty()) continue;
+    std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+    row[stage + "_median"] = values[values.size() / 2];
+  }
+  return row;
+}
+
+double json_number(const nlohmann::json& object, const char* key) {
+  auto it = object.find(key);
+  return it != object.end() && it->is_number() ? it->get<double>() : std::nan("");
+}
+
+std::string tail_of(const std::string& log_path) {
+  std::ifstream in(log_path);
+  std::string line, last;
+  while (std::getline(in, line))
+    if (!line.empty()) last = line;
+  return last;
+}
+
+// One (point, budget): train, then score. Returns the CSV row (status "ok" or what failed).
+std::vector<std::string> run_point(const SweepConfig& config, const SweepOptions& options,
+                                   const std::string& capture, const SweepPoint& point,
+                                   int budget) {
+  const int threads = point.threads > 0 ? point.threads : config.threads;
+  const std::string run = (fs::path(options.out_dir) / "runs" /
+                           (point.name + "_" + std::to_string(budget))).string();
+  fs::remove_all(run);  // a run stopped half-way is started again, not resumed
+  ensure_directory(run);
+  std::vector<std::string> train = {
+      options.bin_dir + "/handscs-train", "--config", config.run_config, "--out", run,
+      "--threads", std::to_string(threads), "--set", "data.root=" + capture,
+      "--set", "train.iterations=" + std::to_string(budget),
+      "--set", "train.checkpoint_every=" + std::to_string(budget)};
+  if (!options.lpips_weights.empty())
+    train.insert(train.end(), {"--set", "eval.lpips.weights=" + options.lpips_weights});
+  for (const auto& s : point.set) train.insert(train.end(), {"--set", s});
+
+  std::map<std::string, std::string> cells;
+  cells["point"] = point.name;
+  cells["budget"] = std::to_string(budget);
+  cells["threads"] = std::to_string(threads);
+  cells["settings"] = point.set.empty() ? "(run config)" : join(point.set, " ");
+  auto finish = [&](const std::string& status) {
+    cells["status"] = status;
+    std::vector<std::string> row;
+    for (const auto& c : kResultColumns) row.push_back(cells.count(c) ? cells[c] : "");
+    return row;
+  };
+
+  const ProcessResult trained = run_process(train, run + "/train.log");
+  cells["train_wall_s"] = fixed(trained.wall_seconds, 1);
+  cells["peak_rss_mb"] = fixed(trained.peak_rss_mb, 0);
+  if (trained.exit_code != 0) {
+    spdlog::error("sweep {}@{}: handscs-train exited with {}: {}", point.name, budget,
+                  trained.exit_code, tail_of(run + "/train.log"));
+    return finish("train failed (" + std::to_string(trained.exit_code) + ")");
+  }
+  auto last = summarise_metrics(run + "/metrics.csv");
+  for (const auto& stage : kStageColumns)
+    if (last.count(stage + "_median")) cells[stage] = fixed(last[stage + "_median"], 2);
+  cells["loop_s"] = fixed(last["seconds"], 1);
+  cells["ms_per_step"] = fixed(1000.0 * last["seconds"] / std::max(1.0, last["iteration"]), 1);
+  cells["gaussians"] = fixed(last["gaussians"], 0);
+  cells["skipped_steps"] = fixed(last["skipped"], 0);
+  cells["rollbacks"] = fixed(last["rollbacks"], 0);
+
+  const std::string eval_dir = run + "/eval";
+  std::vector<std::string> eval = {options.bin_dir + "/handscs-eval", "--checkpoint", run,
+                                   "--out", eval_dir, "--threads", std::to_string(threads),
+                                   "--max-images", std::to_string(config.eval_images)};
+  const ProcessResult scored = run_process(eval, run + "/eval.log");
+  cells["eval_wall_s"] = fixed(scored.wall_seconds, 1);
+  if (scored.exit_code != 0) {
+    spdlog::error("sweep {}@{}: handscs-eval exited with {}: {}", point.name, budget,
+                  scored.exit_code, tail_of(run + "/eval.log"));
+    return finish("eval failed (" + std::to_string(scored.exit_code) + ")");
+  }
+  const auto summary = nlohmann::json::parse(read_file(eval_dir + "/summary.json"));
+  const auto& s = summary.at("summary");
+  cells["eval_images"] = fixed(json_number(s, "scored"), 0);
+  cells["psnr"] = fixed(json_number(s, "psnr"), 3);
+  cells["ssim"] = fixed(json_number(s, "ssim"), 4);
+  cells["lpips"] = fixed(json_number(s, "lpips"), 4);
+  if (auto it = summary.find("rendering"); it != summary.end() && it->is_object())
+    cells["render_fps"] = fixed(json_number(*it, "fps"), 1);
+  if (!options.keep_runs) fs::remove_all(run + "/checkpoints");
+  return finish("ok");
+}
+
+void run_raster_grid(const SweepConfig& config, const SweepOptions& options) {
+  if (config.raster.gaussians.empty()) return;
+  const std::string path = options.out_dir + "/raster.csv";
+  CsvTable table = load_or_start(path, kRasterColumns);
+  ProgressBar bar("raster", static_cast<int64_t>(config.raster.gaussians.size() *
+                                                 config.raster.threads.size()));
+  int64_t done = 0;
+  for (int threads : config.raster.threads) {
+    for (int n : config.raster.gaussians) {
+      bool have = false;
+      for (size_t r = 0; r < table.rows.size(); ++r)
+        have |= table.at(r, "gaussians") == std::to_string(n) &&
+                table.at(r, "threads") == std::to_string(threads);
+      if (!have) {
+        const std::string log = options.out_dir + "/logs/raster_" + std::to_string(n) + "_" +
+                                std::to_string(threads) + ".json";
+        const ProcessResult timed = run_process(
+            {options.bin_dir + "/handscs-bench-raster", "--gaussians", std::to_string(n),
+             "--threads", std::to_string(threads), "--repeats", std::to_string(config.raster.repeats),
+             "--json"},
+            log);
+        if (timed.exit_code != 0) throw Error(log + ": handscs-bench-raster failed");
+        const auto result = nlohmann::json::parse(tail_of(log));
+        table.rows.push_back({std::to_string(n), std::to_string(threads),
+                              fixed(json_number(result, "forward_ms_median"), 3),
+                              fixed(json_number(result, "backward_ms_median"), 3),
+                              fixed(json_number(result, "total_ms_median"), 3),
+                              fixed(json_number(result, "load_average_1min"), 2)});
+        write_csv_atomic(path, table);
+      }
+      bar.update(++done, std::to_string(n) + " Gaussians, " + std::to_string(threads) + "T");
+    }
+  }
+  bar.finish();
+}
+
+}  // namespace
+
+void run_sweep(const SweepConfig& config, const SweepOptions& options) {
+  ensure_directory(options.out_dir);
+  ensure_directory(options.out_dir + "/logs");
+  std::string capture = options.capture;
+  if (capture.empty()) {
+    capture = fs::absolute(fs::path(options.out_dir) / "capture").string();
+    if (!fs::exists(capture + "/annotations")) {
+      spdlog::info("sweep: synthesising the `{}` capture into {}", config.capture_preset, capture);
+      const auto made = run_process({options.bin_dir + "/handscs-synth", "--preset",
+                                     config.capture_preset, "--out", capture},
+                                    options.out_dir + "/logs/synth.log");
+      if (made.exit_code != 0)
+        throw Error(options.out_dir + "/logs/synth.log: handscs-synth failed (exit " +
+                    std::to_string(made.exit_code) + ")");
+    }
+  }
+
+  const std::string results_path = options.out_dir + "/results.csv";
+  CsvTable results = load_or_start(results_path, kResultColumns);
+  std::vector<std::pair<const SweepPoint*, int>> todo;
+  int64_t total = 0;
+  for (const auto& point : config.points) {
+    for (int budget : point.budgets.empty() ? config.budgets : point.budgets) {
+      ++total;
+      bool have = false;
+      for (size_t r = 0; r < results.rows.size(); ++r)
+        have |= results.at(r, "point") == point.name &&
+                results.at(r, "budget") == std::to_string(budget) &&
+                results.at(r, "status") == "ok";
+      if (!have) todo.push_back({&point, budget});
+    }
+  }
+  spdlog::info("sweep: {} runs, {} already in {}, {} to go", total, total - todo.size(),
+               results_path, todo.size());
+  ProgressBar bar("sweep", total);
+  int64_t done = total - static_cast<int64_t>(todo.size());
+  bar.update(done);
+  for (const auto& [point, budget] : todo) {
+    auto row = run_point(config, options, capture, *point, budget);
+    // A failed earlier attempt of the same run is replaced, not duplicated.
+    auto& rows = results.rows;
+    rows.erase(std::remove_if(rows.begin(), rows.end(),
+                              [&](const std::vector<std::string>& r) {
+                                return r[0] == point->name && r[1] == std::to_string(budget);
+                              }),
+               rows.end());
+    rows.push_back(row);
+    write_csv_atomic(results_path, results);
+    bar.update(++done, point->name + "@" + std::to_string(budget) + " psnr " + row[13]);
+  }
+  bar.finish();
+  run_raster_grid(config, options);
+  draw_sweep_plots(options.out_dir);
+}
+
+void draw_sweep_plots(const std::string& out_dir) {
+  const std::string results_path = out_dir + "/results.csv";
+  std::ostringstream md;
+  if (fs::exists(results_path)) {
+    const CsvTable results = read_csv(results_path);
+    // One curve per point: quality against training wall time over its budgets.
+    std::map<std::string, std::vector<size_t>> by_point;
+    std::vector<std::string> order;
+    for (size_t r = 0; r < results.rows.size(); ++r) {
+      if (results.at(r, "status") != "ok") continue;
+      const auto& name = results.at(r, "point");
+      if (!by_point.count(name)) order.push_back(name);
+      by_point[name].push_back(r);
+    }
+    for (const auto& [metric, maximize] :
+         std::vector<std::pair<std::string, bool>>{{"psnr", true}, {"lpips", false}}) {
+      std::vector<PlotSeries> series;
+      std::vector<double> all_x, all_y;
+      for (const auto& name : order) {
+        auto rows = by_point[name];
+        std::sort(rows.begin(), rows.end(), [&](size_t a, size_t b) {
+          return number(results.at(a, "budget")) < number(results.at(b, "budget"));
+        });
+        PlotSeries s;
+        s.label = name;
+        for (size_t r : rows) {
+          s.x.push_back(number(results.at(r, "train_wall_s")) / 60.0);
+          s.y.push_back(number(results.at(r, metric)));
+          all_x.push_back(s.x.back());
+          all_y.push_back(s.y.back());
+        }
+        series.push_back(s);
+      }
+      PlotSeries front;
+      front.label = "Pareto front";
+      front.dashed = true;
+      front.markers = false;
+      for (size_t i : pareto_front(all_x, all_y, maximize)) {
+        front.x.push_back(all_x[i]);
+        front.y.push_back(all_y[i]);
+      }
+      if (!front.x.empty()) series.push_back(front);
+      PlotSpec spec;
+      spec.title = std::string("Novel-pose ") + (maximize ? "PSNR" : "LPIPS") +
+                   " against training wall time";
+      spec.x_label = "training wall time (min)";
+      spec.y_label = maximize ? "PSNR (dB), higher is better" : "LPIPS-alex, lower is better";
+      spec.log_x = true;
+      write_plot_png(out_dir + "/" + metric + "_vs_time.png", series, spec);
+    }
+    md << "| point | budget | threads | wall s | ms/step | peak MB | N | skipped | PSNR | SSIM | "
+          "LPIPS | settings |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    for (size_t r = 0; r < results.rows.size(); ++r) {
+      md << "| " << results.at(r, "point") << " | " << results.at(r, "budget") << " | "
+         << results.at(r, "threads") << " | " << results.at(r, "train_wall_s") << " | "
+         << results.at(r, "ms_per_step") << " | " << results.at(r, "peak_rss_mb") << " | "
+         << results.at(r, "gaussians") << " | " << results.at(r, "skipped_steps") << " | "
+         << results.at(r, "psnr") << " | " << results.at(r, "ssim") << " | "
+         << results.at(r, "lpips") << " | "
+         << (results.at(r, "status") == "ok" ? results.at(r, "settings")
+                                             : results.at(r, "status"))
+         << " |\n";
+    }
+  }
+  const std::string raster_path = out_dir + "/raster.csv";
+  if (fs::exists(raster_path)) {
+    const CsvTable raster = read_csv(raster_path);
+    std::map<std::string, PlotSeries> by_threads;
+    for (size_t r = 0; r < raster.rows.size(); ++r) {
+      auto& s = by_threads[raster.at(r, "threads")];
+      s.label = raster.at(r, "threads") + (raster.at(r, "threads") == "1" ? " thread" : " threads");
+      s.x.push_back(number(raster.at(r, "gaussians")));
+      s.y.push_back(number(raster.at(r, "total_ms")));
+    }
+    std::vector<PlotSeries> series;
+    for (auto& [threads, s] : by_threads) {
+      std::vector<size_t> idx(s.x.size());
+      for (size_t i = 0; i < idx.size(); ++i) idx[i] = i;
+      std::sort(idx.begin(), idx.end(), [&](size_t a, size_t b) { return s.x[a] < s.x[b]; });
+      PlotSeries sorted = s;
+      for (size_t i = 0; i < idx.size(); ++i) {
+        sorted.x[i] = s.x[idx[i]];
+        sorted.y[i] = s.y[idx[i]];
+      }
+      series.push_back(sorted);
+    }
+    PlotSpec spec;
+    spec.title = "Rasterizer forward + backward, 512x334";
+    spec.x_label = "Gaussians N";
+    spec.y_label = "ms (median)";
+    spec.log_x = spec.log_y = true;
+    write_plot_png(out_dir + "/raster_ms_vs_n.png", series, spec);
+    md << "\n| N | threads | forward ms | backward ms | total ms |\n|---|---|---|---|---|\n";
+    for (size_t r = 0; r < raster.rows.size(); ++r)
+      md << "| " << raster.at(r, "gaussians") << " | " << raster.at(r, "threads") << " | "
+         << raster.at(r, "forward_ms") << " | " << raster.at(r, "backward_ms") << " | "
+         << raster.at(r, "total_ms") << " |\n";
+  }
+  write_file_atomic(out_dir + "/summary.md", md.str());
+}
+
+}  // namespace handscs

@@ -1,0 +1,26 @@
+// Runs a speed-accuracy sweep: for every (point, budget) it trains with handscs-train, scores the
+// held-out poses with handscs-eval, and records wall time, ms per step, peak memory, Gaussian count
+// and PSNR/SSIM/LPIPS as one CSV row; then times the rasterizer alone over N and threads, and draws
+// the plots. Rows already in the CSV are kept, so a stopped sweep resumes where it stopped.
+#pragma once
+
+#include <string>
+
+#include "sweep/sweep_config.h"
+
+namespace handscs {
+
+struct SweepOptions {
+  std::string out_dir;        // results.csv, raster.csv, *.png, summary.md, runs/, logs/
+  std::string capture;        // capture root; empty = out_dir/capture, synthesised when missing
+  std::string bin_dir;        // folder of handscs-train, -eval, -synth, -bench-raster
+  std::string lpips_weights;  // LPIPS weights for the loss and the metric (empty = none)
+  bool keep_runs = false;     // keep each run's checkpoints (they are deleted once scored)
+};
+
+void run_sweep(const SweepConfig& config, const SweepOptions& options);
+
+// Redraws the plots and summary.md from the CSVs in out_dir (no training).
+void draw_sweep_plots(const std::string& out_dir);
+
+}  // namespace handscs
