@@ -186,7 +186,9 @@ torch::Tensor Trainer::consistency_loss(const AvatarState& state, const FrameInf
   torch::Tensor loss;
   if (prev_descriptor_.defined() && prev_descriptor_.size(0) == g.size()) {
     torch::Tensor match;
-    if (cc.search == "exact") {
+    const bool exact =
+        cc.search == "exact" || (cc.search == "auto" && g.size() <= cc.exact_max_gaussians);
+    if (exact) {
       match = correspond_exact(state.descriptor, prev_descriptor_);
     } else {
       if (!candidates_.defined() || candidates_.size(0) != g.size() ||

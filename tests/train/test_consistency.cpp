@@ -1,0 +1,107 @@
+// Inter-pose consistency pieces against plain-loop references: the pose feature and similarity,
+// the exact correspondence search, the canonical K-NN and the candidate search (which must return
+// the exact argmin whenever it is among the candidates, and equal the exact search at K = N).
+#include "catch_torch.h"
+
+#include <cmath>
+#include <limits>
+
+#include "avatar/avatar.h"
+#include "hand/lbs.h"
+#include "train/consistency.h"
+
+namespace {
+
+// argmin_j |q_i - r_j|^2 by plain loops in double.
+std::vector<int64_t> brute_argmin(const torch::Tensor& q, const torch::Tensor& r) {
+  const auto qa = q.to(torch::kFloat64).contiguous(), ra = r.to(torch::kFloat64).contiguous();
+  std::vector<int64_t> out;
+  for (int64_t i = 0; i < qa.size(0); ++i) {
+    double best = std::numeric_limits<double>::infinity();
+    int64_t arg = -1;
+    for (int64_t j = 0; j < ra.size(0); ++j) {
+      const double d = (qa[i] - ra[j]).pow(2).sum().item<double>();
+      if (d < best) best = d, arg = j;
+    }
+    out.push_back(arg);
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("consistency: pose feature is R - I of the finger joints, similarity is a Gaussian") {
+  auto pose = torch::zeros({48}, torch::kFloat64);
+  CHECK(handscs::pose_feature(pose).abs().max().item<double>() == 0.0);
+  pose[3 + 5] = 0.5;  // joint 2 (index 1 of the fingers), z rotation of 0.5 rad
+  const auto f = handscs::pose_feature(pose).view({15, 3, 3});
+  CHECK(f.size(0) == 15);
+  CHECK(f[1][0][0].item<double>() == Approx(std::cos(0.5) - 1.0).margin(1e-12));
+  CHECK(f[1][0][1].item<double>() == Approx(-std::sin(0.5)).margin(1e-12));
+  CHECK(f[0].abs().max().item<double>() == 0.0);
+  const auto zero = handscs::pose_feature(torch::zeros({48}, torch::kFloat64));
+  const double sq = (handscs::pose_feature(pose) - zero).pow(2).sum().item<double>();
+  CHECK(handscs::pose_similarity(handscs::pose_feature(pose), zero, 1.3) ==
+        Approx(std::exp(-sq / (2 * 1.3 * 1.3))).epsilon(1e-12));
+  CHECK(handscs::pose_similarity(zero, zero, 1.3) == 1.0);
+}
+
+TEST_CASE("consistency: exact search, K-NN and candidate search match plain loops") {
+  torch::manual_seed(3);
+  // 1500 rows: more than one block of the exact search (1024), so the blocking is exercised.
+  const auto reference = torch::randn({1500, 6});
+  const auto query = reference + 0.3 * torch::randn({1500, 6});
+  const auto exact = handscs::correspond_exact(query, reference);
+  const auto q_sub = query.slice(0, 0, 1500, 37), exact_sub = exact.slice(0, 0, 1500, 37);
+  const auto brute = brute_argmin(q_sub, reference);
+  for (size_t i = 0; i < brute.size(); ++i) CHECK(exact_sub[i].item<int64_t>() == brute[i]);
+
+  const auto points = torch::rand({300, 3});
+  const auto knn = handscs::nearest_neighbours(points, 8);
+  REQUIRE(knn.sizes() == torch::IntArrayRef({300, 8}));
+  const auto d_all = (points.unsqueeze(1) - points.unsqueeze(0)).pow(2).sum(2);  // [300, 300]
+  for (int64_t i = 0; i < 300; i += 29) {
+    CHECK(knn[i][0].item<int64_t>() == i);  // itself first
+    const auto sorted = std::get<0>(d_all[i].sort());
+    const auto got = d_all[i].index_select(0, knn[i]);
+    CHECK(torch::allclose(got, sorted.slice(0, 0, 8), 1e-6, 1e-7));
+  }
+
+  // Candidate search: at K = N it is the exact search; with a candidate set that contains the
+  // exact argmin it returns it; it never returns an index outside the set.
+  const auto small_q = query.slice(0, 0, 200), small_r = reference.slice(0, 0, 200);
+  const auto all = torch::arange(200, torch::kInt64).unsqueeze(0).expand({200, 200}).contiguous();
+  CHECK(torch::equal(handscs::correspond_candidates(small_q, small_r, all),
+                     handscs::correspond_exact(small_q, small_r)));
+  const auto truth = handscs::correspond_exact(small_q, small_r);
+  auto candidates = torch::randint(200, {200, 5}, torch::kInt64);
+  candidates.select(1, 2).copy_(truth);
+  CHECK(torch::equal(handscs::correspond_candidates(small_q, small_r, candidates), truth));
+  const auto without = torch::randint(200, {200, 4}, torch::kInt64);
+  const auto picked = handscs::correspond_candidates(small_q, small_r, without);
+  CHECK(torch::equal(picked, without.gather(1, (without == picked.unsqueeze(1)).to(torch::kInt64)
+                                                    .argmax(1, true)).squeeze(1)));
+}
+
+TEST_CASE("consistency: on the built-in hand's descriptors, candidates approach the exact argmin") {
+  // Two different poses of an untrained avatar: the K-NN sets are nested, so the agreement of the
+  // candidate search with the exact one can only grow with K (the trained-avatar figures are in
+  // docs/NOTES.md, measured with handscs-bench-consistency).
+  torch::NoGradGuard no_grad;
+  handscs::AvatarConfig config;
+  handscs::Avatar avatar(config, handscs::load_rig_source("builtin"));
+  torch::manual_seed(5);
+  const auto shape = torch::zeros({10}), trans = torch::zeros({3});
+  const auto a = avatar.pose(torch::randn({48}) * 0.3, shape, trans, true).descriptor;
+  const auto b = avatar.pose(torch::randn({48}) * 0.3, shape, trans, true).descriptor;
+  const auto exact = handscs::correspond_exact(a, b);
+  const auto& means = avatar.gaussians().means;
+  double previous = 0;
+  for (int64_t k : {8, 32, 128}) {
+    const auto match = handscs::correspond_candidates(a, b, handscs::nearest_neighbours(means, k));
+    const double agreement = match.eq(exact).to(torch::kFloat64).mean().item<double>();
+    INFO("K = " << k << ": agreement " << agreement);
+    CHECK(agreement >= previous);
+    previous = agreement;
+  }
+}
