@@ -2,7 +2,8 @@
 // Gaussian counts, split by stage (LBS, SCS = descriptor + virtual-bone generator, decoders,
 // rasterizer). Prints one JSON object. Usage:
 //   handscs-bench-model [--gaussians 778,5000,10000,20000] [--width 512] [--height 334]
-//                       [--threads 2] [--repeats 10]
+//                       [--threads 2] [--repeats 10] [--decoder-hidden 256]
+//                       [--decoder-precision auto|float|bf16]
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -64,6 +65,10 @@ int main(int argc, char** argv) {
   app.add_option("--height", height);
   app.add_option("--threads", threads);
   app.add_option("--repeats", repeats);
+  int decoder_hidden = 256;
+  std::string precision = "auto";
+  app.add_option("--decoder-hidden", decoder_hidden, "model.decoder_hidden (paper: 256)");
+  app.add_option("--decoder-precision", precision, "model.decoder_precision: auto, float, bf16");
   CLI11_PARSE(app, argc, argv);
   handscs::set_threads(threads);
   torch::manual_seed(0);
@@ -73,6 +78,8 @@ int main(int argc, char** argv) {
   result["height"] = height;
   result["threads"] = threads;
   result["repeats"] = repeats;
+  result["decoder_hidden"] = decoder_hidden;
+  result["decoder_precision"] = precision;
   result["blas"] = handscs::blas_in_use();
   const auto camera = capture_camera(width, height);
   const auto pose = torch::randn({48}) * 0.2;
@@ -84,6 +91,8 @@ int main(int argc, char** argv) {
   while (std::getline(list, item, ',')) {
     const int64_t n = std::stoll(item);
     handscs::AvatarConfig config;
+    config.decoder_hidden = decoder_hidden;
+    config.decoder_precision = precision;
     handscs::Avatar avatar(config, handscs::load_rig_source("builtin"));
     grow(avatar, n);
     {
