@@ -40,7 +40,7 @@ std::string error_of(const std::function<void()>& f) {
 }  // namespace
 
 TEST_CASE("sweep files: the shipped sweeps load, and a point's budgets and threads override") {
-  for (const char* name : {"quick.json", "full.json", "stability.json", "train_step.json"}) {
+  for (const char* name : {"quick.json", "full.json", "stability.json", "train_step.json", "ablation.json"}) {
     INFO(name);
     const auto c = handscs::load_sweep_config(kSource + "/configs/sweeps/" + name);
     CHECK(fs::exists(c.run_config));

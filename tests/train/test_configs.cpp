@@ -78,6 +78,27 @@ TEST_CASE("configs: the paper's InterHand2.6M protocol configs resolve to their 
   }
 }
 
+TEST_CASE("configs: every sweep point's overrides apply to its run config") {
+  // A typo in a sweep's --set would otherwise surface hours into a sweep as a failed run.
+  int count = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(kSource + "/configs/sweeps")) {
+    const auto sweep = handscs::load_json_file(entry.path().string());
+    const auto run_config =
+        (entry.path().parent_path() / sweep.at("run_config").get<std::string>()).string();
+    for (const auto& point : sweep.at("points")) {
+      INFO(entry.path().string() << ": " << point.at("name").get<std::string>());
+      std::vector<std::string> overrides = {"data.root=/data"};
+      if (point.contains("set"))
+        for (const auto& s : point.at("set")) overrides.push_back(s.get<std::string>());
+      handscs::RunConfig config;
+      CHECK_NOTHROW(config = handscs::load_config<handscs::RunConfig>(run_config, overrides));
+      CHECK_NOTHROW(handscs::validate_run_config(config, run_config));
+      ++count;
+    }
+  }
+  CHECK(count >= 10);
+}
+
 TEST_CASE("configs: cross-section mismatches are errors naming both keys") {
   handscs::RunConfig config;
   config.model.rig = "builtin:left";
