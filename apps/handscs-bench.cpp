@@ -29,6 +29,9 @@ int main(int argc, char** argv) {
   app.add_option("--lpips-weights", options.lpips_weights,
                  "LPIPS weights (loss and metric); without them LPIPS is neither trained nor "
                  "reported");
+  app.add_option("--points", options.only_points,
+                 "run only these points of the sweep (e.g. to run two in parallel into two OUTs)")
+      ->delimiter(',');
   app.add_flag("--keep-runs", options.keep_runs, "keep each run's checkpoints after scoring");
   app.add_flag("--plots-only", plots_only, "redraw plots and summary.md from OUT's CSVs");
   CLI11_PARSE(app, argc, argv);

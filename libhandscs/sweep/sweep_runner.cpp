@@ -113,8 +113,7 @@ std::vector<std::string> run_point(const SweepConfig& config, const SweepOptions
   std::vector<std::string> train = {
       options.bin_dir + "/handscs-train", "--config", config.run_config, "--out", run,
       "--threads", std::to_string(threads), "--set", "data.root=" + capture,
-      "--set", "train.iterations=" + std::to_string(budget),
-      "--set", "train.checkpoint_every=" + std::to_string(budget)};
+      "--set", "train.iterations=" + std::to_string(budget)};
   if (!options.lpips_weights.empty())
     train.insert(train.end(), {"--set", "eval.lpips.weights=" + options.lpips_weights});
   for (const auto& s : point.set) train.insert(train.end(), {"--set", s});
@@ -230,7 +229,16 @@ void run_sweep(const SweepConfig& config, const SweepOptions& options) {
   CsvTable results = load_or_start(results_path, kResultColumns);
   std::vector<std::pair<const SweepPoint*, int>> todo;
   int64_t total = 0;
+  for (const auto& name : options.only_points) {
+    bool known = false;
+    for (const auto& point : config.points) known |= point.name == name;
+    if (!known) throw Error(config.path + ": --points names \"" + name + "\", which is not a point");
+  }
   for (const auto& point : config.points) {
+    if (!options.only_points.empty() &&
+        std::find(options.only_points.begin(), options.only_points.end(), point.name) ==
+            options.only_points.end())
+      continue;
     for (int budget : point.budgets.empty() ? config.budgets : point.budgets) {
       ++total;
       bool have = false;

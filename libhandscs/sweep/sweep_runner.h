@@ -5,6 +5,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "sweep/sweep_config.h"
 
@@ -16,6 +17,7 @@ struct SweepOptions {
   std::string bin_dir;        // folder of handscs-train, -eval, -synth, -bench-raster
   std::string lpips_weights;  // LPIPS weights for the loss and the metric (empty = none)
   bool keep_runs = false;     // keep each run's checkpoints (they are deleted once scored)
+  std::vector<std::string> only_points;  // run only these points (empty = all)
 };
 
 void run_sweep(const SweepConfig& config, const SweepOptions& options);
