@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "core/config.h"
+#include "test_support.h"
 
 namespace {
 
@@ -46,21 +47,10 @@ struct RootConfig {
 };
 
 std::string temp_file(const std::string& name, const std::string& text) {
-  const auto dir = std::filesystem::temp_directory_path() / "handscs_test_config";
-  std::filesystem::create_directories(dir);
-  const auto path = (dir / name).string();
-  std::ofstream(path) << text;
-  return path;
+  return handscs_test::scratch_file("handscs_test_config", name, text);
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const handscs::Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using handscs_test::error_of;
 
 }  // namespace
 

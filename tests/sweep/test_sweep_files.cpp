@@ -10,6 +10,7 @@
 #include "sweep/csv_table.h"
 #include "sweep/subprocess.h"
 #include "sweep/sweep_config.h"
+#include "test_support.h"
 
 namespace {
 
@@ -17,25 +18,14 @@ namespace fs = std::filesystem;
 const std::string kSource = HANDSCS_SOURCE_DIR;
 
 std::string scratch(const std::string& name) {
-  const auto dir = fs::temp_directory_path() / "handscs_test_sweep";
-  fs::create_directories(dir);
-  return (dir / name).string();
+  return handscs_test::scratch_path("handscs_test_sweep", name);
 }
 
 std::string write(const std::string& name, const std::string& text) {
-  const std::string path = scratch(name);
-  std::ofstream(path) << text;
-  return path;
+  return handscs_test::scratch_file("handscs_test_sweep", name, text);
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const handscs::Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using handscs_test::error_of;
 
 }  // namespace
 
