@@ -9,7 +9,7 @@
 
 #include <unistd.h>
 
-#include "core/error.h"
+#include "test_support.h"
 
 namespace data_test {
 
@@ -49,14 +49,6 @@ inline std::string write_text(const std::string& path, const std::string& text) 
   return path;
 }
 
-// The message of the handscs::Error `f` throws, or "(no error)".
-inline std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const handscs::Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using handscs_test::error_of;
 
 }  // namespace data_test

@@ -17,6 +17,7 @@
 
 #include "core/atomic_file.h"
 #include "io/ply.h"
+#include "test_support.h"
 
 using namespace handscs;
 namespace fs = std::filesystem;
@@ -38,14 +39,7 @@ void write_bytes(const std::string& path, const std::string& bytes) {
   out << bytes;
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "";
-}
+using handscs_test::error_of;
 
 GaussianPly random_ply(int64_t n, int64_t rest) {
   torch::manual_seed(3);

@@ -24,8 +24,8 @@
 #endif
 #include <catch2/catch.hpp>
 
-#include "core/error.h"
 #include "metrics/image_tensor.h"
+#include "test_support.h"
 
 namespace metrics_test {
 
@@ -46,15 +46,7 @@ inline std::string temp_dir(const std::string& name) {
   return dir.string();
 }
 
-// The message of the handscs::Error `f` throws ("" if it throws none).
-inline std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const handscs::Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using handscs_test::error_of;
 
 struct GradCheck {
   double max_abs_error = 0;   // max |analytic - numeric| over the checked coordinates/directions

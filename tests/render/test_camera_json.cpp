@@ -9,20 +9,14 @@
 
 #include "core/atomic_file.h"
 #include "render/camera_json.h"
+#include "test_support.h"
 
 using namespace handscs;
 namespace fs = std::filesystem;
 
 namespace {
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "";
-}
+using handscs_test::error_of;
 
 Camera parse(const std::string& text) { return camera_from_json(json::parse(text), "cam.json"); }
 

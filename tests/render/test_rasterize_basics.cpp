@@ -12,6 +12,7 @@
 #include "render/composite.h"
 #include "render/simd_level.h"
 #include "render_test_util.h"
+#include "test_support.h"
 
 using namespace handscs;
 using namespace handscs::test;
@@ -31,14 +32,10 @@ torch::Tensor t64(std::vector<double> v, std::vector<int64_t> shape) {
   return torch::tensor(v, torch::kFloat64).view(shape);
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    const std::string m = e.what();
-    return m.substr(0, m.find('\n'));
-  }
-  return "";
+// First line of the error f throws: torch's checks append a C++ backtrace after it.
+std::string error_headline(const std::function<void()>& f) {
+  const std::string m = handscs_test::error_of(f);
+  return m.substr(0, m.find('\n'));
 }
 
 }  // namespace
@@ -214,7 +211,7 @@ TEST_CASE("covariance_from_scale_rotation builds R diag(s)^2 R^T and survives q 
   auto q = quats.clone().requires_grad_(true);
   covariance_from_scale_rotation(scales, q).sum().backward();
   CHECK(all_finite(q.grad()));
-  CHECK(error_of([&] { covariance_from_scale_rotation(scales, quats.narrow(1, 0, 3)); }) ==
+  CHECK(error_headline([&] { covariance_from_scale_rotation(scales, quats.narrow(1, 0, 3)); }) ==
         "covariance_from_scale_rotation: quats must be [2, 4], got [2, 3]");
 }
 
@@ -222,36 +219,36 @@ TEST_CASE("bad inputs are rejected with messages that name the argument and the 
   const Camera cam = plain_camera(8, 8, 10, 4, 4);
   const auto m = torch::zeros({2, 3}), c = torch::zeros({2, 6}), col = torch::zeros({2, 3}), o = torch::zeros({2});
   RasterSettings settings;
-  CHECK(error_of([&] { rasterize_gaussians(torch::zeros({2, 4}), c, col, o, cam, settings); }) ==
+  CHECK(error_headline([&] { rasterize_gaussians(torch::zeros({2, 4}), c, col, o, cam, settings); }) ==
         "rasterize_gaussians: means must be [N, 3], got [2, 4]");
-  CHECK(error_of([&] { rasterize_gaussians(m, torch::zeros({2, 9}), col, o, cam, settings); }) ==
+  CHECK(error_headline([&] { rasterize_gaussians(m, torch::zeros({2, 9}), col, o, cam, settings); }) ==
         "rasterize_gaussians: covariances must be [2, 6], got [2, 9]");
-  CHECK(error_of([&] { rasterize_gaussians(m, c, torch::zeros({3, 3}), o, cam, settings); }) ==
+  CHECK(error_headline([&] { rasterize_gaussians(m, c, torch::zeros({3, 3}), o, cam, settings); }) ==
         "rasterize_gaussians: colors must be [2, 3], got [3, 3]");
-  CHECK(error_of([&] { rasterize_gaussians(m, c, col, torch::zeros({2, 2}), cam, settings); }) ==
+  CHECK(error_headline([&] { rasterize_gaussians(m, c, col, torch::zeros({2, 2}), cam, settings); }) ==
         "rasterize_gaussians: opacities must be [2] or [2, 1], got [2, 2]");
-  CHECK(error_of([&] { rasterize_gaussians(m, c.to(torch::kFloat64), col, o, cam, settings); }) ==
+  CHECK(error_headline([&] { rasterize_gaussians(m, c.to(torch::kFloat64), col, o, cam, settings); }) ==
         "rasterize_gaussians: covariances must have the dtype of means (Float), got Double");
-  CHECK(error_of([&] { rasterize_gaussians(m.to(torch::kInt32), c, col, o, cam, settings); }) ==
+  CHECK(error_headline([&] { rasterize_gaussians(m.to(torch::kInt32), c, col, o, cam, settings); }) ==
         "rasterize_gaussians: means must be float32 or float64, got Int");
-  CHECK(error_of([&] { rasterize_gaussians(m, c, col, o, cam, settings, torch::zeros({2, 3})); }) ==
+  CHECK(error_headline([&] { rasterize_gaussians(m, c, col, o, cam, settings, torch::zeros({2, 3})); }) ==
         "rasterize_gaussians: means2d_probe must be [2, 2], got [2, 3]");
   Camera skew = cam;
   skew.K[1] = 0.5;
-  CHECK(error_of([&] { rasterize_gaussians(m, c, col, o, skew, settings); }) ==
+  CHECK(error_headline([&] { rasterize_gaussians(m, c, col, o, skew, settings); }) ==
         "rasterize_gaussians: camera K must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]], got [[10, 0.5, 4], [0, 10, 4], "
         "[0, 0, 1]]");
   Camera clip = cam;
   clip.far_plane = clip.near_plane;
-  CHECK(error_of([&] { rasterize_gaussians(m, c, col, o, clip, settings); }) ==
+  CHECK(error_headline([&] { rasterize_gaussians(m, c, col, o, clip, settings); }) ==
         "rasterize_gaussians: need 0 < near_plane < far_plane, got 0.01, 0.01");
   Camera empty = cam;
   empty.width = 0;
-  CHECK(error_of([&] { rasterize_gaussians(m, c, col, o, empty, settings); }) ==
+  CHECK(error_headline([&] { rasterize_gaussians(m, c, col, o, empty, settings); }) ==
         "rasterize_gaussians: camera size must be positive, got 0x8");
   RasterSettings roi;
   roi.roi = PixelRect{2, 2, 9, 5};
-  CHECK(error_of([&] { rasterize_gaussians(m, c, col, o, cam, roi); }) ==
+  CHECK(error_headline([&] { rasterize_gaussians(m, c, col, o, cam, roi); }) ==
         "rasterize_gaussians: roi [2, 9) x [2, 5) is not inside the 8x8 image");
   // Opacities [N, 1] are accepted and get [N, 1] gradients.
   auto o2 = torch::full({2, 1}, 0.5).requires_grad_(true);
