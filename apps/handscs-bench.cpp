@@ -20,7 +20,7 @@ int main(int argc, char** argv) {
   std::string sweep_path, lpips;
   handscs::SweepOptions options;
   bool plots_only = false;
-  app.add_option("--sweep", sweep_path, "sweep file, e.g. configs/bench/quick.json")
+  app.add_option("--sweep", sweep_path, "sweep file, e.g. configs/sweeps/quick.json")
       ->check(CLI::ExistingFile);
   app.add_option("--out", options.out_dir, "results folder (resumed if it holds results)")
       ->required();

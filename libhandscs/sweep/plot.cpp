@@ -410,7 +410,8 @@ std::vector<std::string> plot_tick_labels(const PlotAxis& axis) {
 
 cv::Scalar plot_color(size_t index) {
   // Okabe & Ito (2008) colour-blind-safe palette as BGR; yellow last, it is the faintest on white.
-  static const cv::Scalar palette[8] = {
+  // Four darker colours follow, so that up to 12 series are told apart by colour alone.
+  static const cv::Scalar palette[12] = {
       {178, 114, 0},    // blue
       {0, 94, 213},     // vermillion
       {115, 158, 0},    // bluish green
@@ -419,8 +420,12 @@ cv::Scalar plot_color(size_t index) {
       {233, 180, 86},   // sky blue
       {0, 0, 0},        // black
       {66, 228, 240},   // yellow
+      {19, 69, 139},    // brown
+      {0, 100, 0},      // dark green
+      {112, 0, 112},    // dark purple
+      {128, 0, 0},      // navy
   };
-  return palette[index % 8];
+  return palette[index % 12];
 }
 
 PlotLayout plot_layout(const std::vector<PlotSeries>& series, const PlotSpec& spec) {
@@ -510,7 +515,7 @@ cv::Mat draw_plot(const std::vector<PlotSeries>& series, const PlotSpec& spec) {
 
   // Series: lines under markers, later series over earlier ones.
   for (size_t i = 0; i < series.size(); ++i) {
-    const cv::Scalar color = plot_color(i);
+    const cv::Scalar color = series[i].color.value_or(plot_color(i));
     for_each_run(layout, series[i], [&](const std::vector<cv::Point2d>& run) {
       if (series[i].lines) draw_polyline(image, run, color, st, series[i].dashed);
       if (series[i].markers)
@@ -526,7 +531,7 @@ cv::Mat draw_plot(const std::vector<PlotSeries>& series, const PlotSpec& spec) {
     const int ascent = text_ascent(st.legend_font, st.thickness);
     int y = layout.legend.y + st.pad / 2 + row / 2;
     for (const auto& e : legend_entries(series)) {
-      const cv::Scalar color = plot_color(e.index);
+      const cv::Scalar color = e.series->color.value_or(plot_color(e.index));
       const cv::Point2d from(layout.legend.x + st.pad, y), to(layout.legend.x + st.pad + sample, y);
       if (e.series->lines || !e.series->markers) draw_polyline(image, {from, to}, color, st, e.series->dashed);
       if (e.series->markers) draw_marker(image, (from + to) * 0.5, color, st.marker_radius);

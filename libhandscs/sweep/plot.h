@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,7 @@ struct PlotSeries {
   bool lines = true;            // connect points in the given order (broken at skipped points)
   bool markers = true;          // draw a small circle at each point
   bool dashed = false;          // dashed line (used for the Pareto front)
+  std::optional<cv::Scalar> color;  // explicit BGR colour; default: plot_color(series index)
 };
 
 struct PlotSpec {
@@ -54,7 +56,8 @@ std::vector<std::string> plot_tick_labels(const PlotAxis& axis);
 // or a series whose x and y differ in length.
 PlotLayout plot_layout(const std::vector<PlotSeries>& series, const PlotSpec& spec);
 
-// Colour of series `index` (BGR): the Okabe-Ito colour-blind-safe palette, repeating after 8 series.
+// Colour of series `index` (BGR): the Okabe-Ito colour-blind-safe palette, then four darker colours,
+// repeating after 12 series (the full sweep has 10 settings).
 cv::Scalar plot_color(size_t index);
 
 // Draws the chart: white background, axes with 4-8 "nice" tick values (1, 2, 5 x 10^k; decades on

@@ -1,7 +1,7 @@
 // A speed-accuracy sweep (issue 8): which run config to start from, which settings to vary (named
 // points, each a list of --set overrides), which training budgets to run each point at, how many
 // held-out images to score, and the rasterizer-only timing grid. Read from a JSON file
-// (configs/bench/*.json); docs/BENCHMARKS.md explains the fields.
+// (configs/sweeps/*.json); docs/BENCHMARKS.md explains the fields.
 #pragma once
 
 #include <string>

@@ -280,6 +280,7 @@ void draw_sweep_plots(const std::string& out_dir) {
     // One curve per point: quality against training wall time over its budgets.
     std::map<std::string, std::vector<size_t>> by_point;
     std::vector<std::string> order;
+    std::map<size_t, std::string> fronts;  // result row -> the fronts it is on, e.g. "PSNR, LPIPS"
     for (size_t r = 0; r < results.rows.size(); ++r) {
       if (results.at(r, "status") != "ok") continue;
       const auto& name = results.at(r, "point");
@@ -290,6 +291,7 @@ void draw_sweep_plots(const std::string& out_dir) {
          std::vector<std::pair<std::string, bool>>{{"psnr", true}, {"lpips", false}}) {
       std::vector<PlotSeries> series;
       std::vector<double> all_x, all_y;
+      std::vector<size_t> all_rows;  // result row of each (all_x, all_y) point
       for (const auto& name : order) {
         auto rows = by_point[name];
         std::sort(rows.begin(), rows.end(), [&](size_t a, size_t b) {
@@ -302,6 +304,7 @@ void draw_sweep_plots(const std::string& out_dir) {
           s.y.push_back(number(results.at(r, metric)));
           all_x.push_back(s.x.back());
           all_y.push_back(s.y.back());
+          all_rows.push_back(r);
         }
         series.push_back(s);
       }
@@ -309,28 +312,31 @@ void draw_sweep_plots(const std::string& out_dir) {
       front.label = "Pareto front";
       front.dashed = true;
       front.markers = false;
+      front.color = cv::Scalar(150, 150, 150);  // neutral grey: a reference line, not a setting
+      const std::string metric_name = maximize ? "PSNR" : "LPIPS";
       for (size_t i : pareto_front(all_x, all_y, maximize)) {
         front.x.push_back(all_x[i]);
         front.y.push_back(all_y[i]);
+        auto& on = fronts[all_rows[i]];
+        on += (on.empty() ? "" : ", ") + metric_name;
       }
       if (!front.x.empty()) series.push_back(front);
       PlotSpec spec;
-      spec.title = std::string("Novel-pose ") + (maximize ? "PSNR" : "LPIPS") +
-                   " against training wall time";
+      spec.title = "Novel-pose " + metric_name + " against training wall time";
       spec.x_label = "training wall time (min)";
       spec.y_label = maximize ? "PSNR (dB), higher is better" : "LPIPS-alex, lower is better";
       spec.log_x = true;
       write_plot_png(out_dir + "/" + metric + "_vs_time.png", series, spec);
     }
     md << "| point | budget | threads | wall s | ms/step | peak MB | N | skipped | PSNR | SSIM | "
-          "LPIPS | settings |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+          "LPIPS | Pareto front | settings |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (size_t r = 0; r < results.rows.size(); ++r) {
       md << "| " << results.at(r, "point") << " | " << results.at(r, "budget") << " | "
          << results.at(r, "threads") << " | " << results.at(r, "train_wall_s") << " | "
          << results.at(r, "ms_per_step") << " | " << results.at(r, "peak_rss_mb") << " | "
          << results.at(r, "gaussians") << " | " << results.at(r, "skipped_steps") << " | "
          << results.at(r, "psnr") << " | " << results.at(r, "ssim") << " | "
-         << results.at(r, "lpips") << " | "
+         << results.at(r, "lpips") << " | " << (fronts.count(r) ? fronts.at(r) : "") << " | "
          << (results.at(r, "status") == "ok" ? results.at(r, "settings")
                                              : results.at(r, "status"))
          << " |\n";

@@ -22,7 +22,8 @@ struct SweepOptions {
 
 void run_sweep(const SweepConfig& config, const SweepOptions& options);
 
-// Redraws the plots and summary.md from the CSVs in out_dir (no training).
+// Redraws the plots and summary.md from the CSVs in out_dir (no training). summary.md marks each
+// row on the PSNR or LPIPS Pareto front (against training wall time, over all points).
 void draw_sweep_plots(const std::string& out_dir);
 
 }  // namespace handscs

@@ -217,6 +217,10 @@ TEST_CASE("a one-point series draws its colour at plot_to_pixel and nowhere far 
         CHECK(std::hypot(c - p.x, r - p.y) <= 5.5);
       }
   CHECK(blue >= 25);  // about pi 4^2 pixels
+  // An explicit colour replaces the palette's.
+  auto grey = series;
+  grey[0].color = cv::Scalar(150, 150, 150);
+  CHECK(color_distance(pixel_at(handscs::draw_plot(grey, spec), p), cv::Scalar(150, 150, 150)) <= 2);
   // Between the first two grid lines both ways (far from the point): background white.
   const auto& xt = layout.x.ticks;
   const auto& yt = layout.y.ticks;
@@ -244,9 +248,11 @@ TEST_CASE("plot_to_pixel is linear, x to the right and y upwards, and series get
   CHECK(handscs::plot_color(1) == kOkabeVermillion);
   CHECK(color_distance(pixel_at(image, a), kOkabeBlue) <= 2);
   CHECK(color_distance(pixel_at(image, b), kOkabeVermillion) <= 2);
-  for (size_t i = 0; i < 8; ++i)
-    for (size_t j = 0; j < i; ++j) CHECK(handscs::plot_color(i) != handscs::plot_color(j));
-  CHECK(handscs::plot_color(8) == handscs::plot_color(0));
+  for (size_t i = 0; i < 12; ++i)
+    for (size_t j = 0; j < i; ++j) CHECK(color_distance(cv::Vec3b(handscs::plot_color(i)[0], handscs::plot_color(i)[1],
+                                                                  handscs::plot_color(i)[2]),
+                                                        handscs::plot_color(j)) > 60);
+  CHECK(handscs::plot_color(12) == handscs::plot_color(0));
 }
 
 TEST_CASE("log axes map decades to equal pixel spacing and skip non-positive values", "[plot]") {
