@@ -248,10 +248,11 @@ TEST_CASE("plot_to_pixel is linear, x to the right and y upwards, and series get
   CHECK(handscs::plot_color(1) == kOkabeVermillion);
   CHECK(color_distance(pixel_at(image, a), kOkabeBlue) <= 2);
   CHECK(color_distance(pixel_at(image, b), kOkabeVermillion) <= 2);
-  for (size_t i = 0; i < 12; ++i)
-    for (size_t j = 0; j < i; ++j) CHECK(color_distance(cv::Vec3b(handscs::plot_color(i)[0], handscs::plot_color(i)[1],
-                                                                  handscs::plot_color(i)[2]),
-                                                        handscs::plot_color(j)) > 60);
+  for (size_t i = 0; i < 12; ++i) {
+    const cv::Scalar ci = handscs::plot_color(i);
+    for (size_t j = 0; j < i; ++j)
+      CHECK(color_distance(cv::Vec3b(ci[0], ci[1], ci[2]), handscs::plot_color(j)) > 60);
+  }
   CHECK(handscs::plot_color(12) == handscs::plot_color(0));
 }
 

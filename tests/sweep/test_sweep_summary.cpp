@@ -26,19 +26,19 @@ std::string summary_row(const std::string& summary, const std::string& point, co
 }  // namespace
 
 TEST_CASE("sweep summary: rows on the PSNR and LPIPS Pareto fronts are marked, failed rows never") {
-  const std::string dir = handscs_test::scratch_path("handscs_test_sweep", "summary");
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const std::string folder = "handscs_test_sweep_summary";
+  fs::remove_all(handscs_test::scratch_path(folder, ""));
   // a@100: cheapest, so on both fronts. a@200: best PSNR, on the PSNR front; b@100 (90 s) has a better
   // LPIPS than a@200 for less time, so a@200 is off the LPIPS front. b@100 is dominated in PSNR by
   // a@100 (cheaper and higher) but has the best LPIPS. c failed: its zeros must not count.
-  handscs_test::scratch_file("handscs_test_sweep/summary", "results.csv",
+  const std::string csv = handscs_test::scratch_file(folder, "results.csv",
                              "point,budget,threads,settings,status,train_wall_s,ms_per_step,peak_rss_mb,"
                              "gaussians,skipped_steps,psnr,ssim,lpips\n"
                              "a,100,2,(run config),ok,60,50,500,1696,0,30.0,0.95,0.10\n"
                              "a,200,2,(run config),ok,120,50,500,1696,0,32.0,0.96,0.08\n"
                              "b,100,2,x=1,ok,90,80,600,1696,0,29.0,0.94,0.07\n"
                              "c,100,2,x=2,failed (exit 1),0,0,0,0,0,99,1,0\n");
+  const std::string dir = fs::path(csv).parent_path().string();
   handscs::draw_sweep_plots(dir);
   const std::string summary = handscs::read_file(dir + "/summary.md");
   CHECK(summary_row(summary, "a", "100") ==
