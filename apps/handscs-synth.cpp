@@ -4,19 +4,25 @@
 #include <CLI/CLI.hpp>
 
 #include "core/cli.h"
-#include "data/synth_capture.h"
+#include "synth/capture.h"
 
 int main(int argc, char** argv) {
   CLI::App app{
-      "handscs-synth: render a synthetic InterHand2.6M-layout capture of the built-in hand"};
+      "handscs-synth: render a synthetic InterHand2.6M-layout capture of the built-in hand.\n"
+      "Easy presets (the avatar's own rig under fixed light): tiny, demo, bench. Realistic presets\n"
+      "(tissue, fit error, flexion creases, cast shadows, gestures, forearm, camera response,\n"
+      "region masks): real_tiny, real_demo, real_bench. Switch one effect off with e.g.\n"
+      "--set effects.cast_shadows=false (keys: docs/CONFIG.md, section handscs-synth)."};
   handscs::CommonOptions common;
-  handscs::add_common_options(app, common, false);
+  handscs::add_common_options(app, common, true);
   std::string preset = "tiny", out;
   int64_t seed = 1;
   app.add_option("--preset", preset,
-                 "tiny (4 cameras x 12 frames), demo (12 x 100) or bench (24 x 150)")
+                 "tiny (4 cameras x 12 frames), demo (12 x 100), bench (24 x 150), or real_tiny, "
+                 "real_demo, real_bench (same sizes, every realistic effect on)")
       ->capture_default_str();
-  app.add_option("--out", out, "output folder (gets images/ and annotations/)")->required();
+  app.add_option("--out", out, "output folder (gets images/, annotations/, regions/, synth.json)")
+      ->required();
   app.add_option("--seed", seed, "seed of the motion, cameras, shape and noise")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
@@ -24,6 +30,7 @@ int main(int argc, char** argv) {
     handscs::start_up(common, "handscs-synth");
     handscs::SynthConfig config = handscs::synth_preset(preset);
     config.seed = seed;
+    config = handscs::apply_synth_overrides(config, common.overrides);
     handscs::generate_synth_capture(config, out);
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());

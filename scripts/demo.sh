@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The demo on a fresh machine: installs what is missing, builds, synthesises the `demo` capture of the
+# The demo on a fresh machine: installs what is missing, builds, synthesises the realistic `real_demo` capture of the
 # built-in hand (InterHand2.6M layout), trains an avatar with configs/demo.json, evaluates it on the 50
 # held-out poses (PSNR/SSIM/LPIPS), renders a novel-pose orbit video, and says where everything is.
 # Output folder: $HANDSCS_DEMO_OUT (default out/demo). A second run reuses the capture.
@@ -14,7 +14,7 @@ bin="$root/build/bin"
 mkdir -p "$out"
 
 if [ ! -f "$out/capture/annotations/test/InterHand2.6M_test_data.json" ]; then
-  "$bin/handscs-synth" --preset demo --out "$out/capture"
+  "$bin/handscs-synth" --preset real_demo --out "$out/capture"
 fi
 
 # LPIPS weights are used (loss and metric) when the shared copy is beside the project.
@@ -35,7 +35,7 @@ JSON
   --out "$out/orbit" --video "$out/orbit.mp4"
 
 echo
-echo "Demo finished in $(( $(date +%s) - start )) s. Novel-pose quality (50 held-out poses x 12 cameras):"
+echo "Demo finished in $(( $(date +%s) - start )) s. Novel-pose quality (50 held-out poses x the 10 colour cameras):"
 cat "$out/eval/table.md"
 grep "^rendering:" "$out/eval.log" || true
 echo

@@ -21,7 +21,7 @@
 
 #include "core/cli.h"
 #include "data/capture.h"
-#include "data/synth_capture.h"
+#include "synth/capture.h"
 
 namespace {
 

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "data/capture.h"
-#include "data/synth_capture.h"
+#include "synth/capture.h"
 #include "data_test_helpers.h"
 
 namespace data_test {

@@ -5,8 +5,8 @@
 #include <filesystem>
 #include <string>
 
-#include "data/synth_capture.h"
-#include "data/synth_config.h"
+#include "synth/capture.h"
+#include "synth/config.h"
 #include "train/run_config.h"
 
 namespace handscs_test {

@@ -1,5 +1,5 @@
 // Procedural skin of the synthetic hand, evaluated at canonical (rest-pose) surface points so the
-// texture moves with the skin: albedo = base skin (low-frequency tint) with palmar tone, nails,
+// texture moves with the skin (creases optionally deepening with flexion): albedo = base skin (low-frequency tint) with palmar tone, nails,
 // knuckle and flexion creases, palm lines and fine noise; plus per-vertex fold occlusion of a posed
 // mesh, occ_i = 1 - exp(-k sum_j (1 - d_ij / r)^2 max(0, n_i . (p_j - p_i) / d_ij)), which darkens
 // skin folds at bent joints and between touching fingers.
@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "data/synth_math.h"
+#include "synth/math.h"
 #include "hand/rig.h"
 
 namespace handscs {
@@ -30,8 +30,18 @@ struct SynthSkin {
 
 SynthSkin make_synth_skin(const Rig& rig, uint64_t seed);
 
+// Flexion of the joints under the creases, as fractions of a right angle, in the order of
+// SynthSkin::crease_centre (finger-major, base to distal), and the palm's fold (0 flat, 1 cupped).
+struct SkinFlexion {
+  std::array<double, 15> joint{};
+  double palm_fold = 0;
+};
+
 // Albedo (display RGB in [0, 1]) at canonical point p with interpolated nail/palmar weights.
-synth::Vec3 skin_albedo(const SynthSkin& skin, const synth::Vec3& p, double nail, double palmar);
+// flexion null: static creases (the easy captures); else creases follow the flexion, and `crease`
+// (if given) accumulates the darkening of the flexion-dependent lines at p.
+synth::Vec3 skin_albedo(const SynthSkin& skin, const synth::Vec3& p, double nail, double palmar,
+                        const SkinFlexion* flexion = nullptr, double* crease = nullptr);
 
 // Area-weighted vertex normals [V * 3] of a triangle mesh (faces counter-clockwise from outside).
 std::vector<float> vertex_normals(const std::vector<float>& vertices,

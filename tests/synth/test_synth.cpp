@@ -8,9 +8,9 @@
 
 #include "core/atomic_file.h"
 #include "core/config.h"
-#include "data/synth_capture.h"
-#include "data/synth_math.h"
-#include "data_test_helpers.h"
+#include "synth/capture.h"
+#include "synth/math.h"
+#include "data/data_test_helpers.h"
 
 // Catch last: LibTorch pulls in glog, whose CHECK macro would otherwise replace Catch's.
 #include <catch2/catch.hpp>
@@ -30,7 +30,7 @@ TEST_CASE("synth: presets and unknown names") {
   const SynthConfig bench = synth_preset("bench");
   CHECK(bench.num_cameras * bench.num_frames == 3600);
   CHECK(data_test::error_of([] { synth_preset("huge"); }) ==
-        "--preset: unknown preset \"huge\" (known: tiny, demo, bench)");
+        "--preset: unknown preset \"huge\" (known: tiny, demo, bench, real_tiny, real_demo, real_bench)");
   // The settings round-trip through JSON (config visitor).
   SynthConfig back;
   SynthConfig copy = bench;
@@ -60,7 +60,7 @@ TEST_CASE("synth: output is a function of the seed, not of the thread count") {
     CHECK(read_file(entry.path().string()) == read_file(other.string()));
     ++files;
   }
-  CHECK(files == 4 * 2 + 4);  // images and the four annotation files
+  CHECK(files == 4 * 2 + 4 + 1);  // images, the four annotation files, synth.json
   config.seed = 2;
   const SynthScene other_seed = make_synth_scene(config);
   const SynthScene same_seed = make_synth_scene(synth_preset("tiny"));

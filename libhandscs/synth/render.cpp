@@ -1,4 +1,4 @@
-#include "data/synth_render.h"
+#include "synth/render.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,10 @@
 #include "data/camera_transforms.h"
 #include "data/mesh_mask.h"
 #include "data/mesh_raster.h"
-#include "data/synth_motion.h"
+#include "synth/motion.h"
+#include "synth/regions.h"
+
+#include <opencv2/imgproc.hpp>
 
 namespace handscs {
 
@@ -25,8 +28,10 @@ constexpr double kBackground[3] = {8.0, 6.0, 5.0};  // B, G, R
 constexpr double kBackgroundNoise = 1.6;
 }  // namespace
 
+Vec3 key_light_direction() { return kKeyLight; }
+
 SynthView render_synth_view(const SynthSkin& skin, const SynthMeshView& mesh, const Camera& camera,
-                            int supersample, uint64_t noise_seed) {
+                            int supersample, uint64_t noise_seed, bool background_noise) {
   require(supersample >= 1 && supersample % 2 == 1, "render_synth_view: supersample must be odd");
   const int s = supersample;
   const int width = camera.width, height = camera.height;
@@ -34,6 +39,11 @@ SynthView render_synth_view(const SynthSkin& skin, const SynthMeshView& mesh, co
   view.bgr.create(height, width, CV_8UC3);
   view.coverage = cv::Mat(height, width, CV_8UC1, cv::Scalar(0));
   view.samples = cv::Mat(height, width, CV_8UC1, cv::Scalar(0));
+  view.radiance.create(height, width, CV_32FC3);
+  view.regions = cv::Mat(height, width, CV_8UC1, cv::Scalar(0));
+  const std::vector<float>& texture = mesh.texture ? *mesh.texture : skin.canonical;
+  const std::vector<float>& nails = mesh.nail ? *mesh.nail : skin.nail;
+  const std::vector<float>& palmars = mesh.palmar ? *mesh.palmar : skin.palmar;
 
   // Background everywhere first (noise stream in raster order: independent of the hand).
   // Noise ~ N(0, 1) approximated by the sum of four uniforms (Irwin-Hall, variance 1/3 each):
@@ -42,6 +52,10 @@ SynthView render_synth_view(const SynthSkin& skin, const SynthMeshView& mesh, co
   std::vector<float> background(static_cast<size_t>(width) * height * 3);
   const double irwin_hall_scale = std::sqrt(3.0);
   for (size_t i = 0; i < background.size(); ++i) {
+    if (!background_noise) {
+      background[i] = static_cast<float>(kBackground[i % 3]);
+      continue;
+    }
     const double gauss =
         (random.uniform() + random.uniform() + random.uniform() + random.uniform() - 2.0) *
         irwin_hall_scale;
@@ -66,6 +80,7 @@ SynthView render_synth_view(const SynthSkin& skin, const SynthMeshView& mesh, co
   const int centre = s / 2;
   for (int y = 0; y < height; ++y) {
     uint8_t* out = view.bgr.ptr<uint8_t>(y);
+    float* radiance = view.radiance.ptr<float>(y);
     for (int x = 0; x < width; ++x) {
       const float* bg = &background[(static_cast<size_t>(y) * width + x) * 3];
       double sum[3] = {0, 0, 0};
@@ -83,35 +98,56 @@ SynthView render_synth_view(const SynthSkin& skin, const SynthMeshView& mesh, co
             if (sx == centre && sy == centre) view.coverage.at<uint8_t>(y, x) = 1;
             const float* b = &raster.bary[index * 3];
             Vec3 n{0, 0, 0}, p{0, 0, 0};
-            double nail = 0, palmar = 0, occ = 0;
+            double nail = 0, palmar = 0, occ = 0, visible = 0, contact = 0;
             for (int k = 0; k < 3; ++k) {
               const int64_t v = faces[face * 3 + k];
               for (int d = 0; d < 3; ++d) {
                 n[d] += b[k] * (*mesh.normals)[v * 3 + d];
-                p[d] += b[k] * skin.canonical[v * 3 + d];
+                p[d] += b[k] * texture[v * 3 + d];
               }
-              nail += b[k] * skin.nail[v];
-              palmar += b[k] * skin.palmar[v];
+              nail += b[k] * nails[v];
+              palmar += b[k] * palmars[v];
               occ += b[k] * (*mesh.occlusion)[v];
+              visible += b[k] * (mesh.visibility ? (*mesh.visibility)[v] : 1.0f);
+              if (mesh.contact) contact += b[k] * (*mesh.contact)[v];
             }
             n = normalized(n);
-            const double light = kAmbient + kKey * std::max(0.0, dot(n, kKeyLight)) +
+            const double facing = dot(n, kKeyLight);
+            const double light = kAmbient + kKey * visible * std::max(0.0, facing) +
                                  kFill * std::max(0.0, dot(n, kFillLight));
-            const Vec3 albedo = skin_albedo(skin, p, nail, palmar);
+            double crease = 0;
+            const Vec3 albedo = skin_albedo(skin, p, nail, palmar, mesh.flexion, &crease);
             const double shade = light * (1 - kFoldDarkening * std::clamp(occ, 0.0, 1.0)) * 255.0;
             sum[0] += albedo[2] * shade;  // BGR
             sum[1] += albedo[1] * shade;
             sum[2] += albedo[0] * shade;
+            if (sx == centre && sy == centre) {
+              uint8_t bits = 0;
+              if (crease > kCreaseThreshold) bits |= kRegionCrease;
+              if (contact > kContactThreshold || occ > kOcclusionThreshold) bits |= kRegionContact;
+              if (mesh.visibility && visible < kShadowThreshold && facing > kFacingThreshold)
+                bits |= kRegionShadow;
+              view.regions.at<uint8_t>(y, x) = bits;
+            }
           }
       }
       const int misses = s * s - hits;
       for (int c = 0; c < 3; ++c) {
         const double value = (sum[c] + misses * bg[c]) / (s * s);
+        radiance[x * 3 + c] = static_cast<float>(value);
         out[x * 3 + c] = static_cast<uint8_t>(std::clamp(std::lround(value), 0L, 255L));
       }
       view.samples.at<uint8_t>(y, x) = static_cast<uint8_t>(hits);
     }
   }
+  // Dilate each bit by one pixel (max over the 3x3 neighbourhood is the OR of the bits' dilations).
+  cv::Mat dilated = cv::Mat::zeros(height, width, CV_8UC1);
+  for (uint8_t bit : {kRegionCrease, kRegionContact, kRegionShadow}) {
+    cv::Mat plane = (view.regions & bit) / bit, grown;
+    cv::dilate(plane, grown, cv::Mat::ones(3, 3, CV_8UC1));
+    dilated |= grown * bit;
+  }
+  view.regions = dilated;
   return view;
 }
 

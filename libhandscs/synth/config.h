@@ -1,10 +1,13 @@
-// Settings of a synthetic InterHand2.6M-layout capture (handscs-synth) and its named presets:
-// tiny (CI), demo (the demo's default capture) and bench (data/benchmark workloads).
+// Settings of a synthetic InterHand2.6M-layout capture (handscs-synth) and its named presets: the
+// easy tiny/demo/bench captures (the rig's own hand under fixed light) and the realistic
+// real_tiny/real_demo/real_bench ones, whose ground truth differs from the rig (synth/effects.h).
 #pragma once
 
 #include <cstdint>
 #include <string>
 #include <vector>
+
+#include "synth/effects.h"
 
 namespace handscs {
 
@@ -23,6 +26,8 @@ struct SynthConfig {
   std::string split = "test";  // images/{split}/, annotations/{split}/
   int capture = 0;             // Capture{c}
   int frame_step = 6;          // frame_idx step (the 5 fps release keeps every 6th 30 fps frame)
+  int held_out_frames = 50;    // the novel-pose test tail (data.held_out_poses): gestures only
+  SynthEffects effects;
 
   template <class V>
   void visit(V& v) {
@@ -42,12 +47,20 @@ struct SynthConfig {
     v.choice("split", split, {"train", "test", "val"}, "split folder");
     v.field("capture", capture, "capture number", 0, 1000000);
     v.field("frame_step", frame_step, "frame_idx step between frames", 1, 1000);
+    v.field("held_out_frames", held_out_frames, "frames of the held-out tail", 0, 1000000);
+    v.section("effects", effects, "how the ground truth differs from the rig");
   }
 };
 
 // Named presets: "tiny" (4 cameras x 12 frames, 167x256, for CI), "demo" (12 x 100, 334x512),
-// "bench" (24 x 150, 334x512). Throws Error listing the known names for anything else.
+// "bench" (24 x 150, 334x512), and "real_tiny", "real_demo", "real_bench" of the same sizes with
+// every effect of synth/effects.h on. Throws Error listing the known names for anything else.
 SynthConfig synth_preset(const std::string& name);
+
+// `config` with "key.path=value" overrides applied (handscs-synth --set); unknown keys and values
+// out of range are errors naming the override.
+SynthConfig apply_synth_overrides(const SynthConfig& config,
+                                  const std::vector<std::string>& overrides);
 std::vector<std::string> synth_preset_names();
 
 }  // namespace handscs

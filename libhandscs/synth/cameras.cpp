@@ -1,9 +1,9 @@
-#include "data/synth_cameras.h"
+#include "synth/cameras.h"
 
 #include <cmath>
 
 #include "core/error.h"
-#include "data/synth_motion.h"
+#include "synth/motion.h"
 
 namespace handscs {
 

@@ -1,4 +1,4 @@
-#include "data/synth_capture.h"
+#include "synth/capture.h"
 
 #include <spdlog/spdlog.h>
 
@@ -11,11 +11,16 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/atomic_file.h"
+#include "core/config.h"
 #include "core/error.h"
 #include "core/progress.h"
 #include "data/mesh_mask.h"
 #include "hand/joint_order.h"
 #include "hand/lbs.h"
+#include "synth/fit_error.h"
+#include "synth/gestures.h"
+#include "synth/regions.h"
+#include "synth/shadows.h"
 
 namespace handscs {
 
@@ -31,9 +36,10 @@ const Vec3 kHandCentre = {0.03, -0.08, 1.05};
 // Slow drift of the hand around its centre (m), so trans varies as in real captures.
 constexpr double kDrift = 0.008;
 
-std::string sequence_name(int index) {
-  char name[32];
-  std::snprintf(name, sizeof(name), "%04d_synth_rom", index);
+// "0000_synth_rom" (range of motion) or "0000_synth_gestures".
+std::string sequence_name(int index, const char* motion) {
+  char name[48];
+  std::snprintf(name, sizeof(name), "%04d_synth_%s", index, motion);
   return name;
 }
 
@@ -41,6 +47,25 @@ std::string image_file_name(const SynthScene& scene, const SynthFrame& frame,
                             const SynthCamera& camera) {
   return "Capture" + std::to_string(scene.config.capture) + "/" + frame.seq_name + "/cam" +
          camera.id + "/image" + std::to_string(frame.frame_idx) + ".jpg";
+}
+
+std::string region_file_name(const std::string& image_name) {
+  return image_name.substr(0, image_name.size() - 4) + ".png";
+}
+
+// Flexion of the joints under the skin's creases, as fractions of a right angle.
+SkinFlexion skin_flexion(const HandArticulation& a) {
+  SkinFlexion flexion;
+  for (int f = 0; f < kFingers; ++f)
+    for (int k = 0; k < 3; ++k) flexion.joint[f * 3 + k] = std::max(0.0, a.flex[f][k] / kFlexionUnit);
+  flexion.palm_fold = palm_fold(a);
+  return flexion;
+}
+
+std::vector<float> concat(const std::vector<float>& a, const std::vector<float>& b) {
+  std::vector<float> out(a);
+  out.insert(out.end(), b.begin(), b.end());
+  return out;
 }
 
 json numbers(const double* values, int n) {
@@ -58,12 +83,22 @@ SynthScene make_synth_scene(const SynthConfig& config) {
   SynthScene scene;
   scene.config = config;
   scene.rig = load_rig_source("builtin");
+  scene.axes = rig_axes(scene.rig);
   scene.skin = make_synth_skin(scene.rig, config.seed);
+  const SynthEffects& effects = config.effects;
+  if (effects.forearm) scene.forearm = make_forearm(scene.rig, scene.axes);
   {
     const torch::Tensor faces = scene.rig.faces.to(torch::kInt64).contiguous();
     scene.faces.assign(faces.data_ptr<int64_t>(), faces.data_ptr<int64_t>() + faces.numel());
   }
-  const std::vector<SynthPose> poses = make_rom_poses(scene.rig, config.num_frames, config.seed);
+  std::vector<std::string> gestures;
+  const std::vector<SynthPose> poses =
+      effects.gestures ? make_gesture_poses(scene.rig, config.num_frames, config.held_out_frames,
+                                            config.seed, &gestures)
+                       : make_rom_poses(scene.rig, config.num_frames, config.seed);
+  const std::vector<FitError> errors =
+      effects.fit_error ? make_fit_errors(effects, config.num_frames, config.seed)
+                        : std::vector<FitError>(config.num_frames);
   const int64_t n = config.num_frames;
   const auto options = torch::TensorOptions().dtype(torch::kFloat64);
   torch::Tensor pose = torch::empty({n, 48}, options), shape = torch::empty({n, 10}, options);
@@ -92,11 +127,13 @@ SynthScene make_synth_scene(const SynthConfig& config) {
   for (int64_t k = 0; k < n; ++k) {
     SynthFrame& frame = scene.frames[k];
     const int sequence = static_cast<int>(k * config.num_sequences / n);
-    frame.seq_name = sequence_name(sequence);
+    frame.seq_name = sequence_name(sequence, effects.gestures ? "gestures" : "rom");
     frame.frame_idx = k * config.frame_step;
+    if (!gestures.empty()) frame.gesture = gestures[k];
     frame.absolute = poses[k];
-    frame.annotated = poses[k].pose;
+    for (int i = 0; i < 48; ++i) frame.annotated[i] = poses[k].pose[i] + errors[k].pose[i];
     for (int i = 0; i < 45; ++i) frame.annotated[3 + i] -= mean[i];
+    for (int i = 0; i < 10; ++i) frame.annotated_shape[i] = poses[k].shape[i] + errors[k].shape[i];
     // Centre the hand's bounding box on kHandCentre, plus a slow drift.
     const double* v = vertices[k].data_ptr<double>();
     Vec3 lo = {INFINITY, INFINITY, INFINITY}, hi = {-INFINITY, -INFINITY, -INFINITY};
@@ -109,6 +146,7 @@ SynthScene make_synth_scene(const SynthConfig& config) {
     for (int d = 0; d < 3; ++d)
       frame.trans[d] = kHandCentre[d] - 0.5 * (lo[d] + hi[d]) +
                        kDrift * std::sin(t * (1 + 0.3 * d) + drift_phase[d]);
+    for (int d = 0; d < 3; ++d) frame.annotated_trans[d] = frame.trans[d] + errors[k].trans[d];
     frame.vertices.resize(num_vertices * 3);
     for (int64_t i = 0; i < num_vertices; ++i)
       for (int d = 0; d < 3; ++d)
@@ -117,26 +155,87 @@ SynthScene make_synth_scene(const SynthConfig& config) {
     for (int i = 0; i < 21; ++i)
       for (int d = 0; d < 3; ++d) frame.joints[i * 3 + d] = j[i * 3 + d] + frame.trans[d];
   }
+  const TissueRig tissue = effects.tissue ? make_tissue_rig(scene.rig, scene.axes) : TissueRig{};
+  std::vector<int64_t> all_faces = scene.faces;  // hand then forearm: the shadow casters
+  for (int64_t id : scene.forearm.faces) all_faces.push_back(id + num_vertices);
 #pragma omp parallel for schedule(dynamic, 1)
   for (int64_t k = 0; k < n; ++k) {
     SynthFrame& frame = scene.frames[k];
     frame.normals = vertex_normals(frame.vertices, scene.faces);
-    frame.occlusion = fold_occlusion(frame.vertices, frame.normals);
+    if (effects.tissue) {
+      const TissueResult result = tissue_displacement(tissue, effects, frame.absolute.articulation,
+                                                      frame.vertices, frame.normals);
+      apply_displacement(result, frame.normals, frame.vertices);
+      frame.contact = result.contact;
+      frame.normals = vertex_normals(frame.vertices, scene.faces);
+    }
+    frame.occlusion = effects.ambient_occlusion ? fold_occlusion(frame.vertices, frame.normals)
+                                                : std::vector<float>(num_vertices, 0.0f);
+    if (effects.forearm) {
+      frame.forearm = pose_forearm(scene.forearm, scene.axes, frame.absolute.articulation,
+                                   {frame.joints[0], frame.joints[1], frame.joints[2]});
+      frame.forearm_normals = vertex_normals(frame.forearm, scene.forearm.faces);
+    }
+    if (effects.cast_shadows) {
+      frame.visibility = light_visibility(
+          concat(frame.vertices, frame.forearm), concat(frame.normals, frame.forearm_normals),
+          all_faces, key_light_direction(), effects.light_radius_deg * M_PI / 180.0,
+          effects.light_samples);
+      frame.visibility.resize(num_vertices);  // the forearm is outside every mask: no shadow there
+    }
   }
   // Portrait images show the fingers up: "up" is the rest hand's wrist-to-knuckles direction;
   // azimuth 0 faces the palm.
   scene.cameras =
       make_synth_cameras(config, kHandCentre, scene.skin.palm_long, scene.skin.palm_back);
+  scene.responses = effects.camera_response
+                        ? make_camera_responses(effects, config.num_cameras, config.seed)
+                        : std::vector<CameraResponse>(config.num_cameras);
   return scene;
 }
 
 SynthView render_synth_frame(const SynthScene& scene, int frame, int camera) {
   const SynthFrame& f = scene.frames.at(frame);
-  const SynthMeshView mesh{&f.vertices, &f.normals, &f.occlusion, &scene.faces};
-  return render_synth_view(scene.skin, mesh, scene.cameras.at(camera).camera,
-                           scene.config.supersample,
-                           mix_seed(scene.config.seed, static_cast<uint64_t>(camera) + 1,
-                                    static_cast<uint64_t>(frame) + 1));
+  const SynthEffects& effects = scene.config.effects;
+  const uint64_t noise_seed = mix_seed(scene.config.seed, static_cast<uint64_t>(camera) + 1,
+                                       static_cast<uint64_t>(frame) + 1);
+  const SkinFlexion flexion = skin_flexion(f.absolute.articulation);
+  SynthMeshView mesh{&f.vertices, &f.normals, &f.occlusion, &scene.faces};
+  if (!f.visibility.empty()) mesh.visibility = &f.visibility;
+  if (!f.contact.empty()) mesh.contact = &f.contact;
+  if (effects.flexion_skin) mesh.flexion = &flexion;
+  // With the forearm: one mesh of hand then forearm, the forearm textured by its rest points,
+  // no nails, no palm, no occlusion, fully lit by the key light.
+  std::vector<float> vertices, normals, occlusion, texture, nail, palmar, visibility, contact;
+  std::vector<int64_t> faces;
+  if (effects.forearm) {
+    const size_t hand = f.vertices.size() / 3, arm = f.forearm.size() / 3;
+    vertices = concat(f.vertices, f.forearm);
+    normals = concat(f.normals, f.forearm_normals);
+    occlusion = concat(f.occlusion, std::vector<float>(arm, 0.0f));
+    texture = concat(scene.skin.canonical, scene.forearm.rest);
+    nail = concat(scene.skin.nail, std::vector<float>(arm, 0.0f));
+    palmar = concat(scene.skin.palmar, std::vector<float>(arm, 0.0f));
+    faces = scene.faces;
+    for (int64_t id : scene.forearm.faces) faces.push_back(id + static_cast<int64_t>(hand));
+    mesh = SynthMeshView{&vertices, &normals, &occlusion, &faces, &texture, &nail, &palmar,
+                         nullptr, nullptr, mesh.flexion};
+    if (!f.visibility.empty()) {
+      visibility = concat(f.visibility, std::vector<float>(arm, 1.0f));
+      mesh.visibility = &visibility;
+    }
+    if (!f.contact.empty()) {
+      contact = concat(f.contact, std::vector<float>(arm, 0.0f));
+      mesh.contact = &contact;
+    }
+  }
+  SynthView view = render_synth_view(scene.skin, mesh, scene.cameras.at(camera).camera,
+                                     scene.config.supersample, noise_seed,
+                                     !effects.camera_response);
+  if (effects.camera_response)
+    view.bgr = expose(view.radiance, scene.responses.at(camera), effects,
+                      mix_seed(noise_seed, 0x73656e736f72));  // "sensor"
+  return view;
 }
 
 SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_dir) {
@@ -145,10 +244,16 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
   const fs::path root(out_dir);
   const fs::path images_dir = root / "images" / c.split;
   const fs::path annotations_dir = root / "annotations" / c.split;
+  const fs::path regions_dir = root / "regions" / c.split;
+  const bool regions = c.effects.region_masks;
   ensure_directory(annotations_dir.string());
   for (const auto& frame : scene.frames)
-    for (const auto& camera : scene.cameras)
-      ensure_directory((images_dir / image_file_name(scene, frame, camera)).parent_path().string());
+    for (const auto& camera : scene.cameras) {
+      const fs::path name = image_file_name(scene, frame, camera);
+      ensure_directory((images_dir / name).parent_path().string());
+      if (regions) ensure_directory((regions_dir / name).parent_path().string());
+    }
+  if (regions) write_file_atomic((root / "regions" / "regions.json").string(), regions_legend_json());
 
   const int64_t num_cameras = static_cast<int64_t>(scene.cameras.size());
   const int64_t num_images = static_cast<int64_t>(scene.frames.size()) * num_cameras;
@@ -170,6 +275,13 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
       write_file_atomic((images_dir / image_file_name(scene, f, cam)).string(),
                         std::string(jpeg.begin(), jpeg.end()));
       sizes[i] = static_cast<int64_t>(jpeg.size());
+      if (regions) {
+        std::vector<uint8_t> png;
+        cv::imencode(".png", view.regions, png);
+        write_file_atomic((regions_dir / region_file_name(image_file_name(scene, f, cam))).string(),
+                          std::string(png.begin(), png.end()));
+        sizes[i] += static_cast<int64_t>(png.size());
+      }
       // bbox [x, y, w, h]: the projected mesh's extent, clipped to the image.
       double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
       for (size_t v = 0; v < f.vertices.size() / 3; ++v) {
@@ -254,8 +366,8 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
                          {"hand_type_valid", true}};
     mano_frames[key] = {{"right",
                          {{"pose", numbers(f.annotated.data(), 48)},
-                          {"shape", numbers(f.absolute.shape.data(), 10)},
-                          {"trans", numbers(f.trans.data(), 3)}}},
+                          {"shape", numbers(f.annotated_shape.data(), 10)},
+                          {"trans", numbers(f.annotated_trans.data(), 3)}}},
                         {"left", nullptr}};
   }
   const std::string prefix = (annotations_dir / ("InterHand2.6M_" + c.split + "_")).string();
@@ -269,6 +381,9 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
     write_file_atomic(prefix + kind + ".json", text);
     bytes += static_cast<int64_t>(text.size());
   }
+  // The resolved generator settings, beside (not inside) the InterHand layout.
+  SynthConfig resolved = c;
+  write_file_atomic((root / "synth.json").string(), config_to_json(resolved).dump(2));
   for (int64_t s : sizes) bytes += s;
   SynthReport report;
   report.images = num_images;

@@ -9,33 +9,47 @@
 #include <string>
 #include <vector>
 
-#include "data/synth_cameras.h"
-#include "data/synth_config.h"
-#include "data/synth_motion.h"
-#include "data/synth_render.h"
-#include "data/synth_skin.h"
 #include "hand/rig.h"
+#include "synth/camera_response.h"
+#include "synth/cameras.h"
+#include "synth/config.h"
+#include "synth/forearm.h"
+#include "synth/hand_axes.h"
+#include "synth/motion.h"
+#include "synth/render.h"
+#include "synth/skin.h"
+#include "synth/tissue.h"
 
 namespace handscs {
 
 struct SynthFrame {
   std::string seq_name;
   int64_t frame_idx = 0;
-  SynthPose absolute;                  // absolute pose (flat_hand_mean = true) and shape
-  std::array<double, 48> annotated{};  // as written: finger pose minus hands_mean
-  std::array<double, 3> trans{};       // metres
-  std::vector<float> vertices;         // [V * 3] posed, world metres
+  std::string gesture;                 // the gesture the hand moves to ("" in range of motion)
+  SynthPose absolute;                  // rendered absolute pose (flat_hand_mean = true) and shape
+  std::array<double, 48> annotated{};  // as written: (pose + fit error) minus hands_mean
+  std::array<double, 10> annotated_shape{};  // as written: shape + fit error
+  std::array<double, 3> trans{};             // rendered translation (m)
+  std::array<double, 3> annotated_trans{};   // as written: trans + fit error (m)
+  std::vector<float> vertices;         // [V * 3] rendered hand (tissue included), world metres
   std::vector<float> normals;          // [V * 3]
-  std::vector<float> occlusion;        // [V] fold occlusion
-  std::array<double, 63> joints{};     // MANO21 world joints (m)
+  std::vector<float> occlusion;        // [V] fold occlusion (0 when off)
+  std::vector<float> visibility;       // [V] key-light visibility (empty without cast shadows)
+  std::vector<float> contact;          // [V] contact flattening, m (empty without tissue)
+  std::vector<float> forearm;          // [V_f * 3] forearm, world metres (empty without it)
+  std::vector<float> forearm_normals;  // [V_f * 3]
+  std::array<double, 63> joints{};     // MANO21 world joints of the rendered pose (m): joint_3d
 };
 
 struct SynthScene {
   SynthConfig config;
   Rig rig;
+  HandAxes axes;
   SynthSkin skin;
-  std::vector<int64_t> faces;  // [F * 3]
+  std::vector<int64_t> faces;  // [F * 3] the hand's
+  ForearmMesh forearm;         // empty without effects.forearm
   std::vector<SynthCamera> cameras;
+  std::vector<CameraResponse> responses;  // per camera (identity without camera_response)
   std::vector<SynthFrame> frames;
 };
 

@@ -1,4 +1,4 @@
-#include "data/synth_skin.h"
+#include "synth/skin.h"
 
 #include <algorithm>
 #include <cmath>
@@ -24,6 +24,14 @@ constexpr double kPoreScale = 0.0005, kPoreAmp = 0.02;
 // Creases: line half-width ~0.5 mm, reaching 16 mm around the joint axis.
 constexpr double kCreaseWidth = 0.00045, kCreaseReach = 0.016;
 constexpr double kDorsalCreaseDark = 0.18, kPalmarCreaseDark = 0.30, kPalmLineDark = 0.28;
+// Flexion-dependent creases (fractions f of a right angle): darkness x (base + gain f), width x
+// (1 + widening f). Palmar creases are where the skin folds on flexion, so they change most (faint
+// at full extension, ~3x at a right angle); dorsal wrinkles bunch less; flexed knuckles blanch as the
+// skin over them stretches.
+constexpr double kDorsalFlexBase = 0.5, kDorsalFlexGain = 1.0;
+constexpr double kPalmarFlexBase = 0.4, kPalmarFlexGain = 1.6;
+constexpr double kCreaseWidening = 1.0, kKnuckleBlanch = 0.06;
+constexpr double kPalmFoldBase = 0.5, kPalmFoldGain = 1.2;
 // Fold occlusion: neighbourhood radius and strength.
 constexpr double kFoldRadius = 0.011, kFoldStrength = 0.28;
 
@@ -62,8 +70,8 @@ double smoothstep(double lo, double hi, double x) {
   return t * t * (3 - 2 * t);
 }
 
-double line_profile(double distance) {
-  return std::exp(-(distance * distance) / (kCreaseWidth * kCreaseWidth));
+double line_profile(double distance, double width = kCreaseWidth) {
+  return std::exp(-(distance * distance) / (width * width));
 }
 
 Vec3 row(const torch::Tensor& t, int64_t i) {
@@ -114,7 +122,8 @@ SynthSkin make_synth_skin(const Rig& rig, uint64_t seed) {
   return skin;
 }
 
-Vec3 skin_albedo(const SynthSkin& skin, const Vec3& p, double nail, double palmar) {
+Vec3 skin_albedo(const SynthSkin& skin, const Vec3& p, double nail, double palmar,
+                 const SkinFlexion* flexion, double* crease) {
   const uint64_t seed = skin.seed;
   Vec3 colour = kDorsalSkin * (1 - palmar) + kPalmarSkin * palmar;
   const double blotch = 1 + kBlotchAmp * value_noise(p, kBlotchScale, seed + 1);
@@ -133,20 +142,43 @@ Vec3 skin_albedo(const SynthSkin& skin, const Vec3& p, double nail, double palma
     const double radial = norm(offset - skin.crease_axis[c] * s);
     if (radial > kCreaseReach) continue;
     const int kind = skin.crease_kind[c];
-    if (kind == 0) {
-      // Knuckle: a faint reddish patch on the back of the hand; palmar digital crease past the
-      // joint.
-      const double patch = std::exp(-(s * s + radial * radial * 0.2) / (0.006 * 0.006)) * dorsal;
-      colour[0] += 0.03 * patch;
-      colour[1] -= 0.02 * patch;
-      dark += kPalmarCreaseDark * palmar * line_profile(s - 0.011) * broken;
-    } else {
-      const double spacing = kind == 1 ? 0.0022 : 0.0013;  // PIP wrinkles spread wider than DIP
-      for (int k = -1; k <= 1; ++k)
-        dark += kDorsalCreaseDark * dorsal * line_profile(s - k * spacing) * broken;
-      dark += kPalmarCreaseDark * palmar * (line_profile(s - 0.0008) + line_profile(s + 0.0008)) *
-              broken;
+    // Static creases, or creases that deepen, widen and darken with the joint's flexion.
+    double dorsal_gain = 1, palmar_gain = 1, width = kCreaseWidth, blanch = 0, redden = 1;
+    if (flexion) {
+      const double f = std::clamp(flexion->joint[c], 0.0, 1.2);
+      dorsal_gain = kDorsalFlexBase + kDorsalFlexGain * f;
+      palmar_gain = kPalmarFlexBase + kPalmarFlexGain * f;
+      width = kCreaseWidth * (1 + kCreaseWidening * f);
+      blanch = kKnuckleBlanch * f;
+      redden = 1 - std::min(1.0, f);
     }
+    // Darkening of this joint's lines for given gains and width.
+    auto lines = [&](double dorsal_g, double palmar_g, double w) {
+      if (kind == 0)  // the palmar digital crease past the knuckle
+        return kPalmarCreaseDark * palmar_g * palmar * line_profile(s - 0.011, w) * broken;
+      const double spacing = kind == 1 ? 0.0022 : 0.0013;  // PIP wrinkles spread wider than DIP
+      double sum = kPalmarCreaseDark * palmar_g * palmar *
+                   (line_profile(s - 0.0008, w) + line_profile(s + 0.0008, w)) * broken;
+      for (int k = -1; k <= 1; ++k)
+        sum += kDorsalCreaseDark * dorsal_g * dorsal * line_profile(s - k * spacing, w) * broken;
+      return sum;
+    };
+    double patch = 0;
+    if (kind == 0) {
+      // Knuckle: a faint reddish patch on the back of the hand, stretched and blanched when the
+      // joint flexes.
+      patch = std::exp(-(s * s + radial * radial * 0.2) / (0.006 * 0.006)) * dorsal;
+      colour[0] += 0.03 * patch * redden + blanch * patch;
+      colour[1] += -0.02 * patch * redden + blanch * patch;
+      colour[2] += blanch * patch;
+    }
+    dark += lines(dorsal_gain, palmar_gain, width);
+    // The crease region: the union of the static and the flexed lines' footprints, and the
+    // blanched knuckle (the skin that changes with flexion).
+    if (crease && flexion)
+      *crease += lines(std::max(1.0, dorsal_gain), std::max(1.0, palmar_gain),
+                       std::max(kCreaseWidth, width)) +
+                 blanch * patch;
   }
 
   if (palmar > 0) {
@@ -155,7 +187,10 @@ Vec3 skin_albedo(const SynthSkin& skin, const Vec3& p, double nail, double palma
     const double l = dot(q, skin.palm_long) / skin.palm_length;
     const double c = dot(q, skin.palm_across) / skin.palm_width;
     const double L = skin.palm_length;
-    const double line_broken = 0.7 + 0.3 * (broken - 0.6) / 0.4;
+    // Palm lines deepen as the palm folds (cupping): the fold gathers skin into them.
+    const double fold_gain = flexion ? kPalmFoldBase + kPalmFoldGain * flexion->palm_fold : 1.0;
+    const double line_broken = (0.7 + 0.3 * (broken - 0.6) / 0.4) * fold_gain;
+    const double dark_before = dark;
     if (l > 0.05 && l < 1.0) {
       if (c > -0.6 && c < 0.25) {  // heart line: pinky edge towards the index/middle gap
         const double line = 0.76 + 0.14 * std::pow(std::max(0.0, (c + 0.6) / 0.85), 1.5);
@@ -176,6 +211,7 @@ Vec3 skin_albedo(const SynthSkin& skin, const Vec3& p, double nail, double palma
                 line_profile(std::sqrt(dl * dl + dc * dc) - radius);
       }
     }
+    if (crease && flexion) *crease += dark - dark_before;
   }
   colour = colour * (1 - std::min(0.6, dark));
 

@@ -9,12 +9,14 @@
 #include <vector>
 
 #include "hand/rig.h"
+#include "synth/articulation.h"
 
 namespace handscs {
 
 struct SynthPose {
   std::array<double, 48> pose{};   // absolute axis-angle (flat_hand_mean = true), MANO joint order
   std::array<double, 10> shape{};  // a per-capture base shape plus a small per-frame jitter
+  HandArticulation articulation;   // what `pose` was made from (tissue and skin read the flexion)
 };
 
 // `num_frames` poses along a range-of-motion cycle (about one flexion cycle per 30 frames).

@@ -8,8 +8,8 @@
 
 #include "core/camera.h"
 #include "data/interhand_annotations.h"
-#include "data/synth_config.h"
-#include "data/synth_math.h"
+#include "synth/config.h"
+#include "synth/math.h"
 
 namespace handscs {
 
