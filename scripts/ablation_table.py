@@ -1,0 +1,147 @@
+#!/usr/bin/python3
+"""Summarise a seeded ablation sweep (configs/sweeps/ablation_real*.json) over its seeds.
+
+Points are named <row>.s<seed>; this groups the sweep's results.csv by row and writes, next to it:
+  ablation.md   mean +- sample std (n seeds) of PSNR / SSIM / LPIPS per row, the paper's numbers
+                (HandSCS Tables 3 and 4, test/Capture0) beside the rows they correspond to, and the
+                region metrics (crease / contact / shadow) when the runs' eval/summary.json has them;
+  ablation.csv  the same numbers, one line per row;
+  ablation.png / ablation.pdf  each row's mean with its spread (error bar = std, dots = seeds).
+Usage: /usr/bin/python3 scripts/ablation_table.py SWEEP_OUT [--title TEXT]
+"""
+import argparse
+import csv
+import json
+import math
+import os
+import re
+import sys
+
+# HandSCS Tables 3 and 4 (test/Capture0): PSNR, SSIM, LPIPS.
+PAPER = {
+    "baseline": (31.71, 0.958, 0.0428),
+    "embedding": (32.23, 0.961, 0.0337),
+    "embedding_reg": (32.32, 0.963, 0.0339),
+    "inter_pose": (32.42, 0.964, 0.0335),
+    "scs": (32.78, 0.966, 0.0301),
+    "full": (32.91, 0.966, 0.0291),
+    "virtual_only": (32.64, 0.965, 0.0302),
+    "static_only": (32.70, 0.965, 0.0311),
+}
+LABELS = {
+    "baseline": "(a) baseline",
+    "embedding": "(b) + embeddings",
+    "embedding_reg": "(b) + L_reg",
+    "inter_pose": "(c) + inter-pose",
+    "scs": "(d) + SCS",
+    "full": "full model",
+    "static_only": "static bones only (M = 0)",
+    "virtual_only": "virtual bones only",
+    "m8": "M = 8",
+    "m32": "M = 32",
+}
+METRICS = ("psnr", "ssim", "lpips")
+
+
+def mean_std(values):
+    values = [v for v in values if v is not None and math.isfinite(v)]
+    if not values:
+        return None, None, 0
+    m = sum(values) / len(values)
+    if len(values) < 2:
+        return m, None, len(values)
+    var = sum((v - m) ** 2 for v in values) / (len(values) - 1)
+    return m, math.sqrt(var), len(values)
+
+
+def fmt(m, s, digits):
+    if m is None:
+        return ""
+    return f"{m:.{digits}f}" + (f" ± {s:.{digits}f}" if s is not None else "")
+
+
+def read_rows(out):
+    path = os.path.join(out, "results.csv")
+    if not os.path.exists(path):
+        sys.exit(f"ablation_table: {path}: not found (run handscs-bench --sweep first)")
+    groups = {}
+    order = []
+    with open(path) as f:
+        for r in csv.DictReader(f):
+            match = re.fullmatch(r"(.+)\.s(\d+)", r["point"])
+            if not match or r["status"] != "ok":
+                continue
+            row, seed = match.group(1), int(match.group(2))
+            if row not in groups:
+                groups[row] = []
+                order.append(row)
+            entry = {k: float(r[k]) for k in METRICS if r.get(k)}
+            entry["seed"] = seed
+            summary = os.path.join(out, "runs", f"{r['point']}@{r['budget']}", "eval", "summary.json")
+            if os.path.exists(summary):
+                with open(summary) as s:
+                    regions = json.load(s).get("regions") or {}
+                for name, values in regions.items():
+                    for k in METRICS:
+                        if isinstance(values, dict) and values.get(k) is not None:
+                            entry[f"{name}_{k}"] = float(values[k])
+            groups[row].append(entry)
+    return order, groups
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", help="the sweep's --out folder")
+    parser.add_argument("--title", default="HandSCS ablation")
+    args = parser.parse_args()
+    order, groups = read_rows(args.out)
+    region_names = sorted({k.rsplit("_", 1)[0] for g in groups.values() for e in g for k in e
+                           if k.endswith(("_psnr",)) and k != "psnr"})
+    header = ["row", "seeds", "PSNR", "SSIM", "LPIPS", "paper PSNR / SSIM / LPIPS"]
+    header += [f"{r} PSNR" for r in region_names]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    csv_rows = []
+    for row in order:
+        entries = groups[row]
+        stats = {k: mean_std([e.get(k) for e in entries]) for k in METRICS}
+        paper = PAPER.get(row)
+        cells = [LABELS.get(row, row), str(len(entries)), fmt(*stats["psnr"][:2], 2),
+                 fmt(*stats["ssim"][:2], 4), fmt(*stats["lpips"][:2], 4),
+                 f"{paper[0]:.2f} / {paper[1]:.3f} / {paper[2]:.4f}" if paper else ""]
+        for r in region_names:
+            cells.append(fmt(*mean_std([e.get(f"{r}_psnr") for e in entries])[:2], 2))
+        lines.append("| " + " | ".join(cells) + " |")
+        csv_rows.append([row, len(entries)] + [x for k in METRICS for x in stats[k][:2]])
+    with open(os.path.join(args.out, "ablation.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+    with open(os.path.join(args.out, "ablation.csv"), "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["row", "seeds"] + [f"{k}_{s}" for k in METRICS for s in ("mean", "std")])
+        w.writerows(csv_rows)
+    print("\n".join(lines))
+
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, 2, figsize=(11, 0.45 * len(order) + 1.6), sharey=True)
+    for ax, key, name in ((axes[0], "psnr", "PSNR (dB) ↑"), (axes[1], "lpips", "LPIPS ↓")):
+        for y, row in enumerate(order):
+            values = [e[key] for e in groups[row] if key in e]
+            m, s, _ = mean_std(values)
+            if m is None:
+                continue
+            ax.errorbar(m, y, xerr=s or 0, fmt="o", color="C0", capsize=3)
+            ax.plot(values, [y] * len(values), ".", color="C1", alpha=0.7)
+        ax.set_xlabel(name)
+        ax.grid(axis="x", alpha=0.3)
+    axes[0].set_yticks(range(len(order)))
+    axes[0].set_yticklabels([LABELS.get(r, r) for r in order])
+    axes[0].invert_yaxis()
+    fig.suptitle(f"{args.title}: mean ± std over seeds (dots: seeds)")
+    fig.tight_layout()
+    for ext in ("png", "pdf"):
+        fig.savefig(os.path.join(args.out, f"ablation.{ext}"), dpi=120)
+
+
+if __name__ == "__main__":
+    main()
