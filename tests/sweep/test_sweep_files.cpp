@@ -32,7 +32,7 @@ using handscs_test::error_of;
 TEST_CASE("sweep files: the shipped sweeps load, and a point's budgets and threads override") {
   for (const char* name : {"quick.json", "full.json", "stability.json", "train_step.json", "ablation.json",
                            "ablation_real.json", "ablation_real_quick.json", "ablation_real_400.json",
-                           "ablation_easy_400.json"}) {
+                           "capture_easy.json", "capture_real.json"}) {
     INFO(name);
     const auto c = handscs::load_sweep_config(kSource + "/configs/sweeps/" + name);
     CHECK(fs::exists(c.run_config));
