@@ -1,6 +1,7 @@
 // handscs-eval: PSNR / SSIM / LPIPS of predictions against ground truth (docs/METRICS.md).
-// Folder mode: --pred DIR --gt DIR [--mask DIR] --json FILE.
-// Model mode:  --checkpoint CKPT|RUN_DIR [--config CFG] --out DIR (a trained avatar on held-out frames).
+// Folder mode: --pred DIR --gt DIR [--mask DIR] [--regions DIR] --json FILE.
+// Model mode:  --checkpoint CKPT|RUN_DIR [--config CFG] --out DIR (a trained avatar on held-out frames;
+//              also inside the capture's region masks when it has regions/regions.json).
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 

@@ -26,6 +26,17 @@ void add_eval_options(CLI::App& app, EvalCommandLine& cli) {
   metrics->add_option("--ssim", cli.ssim_variant, "SSIM convention: 3dgs, valid or matlab");
   metrics->add_option("--mask-mode", cli.mask_mode, "composite_gt or composite_both");
 
+  auto* regions = app.add_option_group(
+      "Regions", "PSNR/SSIM/LPIPS inside region masks too (creases, contact, shadows; docs/METRICS.md)");
+  auto* regions_dir = regions->add_option(
+      "--regions", cli.regions_dir,
+      "region masks and their legend DIR/regions.json. Model mode: masks at "
+      "DIR/<split>/<image path>.png; default <capture root>/regions when it holds regions.json. "
+      "Folder mode: masks at DIR/<name>.png (no default)");
+  regions->add_flag("--no-regions", cli.no_regions,
+                    "model mode: do not score regions even when the capture has them")
+      ->excludes(regions_dir);
+
   auto* output = app.add_option_group("Output");
   output->add_option("--json", cli.json_path, "summary and per-image scores (JSON)");
   output->add_option("--csv", cli.csv_path, "per-image scores (CSV)");
@@ -52,7 +63,9 @@ int run_folder_eval_command(const EvalCommandLine& cli, const EvalConfig& config
   require(!cli.folder.pred_dir.empty() && !cli.folder.gt_dir.empty(),
           "folder mode needs both --pred DIR and --gt DIR");
   require(!cli.json_path.empty(), "folder mode needs --json FILE for the results");
-  const EvalReport report = run_folder_eval(cli.folder, config);
+  FolderEvalInputs inputs = cli.folder;
+  inputs.regions_dir = cli.regions_dir;
+  const EvalReport report = run_folder_eval(inputs, config);
   write_eval_outputs(report, cli.json_path, cli.csv_path);
   std::fputs(format_eval_table(report).c_str(), stdout);
   std::fflush(stdout);

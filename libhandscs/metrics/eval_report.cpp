@@ -51,6 +51,41 @@ std::string table_number(const std::optional<double>& x, const char* pattern) {
   return format(pattern, *x);
 }
 
+RegionSummary summarize_region(const EvalReport& report, size_t r) {
+  RegionSummary s;
+  s.name = report.regions.at(r).name;
+  std::vector<double> mse;
+  double fraction_sum = 0, ssim_sum = 0, lpips_sum = 0;
+  int64_t scored = 0, lpips_count = 0;
+  for (const auto& entry : report.entries) {
+    if (!entry.ok) continue;
+    ++scored;
+    const RegionScores& region = entry.scores.regions.at(r);
+    fraction_sum += region.fraction;
+    if (!region.mse) continue;  // empty here: not part of the region's means
+    ++s.images;
+    mse.push_back(*region.mse);
+    if (region.ssim) {
+      ssim_sum += *region.ssim;
+      ++s.ssim_images;
+    }
+    if (region.lpips) {
+      lpips_sum += *region.lpips;
+      ++lpips_count;
+    }
+  }
+  if (scored > 0) s.pixel_fraction = fraction_sum / scored;
+  if (s.images > 0) {
+    const PsnrSummary psnr = summarize_psnr(mse);
+    s.psnr = psnr.mean_psnr;
+    s.psnr_pooled = psnr.pooled_psnr;
+    s.mse = psnr.pooled_mse;
+    if (lpips_count == s.images) s.lpips = lpips_sum / s.images;
+  }
+  if (s.ssim_images > 0) s.ssim = ssim_sum / s.ssim_images;
+  return s;
+}
+
 }  // namespace
 
 EvalSummary EvalReport::summary() const {
@@ -81,6 +116,7 @@ EvalSummary EvalReport::summary() const {
     // LPIPS is all or nothing per run; a partial mean would silently cover fewer images.
     if (lpips_count == s.num_scored) s.lpips = lpips_sum / s.num_scored;
   }
+  for (size_t r = 0; r < regions.size(); ++r) s.regions.push_back(summarize_region(*this, r));
   return s;
 }
 
@@ -99,6 +135,24 @@ json eval_report_to_json(const EvalReport& report) {
                     {"psnr_pooled_mse", optional_number(s.psnr_pooled)},
                     {"mse", optional_number(s.mse)}, {"ssim", optional_number(s.ssim)},
                     {"lpips", optional_number(s.lpips)}};
+  if (!report.regions.empty()) {
+    json regions = json::object();
+    for (size_t r = 0; r < report.regions.size(); ++r) {
+      const RegionSpec& spec = report.regions[r];
+      const RegionSummary& region = s.regions[r];
+      regions[spec.name] = {{"bit", spec.bit},
+                            {"description", spec.description},
+                            {"images", region.images},
+                            {"ssim_images", region.ssim_images},
+                            {"pixel_fraction", region.pixel_fraction},
+                            {"psnr", optional_number(region.psnr)},
+                            {"psnr_pooled_mse", optional_number(region.psnr_pooled)},
+                            {"mse", optional_number(region.mse)},
+                            {"ssim", optional_number(region.ssim)},
+                            {"lpips", optional_number(region.lpips)}};
+    }
+    out["regions"] = regions;
+  }
   json images = json::array();
   json failed = json::array();
   for (const auto& entry : report.entries) {
@@ -112,6 +166,17 @@ json eval_report_to_json(const EvalReport& report) {
       item["ssim"] = number(entry.scores.ssim);
       item["lpips"] = optional_number(entry.scores.lpips);
       item["mse"] = number(entry.scores.mse);
+      if (!report.regions.empty()) {
+        json regions = json::object();
+        for (size_t r = 0; r < report.regions.size(); ++r) {
+          const RegionScores& region = entry.scores.regions.at(r);
+          regions[report.regions[r].name] = {
+              {"pixels", region.pixels},           {"fraction", region.fraction},
+              {"psnr", optional_number(region.psnr)}, {"ssim", optional_number(region.ssim)},
+              {"lpips", optional_number(region.lpips)}, {"mse", optional_number(region.mse)}};
+        }
+        item["regions"] = regions;
+      }
       images.push_back(item);
     } else {
       item["error"] = entry.error;
@@ -124,7 +189,11 @@ json eval_report_to_json(const EvalReport& report) {
 }
 
 std::string eval_report_to_csv(const EvalReport& report) {
-  std::string text = "name,status,psnr,ssim,lpips,mse,width,height,error\n";
+  std::string text = "name,status,psnr,ssim,lpips,mse,";
+  for (const auto& region : report.regions)
+    for (const char* column : {"_psnr", "_ssim", "_lpips", "_fraction"})
+      text += csv_field(region.name + column) + ",";
+  text += "width,height,error\n";
   for (const auto& entry : report.entries) {
     const bool ok = entry.ok;
     text += csv_field(entry.name) + "," + (ok ? "ok" : "failed") + ",";
@@ -132,6 +201,15 @@ std::string eval_report_to_csv(const EvalReport& report) {
     text += (ok ? csv_number(entry.scores.ssim) : "") + ",";
     text += (ok ? csv_number(entry.scores.lpips) : "") + ",";
     text += (ok ? csv_number(entry.scores.mse) : "") + ",";
+    for (size_t r = 0; r < report.regions.size(); ++r) {
+      if (!ok) {
+        text += ",,,,";
+        continue;
+      }
+      const RegionScores& region = entry.scores.regions.at(r);
+      text += csv_number(region.psnr) + "," + csv_number(region.ssim) + "," +
+              csv_number(region.lpips) + "," + csv_number(region.fraction) + ",";
+    }
     text += (entry.width > 0 ? std::to_string(entry.width) : "") + ",";
     text += (entry.height > 0 ? std::to_string(entry.height) : "") + ",";
     text += csv_field(entry.error) + "\n";
@@ -155,6 +233,20 @@ std::string format_eval_table(const EvalReport& report) {
           pad_left(table_number(s.psnr, "%.3f"), 9) + pad_left(table_number(s.ssim, "%.5f"), 9) +
           pad_left(table_number(s.lpips, "%.5f"), 9) + "\n";
   text += "PSNR of the pooled MSE: " + table_number(s.psnr_pooled, "%.3f") + " dB\n";
+  if (!s.regions.empty()) {
+    size_t region_width = 8;
+    for (const auto& region : s.regions) region_width = std::max(region_width, region.name.size() + 2);
+    text += "\nregions (means over the images where the region has pixels):\n";
+    text += pad_right("region", region_width) + pad_left("images", 10) + pad_left("area", 9) +
+            pad_left("PSNR", 9) + pad_left("SSIM", 9) + pad_left("LPIPS", 9) + "\n";
+    for (const auto& region : s.regions)
+      text += pad_right(region.name, region_width) +
+              pad_left(std::to_string(region.images) + "/" + std::to_string(s.num_scored), 10) +
+              pad_left(format("%.2f%%", 100 * region.pixel_fraction), 9) +
+              pad_left(table_number(region.psnr, "%.3f"), 9) +
+              pad_left(table_number(region.ssim, "%.5f"), 9) +
+              pad_left(table_number(region.lpips, "%.5f"), 9) + "\n";
+  }
   const auto& config = report.config;
   if (config.contains("ssim") && config.contains("lpips"))
     text += "SSIM " + config["ssim"].value("variant", std::string("?")) + ", LPIPS " +

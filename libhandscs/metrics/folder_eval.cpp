@@ -13,6 +13,7 @@
 #include "core/error.h"
 #include "core/progress.h"
 #include "metrics/image_tensor.h"
+#include "metrics/region_masks.h"
 
 namespace handscs {
 
@@ -79,6 +80,12 @@ EvalReport run_folder_eval(const FolderEvalInputs& inputs, const EvalConfig& con
   report.inputs = {{"pred_dir", inputs.pred_dir}, {"gt_dir", inputs.gt_dir},
                    {"mask_dir", inputs.mask_dir.empty() ? json(nullptr) : json(inputs.mask_dir)}};
   report.config = config_to_json(resolved);
+  RegionLegend legend;
+  if (!inputs.regions_dir.empty()) {
+    legend = read_region_legend((fs::path(inputs.regions_dir) / kRegionLegendFile).string());
+    report.regions = legend.regions;
+    report.inputs["regions"] = legend.path;
+  }
 
   const auto pairs = pair_images_by_name(inputs);
   const ImageScorer scorer(config);
@@ -93,6 +100,9 @@ EvalReport run_folder_eval(const FolderEvalInputs& inputs, const EvalConfig& con
                      {"gt", pair.gt.empty() ? json(nullptr) : json(pair.gt)}};
     if (!inputs.mask_dir.empty())
       entry.sources["mask"] = pair.mask.empty() ? json(nullptr) : json(pair.mask);
+    const std::string regions_path =
+        legend.empty() ? "" : region_mask_path(inputs.regions_dir, pair.name + ".png");
+    if (!legend.empty()) entry.sources["regions"] = regions_path;
     try {
       require(!pair.pred.empty(), "no prediction in " + inputs.pred_dir);
       require(!pair.gt.empty(), "no ground truth in " + inputs.gt_dir);
@@ -102,7 +112,11 @@ EvalReport run_folder_eval(const FolderEvalInputs& inputs, const EvalConfig& con
       entry.height = gt.size(0);
       const auto pred = load_rgb_image(pair.pred, resolved.background);
       const auto mask = pair.mask.empty() ? torch::Tensor() : load_mask_image(pair.mask);
-      entry.scores = scorer.score(pred, gt, mask);
+      const auto regions = legend.empty() ? torch::Tensor()
+                                          : region_planes(load_region_mask(regions_path, entry.width,
+                                                                           entry.height),
+                                                          legend);
+      entry.scores = scorer.score(pred, gt, mask, regions);
       entry.ok = true;
     } catch (const c10::Error& e) {
       entry.error = e.what_without_backtrace();

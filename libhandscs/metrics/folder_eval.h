@@ -11,9 +11,10 @@
 namespace handscs {
 
 struct FolderEvalInputs {
-  std::string pred_dir;  // predictions
-  std::string gt_dir;    // ground truth
-  std::string mask_dir;  // optional masks ("" = none)
+  std::string pred_dir;     // predictions
+  std::string gt_dir;       // ground truth
+  std::string mask_dir;     // optional masks ("" = none)
+  std::string regions_dir;  // optional region masks <name>.png and their regions.json ("" = none)
 };
 
 // One name present in either folder. Paths are empty where that folder has no such image.
@@ -33,8 +34,9 @@ std::vector<std::pair<std::string, std::string>> list_images(const std::string& 
 // given. Throws Error when a folder is missing or gt_dir holds no images.
 std::vector<ImagePair> pair_images_by_name(const FolderEvalInputs& inputs);
 
-// Scores every pair. Missing partners, unreadable files, size mismatches and non-finite values
-// become failure entries. Logs once when LPIPS is skipped. Throws Error for bad folders or config.
+// Scores every pair (and its regions with regions_dir). Missing partners, unreadable files, size
+// mismatches, non-finite values and missing or bad region masks become failure entries. Logs once
+// when LPIPS is skipped. Throws Error for bad folders, config or region legend.
 EvalReport run_folder_eval(const FolderEvalInputs& inputs, const EvalConfig& config);
 
 }  // namespace handscs

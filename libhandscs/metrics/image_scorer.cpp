@@ -7,7 +7,9 @@
 
 #include "core/error.h"
 #include "metrics/image_tensor.h"
+#include "metrics/lpips_spatial.h"
 #include "metrics/psnr.h"
+#include "metrics/region_means.h"
 #include "metrics/ssim.h"
 
 namespace handscs {
@@ -54,7 +56,7 @@ ImageScorer::ImageScorer(const EvalConfig& config) : config_(config) {
 }
 
 ImageScores ImageScorer::score(const torch::Tensor& pred, const torch::Tensor& gt,
-                               const torch::Tensor& mask) const {
+                               const torch::Tensor& mask, const torch::Tensor& regions) const {
   c10::InferenceMode inference;
   check_image(pred, "prediction");
   check_image(gt, "ground truth");
@@ -78,15 +80,40 @@ ImageScores ImageScorer::score(const torch::Tensor& pred, const torch::Tensor& g
     g = g * m + bg * (1 - m);
     if (config_.mask_mode == "composite_both") p = p * m + bg * (1 - m);
   }
+  if (regions.defined())
+    require(regions.dim() == 3 && regions.scalar_type() == torch::kBool &&
+                regions.size(1) == pred.size(0) && regions.size(2) == pred.size(1),
+            "region masks must be [R, H, W] bool of the image size (" + size_text(pred) + ")");
   const auto p4 = hwc_to_bchw(p);
   const auto g4 = hwc_to_bchw(g);
+  const auto ssim_values = ssim_map(p4, g4, config_.ssim);
   ImageScores scores;
   scores.mse = mse_per_image(p4, g4).item<double>();
   scores.psnr = psnr_from_mse(scores.mse);
-  scores.ssim = ssim(p4, g4, config_.ssim).item<double>();
+  scores.ssim = ssim_values.mean({1, 2, 3}).item<double>();  // as ssim()
+  std::vector<torch::Tensor> lpips_layers;
   if (lpips_) {
     const auto dtype = lpips_->dtype();
-    scores.lpips = lpips_->distance(p4.to(dtype), g4.to(dtype)).item<double>();
+    lpips_layers = lpips_->layer_distances(p4.to(dtype), g4.to(dtype));
+    scores.lpips = lpips_from_layers(lpips_layers).item<double>();
+  }
+  if (!regions.defined()) return scores;
+
+  const auto pixels = region_pixel_counts(regions);
+  const auto mse = region_means((p4 - g4).square()[0], regions);
+  const auto ssim_means = region_means(ssim_values[0], regions);
+  std::vector<std::optional<double>> lpips_means(pixels.size());
+  if (lpips_)
+    lpips_means = region_means(lpips_map_from_layers(lpips_layers, p4.size(2), p4.size(3))[0], regions);
+  for (size_t r = 0; r < pixels.size(); ++r) {
+    RegionScores region;
+    region.pixels = pixels[r];
+    region.fraction = static_cast<double>(pixels[r]) / static_cast<double>(pred.size(0) * pred.size(1));
+    region.mse = mse[r];
+    if (mse[r]) region.psnr = psnr_from_mse(*mse[r]);
+    region.ssim = ssim_means[r];
+    region.lpips = lpips_means[r];
+    scores.regions.push_back(region);
   }
   return scores;
 }

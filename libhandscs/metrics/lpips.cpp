@@ -102,7 +102,7 @@ std::vector<torch::Tensor> Lpips::features(const torch::Tensor& images) const {
   return taps;
 }
 
-torch::Tensor Lpips::distance(const torch::Tensor& x, const torch::Tensor& y) const {
+std::vector<torch::Tensor> Lpips::layer_distances(const torch::Tensor& x, const torch::Tensor& y) const {
   TORCH_CHECK(x.sizes() == y.sizes(), "lpips: image sizes differ: ", x.sizes(), " vs ", y.sizes());
   const int64_t batch = x.size(0);
   std::vector<torch::Tensor> taps_x, taps_y;
@@ -123,11 +123,24 @@ torch::Tensor Lpips::distance(const torch::Tensor& x, const torch::Tensor& y) co
       taps_y.push_back(tap.narrow(0, batch, batch));
     }
   }
-  torch::Tensor total;
+  std::vector<torch::Tensor> layers;
   for (size_t t = 0; t < taps_x.size(); ++t) {
     const auto diff = (unit_normalize_channels(taps_x[t]) - unit_normalize_channels(taps_y[t])).square();
-    const auto layer = at::conv2d(diff, lins_[t]).mean({1, 2, 3});  // 1x1 lin, spatial mean
-    total = total.defined() ? total + layer : layer;
+    layers.push_back(at::conv2d(diff, lins_[t]));  // 1x1 lin
+  }
+  return layers;
+}
+
+torch::Tensor Lpips::distance(const torch::Tensor& x, const torch::Tensor& y) const {
+  return lpips_from_layers(layer_distances(x, y));
+}
+
+torch::Tensor lpips_from_layers(const std::vector<torch::Tensor>& layers) {
+  TORCH_CHECK(!layers.empty(), "lpips_from_layers: no layers");
+  torch::Tensor total;
+  for (const auto& layer : layers) {
+    const auto mean = layer.mean({1, 2, 3});  // spatial mean of the tap's map
+    total = total.defined() ? total + mean : mean;
   }
   return total;
 }

@@ -47,9 +47,15 @@ class Lpips {
   Lpips(const LpipsNetSpec& spec, const TensorDict& weights, const std::string& input_range,
         const std::string& source);
 
-  // LPIPS distance per image pair: [B]. Differentiable in x and y.
+  // LPIPS distance per image pair: [B] (lpips_from_layers of layer_distances). Differentiable in
+  // x and y.
   torch::Tensor distance(const torch::Tensor& x,         // [B, 3, H, W], see input_range
                          const torch::Tensor& y) const;  // [B, 3, H, W]
+
+  // Per-tap distance maps w_t . (n(f_t(x)) - n(f_t(y)))^2 at each tap's resolution:
+  // [B, 1, h_t, w_t] for the five taps (lpips_spatial.h brings them to image resolution).
+  std::vector<torch::Tensor> layer_distances(const torch::Tensor& x,         // [B, 3, H, W]
+                                             const torch::Tensor& y) const;  // [B, 3, H, W]
 
   // The five taps of the backbone for `images` (after input range and scaling layer).
   std::vector<torch::Tensor> features(const torch::Tensor& images) const;  // [B, 3, H, W]
@@ -69,6 +75,9 @@ class Lpips {
   torch::Tensor shift_;                                                      // [1, 3, 1, 1]
   torch::Tensor scale_;                                                      // [1, 3, 1, 1]
 };
+
+// The LPIPS distance from the per-tap maps: sum over taps of each map's spatial mean, [B].
+torch::Tensor lpips_from_layers(const std::vector<torch::Tensor>& layers);  // [B, 1, h_t, w_t] each
 
 // Training loss: mean over the batch of lpips.distance(pred, target); a scalar.
 torch::Tensor lpips_loss(const Lpips& lpips,

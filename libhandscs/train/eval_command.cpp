@@ -48,12 +48,15 @@ int run_model_eval_command(const ModelEvalCommandLine& cli, const EvalCommandLin
   options.side_by_side = cli.side_by_side;
   options.max_images = cli.max_images;
   options.label = cli.label;
+  options.regions = !metric_flags.no_regions;
+  options.regions_dir = metric_flags.regions_dir;
   const ModelEvalResult result = evaluate_avatar(config, options);
   std::fputs(format_eval_table(result.report).c_str(), stdout);
   std::printf("rendering: %lld frames, %.1f FPS over the whole forward (median %.1f ms per frame)\n",
               static_cast<long long>(result.frames), result.fps, result.forward_ms);
   std::fflush(stdout);
-  spdlog::info("wrote {}/summary.json, per_image.csv and table.md", cli.out);
+  spdlog::info("wrote {}/summary.json, per_image.csv and table.md{}", cli.out,
+               result.report.regions.empty() ? "" : " (with region scores)");
   return result.report.summary().num_failed == 0 ? 0 : 2;
 }
 

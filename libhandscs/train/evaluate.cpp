@@ -18,6 +18,7 @@
 #include "data/capture.h"
 #include "metrics/image_scorer.h"
 #include "metrics/image_tensor.h"
+#include "metrics/region_masks.h"
 #include "train/avatar_state_io.h"
 #include "train/trainer.h"
 
@@ -54,13 +55,27 @@ std::string resolve_checkpoint_path(const std::string& path) {
 }
 
 std::string paper_table(const std::string& label, const EvalSummary& s, double fps) {
-  std::string t;
-  t += "| Method | " + label + " PSNR ↑ | SSIM ↑ | LPIPS ↓ | FPS (CPU) |\n";
-  t += "|---|---|---|---|---|\n";
+  std::string header = "| Method | " + label + " PSNR ↑ | SSIM ↑ | LPIPS ↓ |";
+  std::string rule = "|---|---|---|---|";
+  std::string row = "| HandSCS (this run) | " + format_or_null(s.psnr, 2) + " | " +
+                    format_or_null(s.ssim, 3) + " | " + format_or_null(s.lpips, 4) + " |";
+  std::string notes;
+  for (const auto& region : s.regions) {
+    header += " " + region.name + " PSNR ↑ | SSIM ↑ | LPIPS ↓ |";
+    rule += "---|---|---|";
+    row += " " + format_or_null(region.psnr, 2) + " | " + format_or_null(region.ssim, 3) + " | " +
+           format_or_null(region.lpips, 4) + " |";
+    char share[32];
+    std::snprintf(share, sizeof(share), "%.2f%%", 100 * region.pixel_fraction);
+    notes += std::string(notes.empty() ? "" : "; ") + region.name + " in " +
+             std::to_string(region.images) + " of " + std::to_string(s.num_scored) + " images, " +
+             share + " of the pixels";
+  }
   char fps_text[32];
   std::snprintf(fps_text, sizeof(fps_text), "%.1f", fps);
-  t += "| HandSCS (this run) | " + format_or_null(s.psnr, 2) + " | " + format_or_null(s.ssim, 3) +
-       " | " + format_or_null(s.lpips, 4) + " | " + fps_text + " |\n";
+  std::string t = header + " FPS (CPU) |\n" + rule + "---|\n" + row + " " + fps_text + " |\n";
+  if (!notes.empty())
+    t += "\nRegion columns: means over the images where the region has pixels (" + notes + ").\n";
   return t;
 }
 
@@ -84,6 +99,16 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, const ModelEvalOptio
   Capture capture = Capture::open(config.data, cache);
   Avatar avatar = restore_avatar(ckpt, config.model, load_rig_source(config.model.rig), ckpt_path);
   ImageScorer scorer(config.eval);
+  RegionLegend legend;
+  std::string regions_dir;
+  if (options.regions) {
+    regions_dir = options.regions_dir.empty() ? (std::filesystem::path(config.data.root) / "regions").string()
+                                              : options.regions_dir;
+    const std::string legend_path = (std::filesystem::path(regions_dir) / kRegionLegendFile).string();
+    // Without --regions a capture without region masks is evaluated as before.
+    if (!options.regions_dir.empty() || std::filesystem::exists(legend_path))
+      legend = read_region_legend(legend_path);
+  }
   if (!scorer.has_lpips()) spdlog::warn("LPIPS skipped: {}", scorer.lpips_skip_reason());
 
   std::vector<FrameInfo> frames = options.split == "train" ? capture.train() : capture.test();
@@ -96,6 +121,21 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, const ModelEvalOptio
     frames = std::move(subset);
   }
 
+  const std::string masks_dir = (std::filesystem::path(regions_dir) / config.data.split).string();
+  if (!legend.empty()) {
+    // Every mask must be there before hours of rendering start.
+    int64_t missing = 0;
+    std::string first_missing;
+    for (const auto& frame : frames) {
+      const std::string path = region_mask_path(masks_dir, frame.file_name);
+      if (std::filesystem::exists(path)) continue;
+      if (missing++ == 0) first_missing = path;
+    }
+    require(missing == 0, first_missing + ": region mask not found (" + std::to_string(missing) + " of " +
+                              std::to_string(frames.size()) + " frames have none under " + masks_dir +
+                              "; --no-regions evaluates without regions)");
+  }
+
   ModelEvalResult result;
   result.report.mode = "model";
   result.report.inputs = {{"checkpoint", ckpt_path},
@@ -105,6 +145,8 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, const ModelEvalOptio
                           {"frames", options.split}};
   result.report.config = config_to_json(config.eval);
   result.report.lpips_skip_reason = scorer.has_lpips() ? "" : scorer.lpips_skip_reason();
+  result.report.inputs["regions"] = legend.empty() ? json(nullptr) : json(legend.path);
+  result.report.regions = legend.regions;
   if (options.side_by_side) ensure_directory(options.out_dir + "/side_by_side");
 
   const auto& bg = config.eval.background;
@@ -124,6 +166,12 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, const ModelEvalOptio
       FrameSample sample = capture.load(frame, /*full_image=*/true);
       entry.width = sample.image.size(1);
       entry.height = sample.image.size(0);
+      torch::Tensor regions;
+      if (!legend.empty()) {
+        const std::string path = region_mask_path(masks_dir, frame.file_name);
+        entry.sources["regions"] = path;
+        regions = region_planes(load_region_mask(path, entry.width, entry.height), legend);
+      }
       const auto mask = sample.mask.to(torch::kFloat32).unsqueeze(2);
       const auto gt = sample.image.to(torch::kFloat32).div(255.0) * mask + bg_tensor * (1 - mask);
       const auto t0 = std::chrono::steady_clock::now();
@@ -134,7 +182,7 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, const ModelEvalOptio
       forward_ms.push_back(std::chrono::duration<double, std::milli>(
                                std::chrono::steady_clock::now() - t0).count());
       const auto pred = out.render.rgb.clamp(0, 1);
-      entry.scores = scorer.score(pred, gt);
+      entry.scores = scorer.score(pred, gt, {}, regions);
       entry.ok = true;
       if (options.side_by_side) {
         std::string name = frame.file_name;

@@ -1,6 +1,7 @@
 // Model-mode evaluation (paper protocol, DESIGN.md §4): render every held-out frame of a capture with
 // a trained avatar on the full image, composite the ground truth onto the same background with its
-// mask, score PSNR/SSIM/LPIPS per image, and time the whole forward (LBS, SCS, decoders, rasterizer).
+// mask, score PSNR/SSIM/LPIPS per image (and inside the capture's region masks, when it has them),
+// and time the whole forward (LBS, SCS, decoders, rasterizer).
 #pragma once
 
 #include <string>
@@ -17,6 +18,8 @@ struct ModelEvalOptions {
   bool side_by_side = false;   // write prediction | ground truth | error heat map PNGs
   int64_t max_images = 0;      // 0 = all; else this many, evenly spaced over the split
   std::string label;           // column-group label of table.md (default "<split>/Capture<c>")
+  bool regions = true;         // score region masks (metrics/region_masks.h) when there are some
+  std::string regions_dir;     // their folder: "" = <data.root>/regions when it holds regions.json
 };
 
 struct ModelEvalResult {
@@ -27,13 +30,16 @@ struct ModelEvalResult {
 };
 
 // Loads the checkpoint (its stored model config is authoritative), opens the capture of `config`
-// and evaluates; writes the outputs into options.out_dir.
+// and evaluates; writes the outputs into options.out_dir. With regions, every evaluated frame needs
+// its mask <regions_dir>/<data.split>/<image path>.png: a missing one is an Error naming it (before
+// anything is rendered); an unreadable or wrong-size one fails that frame.
 ModelEvalResult evaluate_avatar(const RunConfig& config, const ModelEvalOptions& options);
 
 // Resolves a checkpoint argument: a file as is, a run folder to its latest checkpoint.
 std::string resolve_checkpoint_path(const std::string& path);
 
-// The paper-style Markdown table for one capture column group.
+// The paper-style Markdown table: the capture's column group, then one per region (summary.regions),
+// then FPS; with regions, a line under it gives each region's image count and pixel share.
 std::string paper_table(const std::string& label, const EvalSummary& summary, double fps);
 
 }  // namespace handscs

@@ -16,7 +16,7 @@ using Catch::Matchers::WithinAbs;
 namespace {
 
 handscs::FolderEvalInputs shared_pairs() {
-  return {metrics_test::pairs_dir() + "/dist", metrics_test::pairs_dir() + "/ref", ""};
+  return {metrics_test::pairs_dir() + "/dist", metrics_test::pairs_dir() + "/ref", "", ""};
 }
 
 handscs::EvalConfig with_lpips() {
@@ -112,7 +112,7 @@ TEST_CASE("folder eval turns each bad pair into a failure entry excluded from th
   REQUIRE(cv::imwrite(pred + "/g.pfm", bright));
   std::ofstream(pred + "/notes.txt") << "ignored: not an image";
 
-  const auto report = handscs::run_folder_eval({pred, gt, ""}, handscs::EvalConfig{});
+  const auto report = handscs::run_folder_eval({pred, gt, "", ""}, handscs::EvalConfig{});
   REQUIRE(report.entries.size() == 7);
   std::map<std::string, std::string> errors;
   for (const auto& entry : report.entries) errors[entry.name] = entry.ok ? "ok" : entry.error;
@@ -152,9 +152,9 @@ TEST_CASE("folder eval composites the ground truth with the mask", "[eval]") {
   for (int i = 0; i < 24; ++i)
     for (int j = 0; j < 24; ++j) mask_image.at<uint8_t>(i, j) = mask[i][j].item<float>() > 0 ? 255 : 0;
   REQUIRE(cv::imwrite(masks + "/x.png", mask_image));
-  const auto unmasked = handscs::run_folder_eval({pred, gt, ""}, handscs::EvalConfig{});
+  const auto unmasked = handscs::run_folder_eval({pred, gt, "", ""}, handscs::EvalConfig{});
   CHECK(std::isfinite(unmasked.entries[0].scores.psnr));
-  const auto masked = handscs::run_folder_eval({pred, gt, masks}, handscs::EvalConfig{});
+  const auto masked = handscs::run_folder_eval({pred, gt, masks, ""}, handscs::EvalConfig{});
   REQUIRE(masked.entries[0].ok);
   CHECK(masked.entries[0].scores.mse == 0.0);
   CHECK(std::isinf(masked.entries[0].scores.psnr));
@@ -163,13 +163,13 @@ TEST_CASE("folder eval composites the ground truth with the mask", "[eval]") {
   // A name without a mask fails rather than being scored unmasked.
   write_png(gt + "/y.png", image);
   write_png(pred + "/y.png", image);
-  const auto missing = handscs::run_folder_eval({pred, gt, masks}, handscs::EvalConfig{});
+  const auto missing = handscs::run_folder_eval({pred, gt, masks, ""}, handscs::EvalConfig{});
   REQUIRE(missing.entries.size() == 2);
   CHECK(missing.entries[1].error == "no mask in " + masks);
   // A float mask outside [0, 1] fails too.
   cv::Mat bad_mask(24, 24, CV_32FC1, cv::Scalar(2.0));
   REQUIRE(cv::imwrite(masks + "/y.pfm", bad_mask));
-  const auto bad = handscs::run_folder_eval({pred, gt, masks}, handscs::EvalConfig{});
+  const auto bad = handscs::run_folder_eval({pred, gt, masks, ""}, handscs::EvalConfig{});
   CHECK(bad.entries[1].error == "mask values must be finite and in [0, 1]");
 }
 
@@ -178,13 +178,13 @@ TEST_CASE("folder eval rejects missing folders, empty folders and duplicate name
   const auto pred = root + "/pred", gt = root + "/gt";
   handscs::ensure_directory(pred);
   handscs::ensure_directory(gt);
-  CHECK(metrics_test::error_of([&] { handscs::run_folder_eval({root + "/none", gt, ""}, {}); }) ==
+  CHECK(metrics_test::error_of([&] { handscs::run_folder_eval({root + "/none", gt, "", ""}, {}); }) ==
         root + "/none: not a folder");
-  CHECK(metrics_test::error_of([&] { handscs::run_folder_eval({pred, gt, ""}, {}); }) ==
+  CHECK(metrics_test::error_of([&] { handscs::run_folder_eval({pred, gt, "", ""}, {}); }) ==
         gt + ": no images (png, jpg, jpeg, bmp, tif, tiff, exr, webp, ppm, pgm, pfm)");
   write_png(gt + "/a.png", random_hwc(12, 12, 1));
   write_png(gt + "/a.JPG", random_hwc(12, 12, 1));
-  CHECK(metrics_test::error_of([&] { handscs::run_folder_eval({pred, gt, ""}, {}); }) ==
+  CHECK(metrics_test::error_of([&] { handscs::run_folder_eval({pred, gt, "", ""}, {}); }) ==
         gt + ": two images are named \"a\" (a.JPG, a.png); keep one");
 }
 

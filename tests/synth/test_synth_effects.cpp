@@ -57,7 +57,7 @@ cv::Mat grow(const cv::Mat& mask, int px) {
 
 }  // namespace
 
-TEST_CASE("synth effects: realistic presets turn every effect on; --set turns one off") {
+TEST_CASE("synth effects: realistic presets turn every effect on, and --set turns one off") {
   const SynthConfig real = synth_preset("real_demo"), easy = synth_preset("demo");
   CHECK(real.num_frames == easy.num_frames);
   CHECK(real.num_cameras == easy.num_cameras);
