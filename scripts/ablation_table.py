@@ -39,6 +39,11 @@ LABELS = {
     "virtual_only": "virtual bones only",
     "m8": "M = 8",
     "m32": "M = 32",
+    "con_1e-3": "lambda_con = 1e-3 (mean)",
+    "con_1e-1": "lambda_con = 1e-1 (mean)",
+    "con_sum": "L_con summed (paper's formula)",
+    "con_groups": "L_con per-group normalised",
+    "reg_all": "L_reg with fusion offsets",
 }
 METRICS = ("psnr", "ssim", "lpips")
 

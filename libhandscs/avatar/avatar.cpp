@@ -65,8 +65,12 @@ torch::Tensor Avatar::compute_descriptor(const torch::Tensor& pose, const LbsOut
   if (generator_) {
     const bool posed_space = config_.scs.virtual_space == "posed";
     *bones = generator_->forward(pose, canonical_joints, posed_space ? posed_joints : canonical_joints);
-    parts.push_back(virtual_descriptor(posed_space ? lbs_means : gaussians_.means, bones->start,
-                                       bones->end, config_.scs.norm_eps));
+    // Canonical space is the shaped rest hand, the space of rest_joints and so of the bones: the
+    // Gaussians' template centres get their rig vertex's shape offset (not the pose offset).
+    const auto centres =
+        posed_space ? lbs_means
+                    : gaussians_.means + lbs.shape_offsets[0].index_select(0, gaussians_.vertex_ids);
+    parts.push_back(virtual_descriptor(centres, bones->start, bones->end, config_.scs.norm_eps));
   }
   if (parts.empty()) return torch::zeros({gaussians_.size(), 0}, lbs_means.options());
   return torch::cat(parts, 1);

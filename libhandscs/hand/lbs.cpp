@@ -146,6 +146,7 @@ LbsOutput lbs(const Rig& rig, const torch::Tensor& pose,  // [B, 48]
   out.rest_joints = torch::cat({rest, v_shaped.index_select(1, tips)}, 1);
   out.joint_transforms = joint_transforms;
   out.blend_offsets = v_posed - v_template.unsqueeze(0);
+  out.shape_offsets = v_shaped - v_template.unsqueeze(0);
   out.vertex_transforms = vertex_transforms;
   return out;
 }

@@ -20,6 +20,7 @@ struct LbsOutput {
   torch::Tensor rest_joints;        // [B, 21, 3] canonical joints of the shaped zero-pose hand
   torch::Tensor joint_transforms;   // [B, 16, 4, 4] A_k: maps canonical (rest) points to world
   torch::Tensor blend_offsets;      // [B, V, 3] shape + pose blend offsets added before skinning
+  torch::Tensor shape_offsets;      // [B, V, 3] shape blend offsets alone (v_shaped - template)
   torch::Tensor vertex_transforms;  // [B, V, 4, 4] sum_k w_vk A_k
 };
 

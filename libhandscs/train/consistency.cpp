@@ -9,6 +9,12 @@
 namespace handscs {
 
 namespace {
+// Floor of s_i^2 (m^2) in the group normalisation: (0.1 mm)^2, far below any Gaussian the
+// densification keeps, so it only guards against a degenerate covariance.
+constexpr double kMinExtent2 = 1e-8;
+}  // namespace
+
+namespace {
 // Rows per block of the exact search: 1024 x N' distances in flight (10k Gaussians: 40 MB).
 constexpr int64_t kSearchBlock = 1024;
 }  // namespace
@@ -108,6 +114,23 @@ torch::Tensor consistency_attributes(const torch::Tensor& means, const torch::Te
   return torch::cat({means, covariances.reshape({means.size(0), 9}), colors, embed_geometry,
                      embed_appearance},
                     1);
+}
+
+torch::Tensor consistency_distances(const torch::Tensor& attributes, const torch::Tensor& matched,
+                                    const torch::Tensor& covariances, const std::string& normalize) {
+  TORCH_CHECK(attributes.sizes() == matched.sizes() && attributes.dim() == 2 && attributes.size(1) >= 15,
+              "consistency_distances: attributes and matched must be equal [N, 15 + 2d], got ",
+              attributes.sizes(), " and ", matched.sizes());
+  const auto squared = (attributes - matched).pow(2);
+  if (normalize == "none") return squared.sum(1);
+  TORCH_CHECK(normalize == "groups", "consistency_distances: normalize must be none or groups, got ",
+              normalize);
+  // s_i^2 = tr(Sigma'_i) / 3: the Gaussian's mean squared extent, a constant of the loss.
+  const auto extent2 = covariances.detach().diagonal(0, 1, 2).sum(1).div(3).clamp_min(kMinExtent2);
+  const auto group = [&](int64_t first, int64_t count) { return squared.narrow(1, first, count).mean(1); };
+  auto total = group(0, 3) / extent2 + group(3, 9) / extent2.pow(2) + group(12, 3);
+  if (attributes.size(1) > 15) total = total + group(15, attributes.size(1) - 15);
+  return total;
 }
 
 }  // namespace handscs

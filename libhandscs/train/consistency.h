@@ -3,6 +3,8 @@
 // P_t-1^j|^2, and L_con = w * reduce_i |M_t^i - M_t-1^pi(i)|^2 with M = (x', Sigma', c', e_g, e_a).
 #pragma once
 
+#include <string>
+
 #include <torch/types.h>
 
 namespace handscs {
@@ -28,5 +30,14 @@ torch::Tensor nearest_neighbours(const torch::Tensor& points, int64_t k);
 torch::Tensor consistency_attributes(const torch::Tensor& means, const torch::Tensor& covariances,
                                      const torch::Tensor& colors, const torch::Tensor& embed_geometry,
                                      const torch::Tensor& embed_appearance);
+
+// Per-Gaussian distance [N] between attributes [N, 15 + 2d] and the previous step's rows matched
+// to them [N, 15 + 2d]. normalize "none": |M_i - M'_pi(i)|^2 over all columns (the paper's term).
+// "groups": every attribute group is made scale-free and averaged over its columns, and the groups
+// are summed, so each can hold the avatar together: |dx'|^2/(3 s^2) + |dSigma'|_F^2/(9 s^4) +
+// |dc'|^2/3 + |de|^2/(2d), with s_i^2 = tr(Sigma'_i)/3 of the current Gaussian (no gradient).
+torch::Tensor consistency_distances(const torch::Tensor& attributes, const torch::Tensor& matched,
+                                    const torch::Tensor& covariances,  // [N, 3, 3] Sigma'
+                                    const std::string& normalize);
 
 }  // namespace handscs

@@ -18,11 +18,21 @@ torch::Tensor smooth_norm(const torch::Tensor& v, int64_t first_dim) {
 }
 }  // namespace
 
-torch::Tensor offset_regularizer(const DecodedOffsets& o) {
+std::vector<std::pair<std::string, torch::Tensor>> offset_norms(const DecodedOffsets& o) {
   const auto eye = torch::eye(3, o.dsigma.options()).unsqueeze(0);
-  const auto per_gaussian = smooth_norm(o.dx, 1) + smooth_norm(o.dx_f, 1) +
-                            smooth_norm(o.dsigma - eye, 1) + smooth_norm(o.dsigma_f - eye, 1) +
-                            smooth_norm(o.dc, 1) + smooth_norm(o.dc_f, 1);
+  return {{"dx", smooth_norm(o.dx, 1)},           {"dsigma", smooth_norm(o.dsigma - eye, 1)},
+          {"dc", smooth_norm(o.dc, 1)},           {"dx_f", smooth_norm(o.dx_f, 1)},
+          {"dsigma_f", smooth_norm(o.dsigma_f - eye, 1)}, {"dc_f", smooth_norm(o.dc_f, 1)}};
+}
+
+torch::Tensor offset_regularizer(const DecodedOffsets& o, const std::string& terms) {
+  TORCH_CHECK(terms == "paper" || terms == "all", "offset_regularizer: terms must be paper or all, got ",
+              terms);
+  const auto norms = offset_norms(o);
+  // The paper's terms are the first three (geometry and appearance offsets).
+  const size_t count = terms == "paper" ? 3 : norms.size();
+  auto per_gaussian = norms[0].second;
+  for (size_t k = 1; k < count; ++k) per_gaussian = per_gaussian + norms[k].second;
   return per_gaussian.mean();
 }
 
@@ -44,7 +54,7 @@ LossResult Objective::compute(const LossInputs& in) const {
     if (weights_.ssim > 0) add("ssim", weights_.ssim, ssim_loss(pred, target, SsimConfig{"3dgs"}));
     if (uses_lpips()) add("lpips", weights_.lpips, lpips_loss(*lpips_, pred, target));
   }
-  if (weights_.reg > 0 && in.offsets) add("reg", weights_.reg, offset_regularizer(*in.offsets));
+  if (weights_.reg > 0 && in.offsets) add("reg", weights_.reg, offset_regularizer(*in.offsets, weights_.reg_terms));
   if (weights_.consistency > 0 && in.consistency.defined())
     add("consistency", weights_.consistency, in.consistency);
   result.total = parts.empty() ? torch::zeros({}, in.rgb.options()) : parts[0];

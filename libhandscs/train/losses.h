@@ -1,12 +1,15 @@
 // The training objective (paper §3.3): L = L1_rgb + l1 L_mask + l2 (1 - SSIM) + l3 LPIPS
 // + l_reg L_reg + l_con L_con. A term whose weight is zero is never computed.
-//   L_mask = mean (alpha - mask)^2;  L_reg = mean_i (|dx_i| + |dx^f_i| + |dSigma_i - I|_F +
-//   |dSigma^f_i - I|_F + |dc_i| + |dc^f_i|) with smooth norms (finite gradient at zero offsets).
+//   L_mask = mean (alpha - mask)^2;  L_reg = mean_i (|dx_i| + |dSigma_i - I|_F + |dc_i|) as the
+//   paper writes it (reg_terms "paper"), or with the fusion offsets' |dx^f_i| + |dSigma^f_i - I|_F +
+//   |dc^f_i| too (reg_terms "all"); smooth norms (finite gradient at zero offsets).
 #pragma once
 
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <torch/types.h>
 
@@ -43,7 +46,12 @@ class Objective {
   std::shared_ptr<const Lpips> lpips_;
 };
 
-// L_reg of one set of decoded offsets (mean over Gaussians).
-torch::Tensor offset_regularizer(const DecodedOffsets& offsets);
+// Per-Gaussian smooth norms [N] of every decoded offset, named dx, dsigma (|dSigma - I|_F), dc,
+// dx_f, dsigma_f, dc_f in that order (L_reg's terms; the trainer logs their means).
+std::vector<std::pair<std::string, torch::Tensor>> offset_norms(const DecodedOffsets& offsets);
+
+// L_reg of one set of decoded offsets (mean over Gaussians); terms "paper" (dx, dSigma, dc) or "all"
+// (the fusion offsets as well).
+torch::Tensor offset_regularizer(const DecodedOffsets& offsets, const std::string& terms);
 
 }  // namespace handscs

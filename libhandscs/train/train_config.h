@@ -15,6 +15,9 @@ struct LossWeights {
   double lpips = 0.01;        // lambda_3, LPIPS on the ROI crop with eval.lpips (skipped without
                               // a weight file there)
   double reg = 0.1;           // lambda_reg, offset regularisation L_reg
+  // L_reg's terms: "paper" = |dx| + |dSigma - I|_F + |dc| of the geometry and appearance decoders
+  // (paper eq. for L_reg); "all" adds the fusion decoder's offsets (this code's choice before).
+  std::string reg_terms = "paper";
   double consistency = 0.01;  // lambda_con, inter-pose consistency L_con
 
   template <class V>
@@ -24,6 +27,8 @@ struct LossWeights {
     v.field("ssim", ssim, "weight of 1 - SSIM", 0.0, 1e6);
     v.field("lpips", lpips, "weight of LPIPS (0 = never computed)", 0.0, 1e6);
     v.field("reg", reg, "weight of the offset regulariser L_reg", 0.0, 1e6);
+    v.choice("reg_terms", reg_terms, {"paper", "all"},
+             "L_reg terms: paper = geometry and appearance offsets; all = fusion offsets too");
     v.field("consistency", consistency, "weight of the inter-pose loss L_con (0 = off)", 0.0, 1e6);
   }
 };
@@ -89,6 +94,10 @@ struct ConsistencyConfig {
   int64_t refresh_every = 100;         // steps between recomputing the canonical K-NN candidates
   double delta = 1.3;                  // pose similarity bandwidth (paper)
   std::string reduction = "mean";      // "sum" (paper's formula) or "mean" over Gaussians
+  // "none": |M_i - M_pi(i)|^2 in raw units, where positions (m) and covariances (m^2) differ by
+  // 1e-6 and less, so colours and embeddings dominate; "groups": each group scale-free and
+  // averaged (train/consistency.h).
+  std::string normalize = "none";
 
   template <class V>
   void visit(V& v) {
@@ -100,6 +109,8 @@ struct ConsistencyConfig {
     v.field("refresh_every", refresh_every, "steps between candidate refreshes", 1, 1e9);
     v.field("delta", delta, "pose similarity bandwidth delta", 1e-6, 1e6);
     v.choice("reduction", reduction, {"sum", "mean"}, "reduction over Gaussians");
+    v.choice("normalize", normalize, {"none", "groups"},
+             "attribute groups: none = raw squared differences; groups = each group scale-free");
   }
 };
 

@@ -40,7 +40,13 @@ constexpr int kPrefetchAhead = 4;    // frames queued for the background loader
 const char* kMetricsColumns[] = {"iteration", "seconds", "loss", "rgb", "mask", "ssim", "lpips",
                                  "reg", "consistency", "psnr", "gaussians", "skipped", "rollbacks",
                                  "lr_scale", "data_ms", "forward_ms", "losses_ms", "backward_ms",
-                                 "optimizer_ms"};
+                                 "optimizer_ms", "gate_geometry", "gate_appearance", "gate_fusion",
+                                 "offset_dx", "offset_dsigma", "offset_dc", "offset_dx_f",
+                                 "offset_dsigma_f", "offset_dc_f"};
+// What the model uses, logged after the step times (StepResult::diagnostics keys, in this order).
+const char* kDiagnosticColumns[] = {"gate_geometry", "gate_appearance", "gate_fusion",
+                                    "offset_dx", "offset_dsigma", "offset_dc",
+                                    "offset_dx_f", "offset_dsigma_f", "offset_dc_f"};
 
 // Camera of the same view resampled by `scale` (u' = scale u; pixel centres stay at i + 0.5).
 Camera scaled_camera(const Camera& camera, double scale, int width, int height) {
@@ -197,7 +203,8 @@ torch::Tensor Trainer::consistency_loss(const AvatarState& state, const FrameInf
       match = correspond_candidates(state.descriptor, prev_descriptor_, candidates_);
     }
     const double weight = pose_similarity(feature, prev_pose_feature_, cc.delta);
-    const auto diff = (attributes - prev_attributes_.index_select(0, match)).pow(2).sum(1);
+    const auto diff = consistency_distances(attributes, prev_attributes_.index_select(0, match),
+                                            state.canonical_covariances, cc.normalize);
     loss = weight * (cc.reduction == "sum" ? diff.sum() : diff.mean());
   }
   // Kept for the next step (M_0 = M_1 on the first step: no loss).
@@ -258,6 +265,16 @@ StepResult Trainer::step() {
   in.offsets = &out.state.offsets;
   if (consistency) in.consistency = consistency_loss(out.state, current);
   auto loss = objective_->compute(in);
+  {
+    // Whether the decoders do anything: their gates and the mean size of each offset.
+    torch::NoGradGuard no_grad;
+    const auto& decoders = avatar_->decoders();
+    result.diagnostics["gate_geometry"] = decoders->geometry->gate.item<double>();
+    result.diagnostics["gate_appearance"] = decoders->appearance->gate.item<double>();
+    result.diagnostics["gate_fusion"] = decoders->fusion->gate.item<double>();
+    for (const auto& [name, norms] : offset_norms(out.state.offsets))
+      result.diagnostics["offset_" + name] = norms.mean().item<double>();
+  }
   const auto t3 = Clock::now();
 
   loss.total.backward();
@@ -474,7 +491,13 @@ void Trainer::log_step(const StepResult& r) {
   out << "," << r.psnr << "," << avatar_->gaussians().size() << "," << skipped_total_ << ","
       << rollbacks_ << "," << optimizer_->lr_scale() << "," << r.times.data_ms << ","
       << r.times.forward_ms << "," << r.times.losses_ms << "," << r.times.backward_ms << ","
-      << r.times.optimizer_ms << "\n";
+      << r.times.optimizer_ms;
+  for (const char* column : kDiagnosticColumns) {
+    auto it = r.diagnostics.find(column);
+    out << ",";
+    if (it != r.diagnostics.end()) out << it->second;
+  }
+  out << "\n";
 }
 
 TrainSummary Trainer::run() {

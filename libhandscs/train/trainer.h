@@ -28,7 +28,8 @@ struct StepResult {
   bool rolled_back = false;  // too many skipped steps in a row: reloaded the last checkpoint
   double loss = 0;
   double psnr = 0;           // of this step's ROI crop
-  std::map<std::string, double> terms;
+  std::map<std::string, double> terms;        // unweighted loss terms (LossResult::terms)
+  std::map<std::string, double> diagnostics;  // decoder gates, mean offset norms (metrics.csv)
   StepTimes times;
 };
 

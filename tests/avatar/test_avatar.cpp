@@ -10,6 +10,7 @@
 #include "avatar/avatar.h"
 #include "core/error.h"
 #include "hand/lbs.h"
+#include "scs/descriptor.h"
 
 namespace {
 
@@ -238,4 +239,32 @@ TEST_CASE("avatar: extreme poses, Gaussians on joints and bad input") {
   CHECK_THROWS_WITH(avatar.forward(torch::zeros({47}), torch::zeros({10}), torch::zeros({3}),
                                    test_camera(48, 32), {}),
                     "avatar: pose must have 48 values, got 47");
+}
+
+TEST_CASE("avatar: virtual bones and Gaussian centres share the shaped canonical space") {
+  // The generator builds bones from the shaped rest joints; the descriptor must measure the
+  // Gaussians in that same space. Reference: the rig vertices of the shaped hand at rest, from
+  // plain LBS with a zero pose (flat hand) and zero translation, where the Gaussians start.
+  handscs::AvatarConfig config;
+  config.scs.static_bones = false;  // the descriptor is the virtual part alone
+  config.scs.virtual_bones = 8;
+  config.scs.virtual_space = "canonical";
+  handscs::Avatar avatar(config, handscs::load_rig_source("builtin"));
+  const auto& g = avatar.gaussians();
+  const auto& rig = avatar.rig();
+  REQUIRE(torch::allclose(g.means, rig.v_template.to(torch::kFloat32).index_select(0, g.vertex_ids)));
+
+  const auto shape = torch::linspace(-2.0, 2.0, 10);  // a hand far from the template
+  const auto state = avatar.pose(small_pose(3), shape, torch::zeros({3}));
+  const auto rest = handscs::lbs(rig, torch::zeros({1, 48}), shape.view({1, 10}), torch::zeros({1, 3}),
+                                 handscs::LbsOptions{/*flat_hand_mean=*/true});
+  const auto shaped_centres = rest.vertices[0].index_select(0, g.vertex_ids);
+  const auto expected = handscs::virtual_descriptor(shaped_centres, state.virtual_bones.start,
+                                                    state.virtual_bones.end, config.scs.norm_eps);
+  REQUIRE(state.descriptor.sizes() == expected.sizes());
+  CHECK(torch::allclose(state.descriptor, expected, 1e-5, 1e-6));
+  // The unshaped template would be measurably off (the old behaviour): millimetres, not rounding.
+  const auto template_only = handscs::virtual_descriptor(g.means, state.virtual_bones.start,
+                                                         state.virtual_bones.end, config.scs.norm_eps);
+  CHECK((template_only - expected).abs().max().item<double>() > 1e-4);
 }

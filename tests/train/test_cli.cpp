@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <fstream>
 #include <thread>
@@ -43,6 +44,21 @@ TEST_CASE("cli: train, resume, evaluate and render the tiny capture") {
   INFO(log_text());
   CHECK(log_text().find("resumed from") != std::string::npos);
   CHECK(handscs::Trainer::latest_checkpoint(run_dir).find("step_00000050.ckpt") != std::string::npos);
+  {
+    // Every metrics.csv row has a cell per column; the decoder gates are logged on each row.
+    std::ifstream csv(run_dir + "/metrics.csv");
+    std::string header, row;
+    std::getline(csv, header);
+    const auto cells = [](const std::string& line) { return std::count(line.begin(), line.end(), ',') + 1; };
+    int rows = 0;
+    while (std::getline(csv, row)) {
+      ++rows;
+      CHECK(cells(row) == cells(header));
+      CHECK(row.find(",,,,,,,,,") == std::string::npos);  // the nine diagnostics are never empty
+    }
+    CHECK(rows == 5);  // log_every 10 over 50 steps
+    CHECK(header.find(",gate_geometry,gate_appearance,gate_fusion,offset_dx,") != std::string::npos);
+  }
 
   const auto eval_dir = run_dir + "/eval";
   REQUIRE(run(kBin + "/handscs-eval --config " + kSource + "/configs/tiny.json --checkpoint " +

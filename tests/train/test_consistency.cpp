@@ -105,3 +105,48 @@ TEST_CASE("consistency: on the built-in hand's descriptors, candidates approach 
     previous = agreement;
   }
 }
+
+TEST_CASE("consistency: attribute distances, raw and per group normalised, match plain loops") {
+  const int64_t n = 7, d = 4, width = 15 + 2 * d;
+  torch::manual_seed(5);
+  const auto attributes = torch::randn({n, width}, torch::kFloat64);
+  const auto matched = torch::randn({n, width}, torch::kFloat64);
+  // SPD covariances of millimetre-sized Gaussians.
+  const auto a = torch::randn({n, 3, 3}, torch::kFloat64) * 2e-3;
+  const auto covariances = a.matmul(a.transpose(1, 2)) + torch::eye(3, torch::kFloat64) * 1e-7;
+
+  const auto raw = handscs::consistency_distances(attributes, matched, covariances, "none");
+  const auto grouped = handscs::consistency_distances(attributes, matched, covariances, "groups");
+  for (int64_t i = 0; i < n; ++i) {
+    double sums[4] = {0, 0, 0, 0};
+    double all = 0;
+    for (int64_t k = 0; k < width; ++k) {
+      const double diff = attributes[i][k].item<double>() - matched[i][k].item<double>();
+      all += diff * diff;
+      sums[k < 3 ? 0 : k < 12 ? 1 : k < 15 ? 2 : 3] += diff * diff;
+    }
+    double trace = 0;
+    for (int c = 0; c < 3; ++c) trace += covariances[i][c][c].item<double>();
+    const double s2 = trace / 3;
+    const double expected = sums[0] / (3 * s2) + sums[1] / (9 * s2 * s2) + sums[2] / 3 + sums[3] / (2 * d);
+    CHECK_THAT(raw[i].item<double>(), Catch::Matchers::WithinRel(all, 1e-12));
+    CHECK_THAT(grouped[i].item<double>(), Catch::Matchers::WithinRel(expected, 1e-12));
+  }
+  CHECK_THROWS(handscs::consistency_distances(attributes, matched, covariances, "other"));
+
+  // The gradient in the attributes against central differences (the extent is a constant). Unit
+  // extents keep every group of the same order, so the differences are not lost to rounding.
+  const auto unit = torch::eye(3, torch::kFloat64).expand({n, 3, 3}).clone();
+  const auto x = attributes.clone().requires_grad_(true);
+  handscs::consistency_distances(x, matched, unit, "groups").sum().backward();
+  const double h = 1e-6;
+  for (int64_t k : {0L, 5L, 13L, 20L}) {
+    auto plus = attributes.clone(), minus = attributes.clone();
+    plus[2][k] += h;
+    minus[2][k] -= h;
+    const double fd = (handscs::consistency_distances(plus, matched, unit, "groups").sum() -
+                       handscs::consistency_distances(minus, matched, unit, "groups").sum())
+                          .item<double>() / (2 * h);
+    CHECK_THAT(x.grad()[2][k].item<double>(), Catch::Matchers::WithinRel(fd, 1e-6));
+  }
+}

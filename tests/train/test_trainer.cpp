@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <string>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -22,8 +23,10 @@ TEST_CASE("trainer: 100 steps on tiny lower the loss, with no NaN, and write the
   const auto run = fresh_dir("train100");
   handscs::Trainer trainer(config, run);
   std::vector<double> losses;
+  handscs::StepResult last;
   while (trainer.iteration() < config.train.iterations) {
     const auto r = trainer.step();
+    last = r;
     REQUIRE_FALSE(r.skipped);
     REQUIRE(std::isfinite(r.loss));
     losses.push_back(r.loss);
@@ -38,7 +41,22 @@ TEST_CASE("trainer: 100 steps on tiny lower the loss, with no NaN, and write the
   const auto path = trainer.save_checkpoint();
   CHECK(std::filesystem::exists(path));
   CHECK(std::filesystem::exists(run + "/config.json"));
-  CHECK(std::filesystem::exists(run + "/metrics.csv"));
+  REQUIRE(std::filesystem::exists(run + "/metrics.csv"));
+  // metrics.csv shows what the model uses: its header names the decoder gates and the mean offset
+  // norms, and the last step has them all, finite, with the gates learned away from their initial 0.
+  std::ifstream csv(run + "/metrics.csv");
+  std::string header;
+  std::getline(csv, header);
+  for (const char* column : {"gate_geometry", "gate_appearance", "gate_fusion", "offset_dx",
+                             "offset_dsigma", "offset_dc", "offset_dx_f", "offset_dsigma_f",
+                             "offset_dc_f", "consistency"}) {
+    INFO(column);
+    CHECK(("," + header + ",").find("," + std::string(column) + ",") != std::string::npos);
+    if (std::string(column) == "consistency") continue;  // a loss term, not a diagnostic
+    REQUIRE(last.diagnostics.count(column) == 1);
+    CHECK(std::isfinite(last.diagnostics.at(column)));
+    if (std::string(column).rfind("gate_", 0) == 0) CHECK(last.diagnostics.at(column) != 0.0);
+  }
 }
 
 TEST_CASE("trainer: resume continues to the same loss curve as an uninterrupted run") {

@@ -1,0 +1,71 @@
+// The offset regulariser L_reg against per-Gaussian loops: the paper's three terms by default, the
+// fusion offsets as well with "all"; smooth norms equal plain norms away from zero.
+#include "catch_torch.h"
+
+#include <cmath>
+
+#include "train/losses.h"
+
+namespace {
+
+double frobenius(const torch::Tensor& m) {  // plain loop over a small tensor, double
+  double sum = 0;
+  const auto flat = m.reshape({-1});
+  for (int64_t k = 0; k < flat.numel(); ++k) sum += flat[k].item<double>() * flat[k].item<double>();
+  return std::sqrt(sum);
+}
+
+handscs::DecodedOffsets random_offsets(int64_t n) {
+  torch::manual_seed(11);
+  handscs::DecodedOffsets o;
+  const auto eye = torch::eye(3, torch::kFloat64).unsqueeze(0);
+  o.dx = torch::randn({n, 3}, torch::kFloat64) * 1e-3;
+  o.dsigma = eye + torch::randn({n, 3, 3}, torch::kFloat64) * 0.1;
+  o.dc = torch::randn({n, 3}, torch::kFloat64) * 0.05;
+  o.dx_f = torch::randn({n, 3}, torch::kFloat64) * 2e-3;
+  o.dsigma_f = eye + torch::randn({n, 3, 3}, torch::kFloat64) * 0.2;
+  o.dc_f = torch::randn({n, 3}, torch::kFloat64) * 0.1;
+  return o;
+}
+
+}  // namespace
+
+TEST_CASE("losses: L_reg has the paper's terms by default and the fusion offsets with all") {
+  const int64_t n = 6;
+  const auto o = random_offsets(n);
+  const auto eye = torch::eye(3, torch::kFloat64);
+  double paper = 0, fusion = 0;
+  for (int64_t i = 0; i < n; ++i) {
+    paper += frobenius(o.dx[i]) + frobenius(o.dsigma[i] - eye) + frobenius(o.dc[i]);
+    fusion += frobenius(o.dx_f[i]) + frobenius(o.dsigma_f[i] - eye) + frobenius(o.dc_f[i]);
+  }
+  paper /= n;
+  fusion /= n;
+  // Smooth norms differ from plain ones by at most eps = 1e-6 per term.
+  CHECK_THAT(handscs::offset_regularizer(o, "paper").item<double>(), Catch::Matchers::WithinAbs(paper, 1e-5));
+  CHECK_THAT(handscs::offset_regularizer(o, "all").item<double>(),
+             Catch::Matchers::WithinAbs(paper + fusion, 1e-5));
+  CHECK(handscs::TrainConfig{}.loss.reg_terms == "paper");
+  CHECK_THROWS(handscs::offset_regularizer(o, "fusion"));
+
+  const auto norms = handscs::offset_norms(o);
+  REQUIRE(norms.size() == 6);
+  CHECK(norms[1].first == "dsigma");
+  CHECK_THAT(norms[5].second[2].item<double>(), Catch::Matchers::WithinAbs(frobenius(o.dc_f[2]), 1e-6));
+}
+
+TEST_CASE("losses: L_reg is finite with zero gradient at zero offsets") {
+  handscs::DecodedOffsets o;
+  const int64_t n = 4;
+  o.dx = torch::zeros({n, 3}, torch::kFloat64).requires_grad_(true);
+  o.dsigma = torch::eye(3, torch::kFloat64).expand({n, 3, 3}).clone();
+  o.dc = torch::zeros({n, 3}, torch::kFloat64);
+  o.dx_f = torch::zeros({n, 3}, torch::kFloat64);
+  o.dsigma_f = o.dsigma.clone();
+  o.dc_f = torch::zeros({n, 3}, torch::kFloat64);
+  const auto value = handscs::offset_regularizer(o, "all");
+  value.backward();
+  CHECK(value.item<double>() == 0.0);
+  CHECK(torch::isfinite(o.dx.grad()).all().item<bool>());
+  CHECK(o.dx.grad().abs().max().item<double>() == 0.0);
+}
