@@ -7,7 +7,10 @@
 // Here the torch headers come first, glog's CHECK is undefined, and Catch2 defines its own.
 #pragma once
 
+#include <sys/wait.h>
+
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <random>
@@ -24,10 +27,26 @@
 #endif
 #include <catch2/catch.hpp>
 
+#include "core/atomic_file.h"
 #include "metrics/image_tensor.h"
 #include "test_support.h"
 
 namespace metrics_test {
+
+// handscs-eval run as a user runs it: its exit status and everything it printed.
+struct RunResult {
+  int status = -1;
+  std::string output;  // stdout and stderr
+};
+
+inline RunResult run_eval(const std::string& args, const std::string& dir) {
+  const std::string binary = std::string(HANDSCS_BIN_DIR) + "/handscs-eval";
+  INFO("build handscs-eval first: " + binary);
+  REQUIRE(std::filesystem::exists(binary));
+  const std::string log = dir + "/log.txt";
+  const int raw = std::system((binary + " --threads 2 " + args + " > " + log + " 2>&1").c_str());
+  return {WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, handscs::read_file(log)};
+}
 
 inline std::string shared_dir() { return HANDSCS_SHARED_DIR; }
 inline std::string pairs_dir() { return shared_dir() + "/testdata/metric_pairs"; }

@@ -14,22 +14,7 @@
 
 namespace {
 
-struct RunResult {
-  int status = -1;
-  std::string output;  // stdout and stderr
-};
-
-RunResult run_eval(const std::string& args, const std::string& dir) {
-  const std::string binary = std::string(HANDSCS_BIN_DIR) + "/handscs-eval";
-  INFO("build handscs-eval first: " + binary);
-  REQUIRE(std::filesystem::exists(binary));
-  const std::string log = dir + "/log.txt";
-  const int raw = std::system((binary + " --threads 2 " + args + " > " + log + " 2>&1").c_str());
-  RunResult result;
-  result.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  result.output = handscs::read_file(log);
-  return result;
-}
+using metrics_test::run_eval;
 
 size_t count(const std::string& text, const std::string& what) {
   size_t n = 0;

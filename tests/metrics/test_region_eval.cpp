@@ -20,6 +20,8 @@ using Catch::Matchers::WithinRel;
 
 namespace {
 
+using metrics_test::run_eval;
+
 const char* kLegend = R"({"regions": [
   {"name": "crease", "bit": 1, "description": "creases"},
   {"name": "contact", "bit": 2, "description": "contact"},
@@ -81,19 +83,6 @@ std::vector<std::string> table_cells(const std::string& table, const std::string
   return {};
 }
 
-struct RunResult {
-  int status = -1;
-  std::string output;  // stdout and stderr
-};
-
-RunResult run_eval(const std::string& args, const std::string& dir) {
-  const std::string binary = std::string(HANDSCS_BIN_DIR) + "/handscs-eval";
-  INFO("build handscs-eval first: " + binary);
-  REQUIRE(std::filesystem::exists(binary));
-  const std::string log = dir + "/log.txt";
-  const int raw = std::system((binary + " --threads 2 " + args + " > " + log + " 2>&1").c_str());
-  return {WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, handscs::read_file(log)};
-}
 
 }  // namespace
 
