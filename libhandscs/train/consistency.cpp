@@ -12,9 +12,6 @@ namespace {
 // Floor of s_i^2 (m^2) in the group normalisation: (0.1 mm)^2, far below any Gaussian the
 // densification keeps, so it only guards against a degenerate covariance.
 constexpr double kMinExtent2 = 1e-8;
-}  // namespace
-
-namespace {
 // Rows per block of the exact search: 1024 x N' distances in flight (10k Gaussians: 40 MB).
 constexpr int64_t kSearchBlock = 1024;
 }  // namespace

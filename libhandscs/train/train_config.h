@@ -84,12 +84,12 @@ struct DensifyConfig {
 };
 
 struct ConsistencyConfig {
-  // "auto": exact while N <= exact_max_gaussians, else candidates. Measured on the demo avatar
-  // (random pairs of training poses, as consecutive iterations are): K = 32 canonical neighbours
-  // find the exact argmin for 73% of Gaussians, K = 128 for 97%, while the exact search at
-  // N = 1696 costs a few ms; so small avatars search exactly (docs/NOTES.md).
+  // Correspondence search. "exact": the GEMM over all pairs (N^2 |P| work); "tree": the exact
+  // k-d tree search (train/descriptor_tree.h), far cheaper at 10k+; "auto": exact GEMM while
+  // N <= exact_max_gaussians, the tree above; "candidates": argmin over the K nearest canonical
+  // neighbours only, approximate (72.6% agreement at K = 32 on the demo avatar), kept to compare.
   std::string search = "auto";
-  int64_t exact_max_gaussians = 4096;  // exact search: N^2 |P| work, ~1.2 GFLOP at 4096
+  int64_t exact_max_gaussians = 4096;  // auto: GEMM up to here (~1.2 GFLOP at 4096), tree above
   int candidates = 32;                 // K (DESIGN.md §4)
   int64_t refresh_every = 100;         // steps between recomputing the canonical K-NN candidates
   double delta = 1.3;                  // pose similarity bandwidth (paper)
@@ -101,10 +101,11 @@ struct ConsistencyConfig {
 
   template <class V>
   void visit(V& v) {
-    v.choice("search", search, {"auto", "candidates", "exact"},
-             "correspondence search: auto = exact up to exact_max_gaussians, else candidates");
+    v.choice("search", search, {"auto", "exact", "tree", "candidates"},
+             "correspondence search: exact (GEMM), tree (exact k-d tree), auto = exact up to "
+             "exact_max_gaussians then tree, candidates = K canonical neighbours (approximate)");
     v.field("exact_max_gaussians", exact_max_gaussians,
-            "auto: largest Gaussian count searched exactly", 0, 1e9);
+            "auto: largest Gaussian count searched by the GEMM (the tree above)", 0, 1e9);
     v.field("candidates", candidates, "K nearest canonical neighbours searched", 1, 4096);
     v.field("refresh_every", refresh_every, "steps between candidate refreshes", 1, 1e9);
     v.field("delta", delta, "pose similarity bandwidth delta", 1e-6, 1e6);

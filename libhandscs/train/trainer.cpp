@@ -21,6 +21,7 @@
 #include "metrics/image_tensor.h"
 #include "train/avatar_state_io.h"
 #include "train/consistency.h"
+#include "train/descriptor_tree.h"
 
 namespace handscs {
 
@@ -192,15 +193,20 @@ torch::Tensor Trainer::consistency_loss(const AvatarState& state, const FrameInf
   torch::Tensor loss;
   if (prev_descriptor_.defined() && prev_descriptor_.size(0) == g.size()) {
     torch::Tensor match;
-    const bool exact =
+    const bool gemm =
         cc.search == "exact" || (cc.search == "auto" && g.size() <= cc.exact_max_gaussians);
-    if (exact) {
+    if (gemm) {
       match = correspond_exact(state.descriptor, prev_descriptor_);
-    } else {
+    } else if (cc.search == "candidates") {
       if (!candidates_.defined() || candidates_.size(0) != g.size() ||
           iteration_ % cc.refresh_every == 0)
         candidates_ = nearest_neighbours(g.means, cc.candidates);
       match = correspond_candidates(state.descriptor, prev_descriptor_, candidates_);
+    } else {
+      // Rows persist between steps (the state is reset on densification): each Gaussian's own
+      // previous row is the natural first guess.
+      match = DescriptorTree(prev_descriptor_).nearest(state.descriptor,
+                                                       torch::arange(g.size(), torch::kInt64));
     }
     const double weight = pose_similarity(feature, prev_pose_feature_, cc.delta);
     const auto diff = consistency_distances(attributes, prev_attributes_.index_select(0, match),

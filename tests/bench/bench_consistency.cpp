@@ -1,11 +1,16 @@
-// handscs-bench-consistency: how often the inter-pose loss's candidate search (K nearest Gaussians
-// in canonical space) finds the exact argmin_j |P_t^i - P_t-1^j|^2, on a trained avatar and its
-// capture, for several K; and what each search costs. Pairs are random training frames, as the
-// trainer's consecutive iterations are. Prints one JSON object. Usage:
+// handscs-bench-consistency: the inter-pose loss's correspondence search pi(i) = argmin_j
+// |P_t^i - P_t-1^j|^2 on a trained avatar and its capture: how often the candidate search (K
+// nearest Gaussians in canonical space) and the k-d tree (train/descriptor_tree.h) find the exact
+// argmin (a double-precision GEMM over all pairs), and what each search costs, the GEMM in float
+// as the trainer runs it included. Pairs are random training frames, as the trainer's consecutive
+// iterations are. --gaussians resamples the avatar to other counts as densification does (clones
+// of random Gaussians, moved by a normal step of their own scale). Prints one JSON object. Usage:
 //   handscs-bench-consistency --checkpoint RUN [--capture ROOT] [--k 16,32,64,128] [--pairs 20]
+//                             [--gaussians 3000,10000,20000]
 #include <torch/torch.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -18,6 +23,7 @@
 #include "train/avatar_state_io.h"
 #include "train/checkpoint.h"
 #include "train/consistency.h"
+#include "train/descriptor_tree.h"
 #include "train/evaluate.h"
 #include "train/run_config.h"
 
@@ -37,17 +43,53 @@ torch::Tensor descriptor_of(handscs::Avatar& avatar, const handscs::FrameInfo& f
       .descriptor;
 }
 
+// The avatar's Gaussians resampled to `count` rows: its own rows first (while count allows), then
+// clones of random rows displaced by N(0, scale^2) per axis, as 3DGS clones and splits.
+void resample_gaussians(handscs::Avatar& avatar, int64_t count, uint64_t seed) {
+  auto& g = avatar.gaussians();
+  const int64_t n = g.size();
+  auto gen = at::detail::createCPUGenerator(seed);
+  const auto own = torch::arange(std::min(n, count), torch::kInt64);
+  const auto extra = at::randint(n, {std::max<int64_t>(0, count - n)}, gen, torch::kInt64);
+  const auto rows = torch::cat({own, extra});
+  auto jitter = at::randn({count, 3}, gen, torch::kFloat32) * torch::exp(g.log_scales.index_select(0, rows));
+  jitter.slice(0, 0, own.size(0)).zero_();
+  for (auto& [name, tensor] : g.all()) *tensor = tensor->index_select(0, rows);
+  g.means = g.means + jitter;
+}
+
+std::vector<int64_t> parse_list(const std::string& text) {
+  std::vector<int64_t> out;
+  std::stringstream list(text);
+  for (std::string item; std::getline(list, item, ',');) out.push_back(std::stoll(item));
+  return out;
+}
+
+double mean(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x;
+  return v.empty() ? 0.0 : s / v.size();
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"Inter-pose correspondence: candidate search against the exact argmin (JSON)"};
-  std::string checkpoint, capture_root, ks = "8,16,32,64,128";
+  std::string checkpoint, capture_root, ks = "8,16,32,64,128", counts;
   int pairs = 20, threads = 2;
   uint64_t seed = 1;
   app.add_option("--checkpoint", checkpoint, "checkpoint file or run folder")->required();
   app.add_option("--capture", capture_root, "capture root (default: the stored config's)");
   app.add_option("--k", ks, "comma-separated candidate counts K");
   app.add_option("--pairs", pairs, "random pairs of training frames");
+  app.add_option("--gaussians", counts,
+                 "comma-separated Gaussian counts to resample the avatar to (default: as trained)");
   app.add_option("--threads", threads);
   app.add_option("--seed", seed);
   CLI11_PARSE(app, argc, argv);
@@ -63,54 +105,71 @@ int main(int argc, char** argv) {
   auto avatar = handscs::restore_avatar(ckpt, config.model,
                                         handscs::load_rig_source(config.model.rig), path);
   const auto& frames = capture.train();
+  const std::vector<int64_t> k_values = parse_list(ks);
+  std::vector<int64_t> sizes = parse_list(counts);
+  if (sizes.empty()) sizes.push_back(avatar.gaussians().size());
+  const handscs::GaussianState trained = avatar.gaussians();
 
-  std::vector<int64_t> k_values;
-  std::stringstream list(ks);
-  for (std::string item; std::getline(list, item, ',');) k_values.push_back(std::stoll(item));
-  std::mt19937_64 rng(seed);
-  std::uniform_int_distribution<size_t> pick(0, frames.size() - 1);
-
-  std::map<int64_t, std::vector<double>> agreement, distance_agreement, ms;
-  std::vector<double> exact_ms;
-  const auto& means = avatar.gaussians().means;
-  std::map<int64_t, torch::Tensor> candidates;
-  for (int64_t k : k_values) candidates[k] = handscs::nearest_neighbours(means, k);
-  for (int p = 0; p < pairs; ++p) {
-    const auto& a = frames[pick(rng)];
-    const auto* b = &frames[pick(rng)];
-    while (b->pose_index == a.pose_index) b = &frames[pick(rng)];
-    const auto query = descriptor_of(avatar, a), reference = descriptor_of(avatar, *b);
-    auto t0 = Clock::now();
-    const auto exact = handscs::correspond_exact(query, reference);
-    exact_ms.push_back(ms_since(t0));
-    const auto exact_d = (query - reference.index_select(0, exact)).pow(2).sum(1);
-    for (int64_t k : k_values) {
-      t0 = Clock::now();
-      const auto match = handscs::correspond_candidates(query, reference, candidates[k]);
-      ms[k].push_back(ms_since(t0));
-      agreement[k].push_back(match.eq(exact).to(torch::kFloat64).mean().item<double>());
-      // Ties: a different index at the same distance is as good a match.
-      const auto d = (query - reference.index_select(0, match)).pow(2).sum(1);
-      distance_agreement[k].push_back(d.le(exact_d).to(torch::kFloat64).mean().item<double>());
-    }
-  }
-  auto mean = [](const std::vector<double>& v) {
-    double s = 0;
-    for (double x : v) s += x;
-    return v.empty() ? 0.0 : s / v.size();
-  };
   nlohmann::json out;
   out["checkpoint"] = path;
-  out["gaussians"] = means.size(0);
+  out["trained_gaussians"] = trained.size();
   out["descriptor_dim"] = avatar.descriptor_dim();
   out["pairs"] = pairs;
-  out["exact_ms_mean"] = mean(exact_ms);
-  for (int64_t k : k_values) {
-    out["candidates"][std::to_string(k)] = {
-        {"agreement_mean", mean(agreement[k])},
-        {"agreement_min", *std::min_element(agreement[k].begin(), agreement[k].end())},
-        {"same_distance_mean", mean(distance_agreement[k])},
-        {"ms_mean", mean(ms[k])}};
+  out["threads"] = threads;
+  for (int64_t size : sizes) {
+    avatar.gaussians() = trained;
+    resample_gaussians(avatar, size, seed);
+    std::mt19937_64 rng(seed);
+    std::uniform_int_distribution<size_t> pick(0, frames.size() - 1);
+    std::map<int64_t, std::vector<double>> agreement, distance_agreement, ms;
+    std::vector<double> gemm_ms, tree_ms, tree_exact, gemm_float_exact;
+    const auto& means = avatar.gaussians().means;
+    std::map<int64_t, torch::Tensor> candidates;
+    for (int64_t k : k_values) candidates[k] = handscs::nearest_neighbours(means, k);
+    const auto guess = torch::arange(size, torch::kInt64);
+    for (int p = 0; p < pairs; ++p) {
+      const auto& a = frames[pick(rng)];
+      const auto* b = &frames[pick(rng)];
+      while (b->pose_index == a.pose_index) b = &frames[pick(rng)];
+      const auto query = descriptor_of(avatar, a), reference = descriptor_of(avatar, *b);
+      // Brute force in double: the minimum distance of every row (ties: any row at it is exact).
+      const auto q64 = query.to(torch::kFloat64), r64 = reference.to(torch::kFloat64);
+      const auto truth = handscs::correspond_exact(q64, r64);
+      const auto best = (q64 - r64.index_select(0, truth)).pow(2).sum(1);
+      const auto share = [&](const torch::Tensor& match) {
+        const auto d = (q64 - r64.index_select(0, match)).pow(2).sum(1);
+        return d.le(best * (1 + 1e-6)).to(torch::kFloat64).mean().item<double>();
+      };
+      auto t0 = Clock::now();
+      const auto gemm = handscs::correspond_exact(query, reference);
+      gemm_ms.push_back(ms_since(t0));
+      gemm_float_exact.push_back(share(gemm));
+      t0 = Clock::now();
+      const auto tree = handscs::DescriptorTree(reference).nearest(query, guess);
+      tree_ms.push_back(ms_since(t0));
+      tree_exact.push_back(share(tree));
+      for (int64_t k : k_values) {
+        t0 = Clock::now();
+        const auto match = handscs::correspond_candidates(query, reference, candidates[k]);
+        ms[k].push_back(ms_since(t0));
+        agreement[k].push_back(match.eq(truth).to(torch::kFloat64).mean().item<double>());
+        distance_agreement[k].push_back(share(match));
+      }
+    }
+    nlohmann::json row;
+    row["gaussians"] = size;
+    row["gemm_float"] = {{"ms_median", median(gemm_ms)}, {"exact_share_mean", mean(gemm_float_exact)}};
+    row["tree"] = {{"ms_median", median(tree_ms)},
+                   {"exact_share_mean", mean(tree_exact)},
+                   {"exact_share_min", *std::min_element(tree_exact.begin(), tree_exact.end())}};
+    for (int64_t k : k_values) {
+      row["candidates"][std::to_string(k)] = {
+          {"agreement_mean", mean(agreement[k])},
+          {"agreement_min", *std::min_element(agreement[k].begin(), agreement[k].end())},
+          {"same_distance_mean", mean(distance_agreement[k])},
+          {"ms_median", median(ms[k])}};
+    }
+    out["sizes"].push_back(row);
   }
   std::cout << out.dump(2) << std::endl;
   return 0;

@@ -1,0 +1,139 @@
+#include "train/descriptor_tree.h"
+
+#include <algorithm>
+#include <limits>
+#include <numeric>
+
+#include <ATen/ATen.h>
+
+#include "core/error.h"
+
+namespace handscs {
+
+namespace {
+// Points per leaf: a leaf is scanned whole (a few cache lines of descriptors) while deeper trees
+// cost more bound updates; 8 is a common choice, not tuned here.
+constexpr int32_t kLeafSize = 8;
+}  // namespace
+
+DescriptorTree::DescriptorTree(const torch::Tensor& reference) {
+  require(reference.dim() == 2, "descriptor tree: reference must be [N, D]");
+  require(reference.size(0) < std::numeric_limits<int32_t>::max(), "descriptor tree: too many rows");
+  const auto data = reference.detach().to(torch::kFloat32).contiguous();
+  dim_ = data.size(1);
+  const int64_t n = data.size(0);
+  points_.assign(data.data_ptr<float>(), data.data_ptr<float>() + n * dim_);
+  order_.resize(n);
+  std::iota(order_.begin(), order_.end(), 0);
+  if (n > 0) build(0, static_cast<int32_t>(n));
+  // Points in tree order, so that a leaf's rows are contiguous.
+  std::vector<float> sorted(points_.size());
+  slot_.resize(n);
+  for (int64_t k = 0; k < n; ++k) {
+    std::copy_n(points_.begin() + order_[k] * dim_, dim_, sorted.begin() + k * dim_);
+    slot_[order_[k]] = k;
+  }
+  points_.swap(sorted);
+}
+
+int32_t DescriptorTree::build(int32_t begin, int32_t end) {
+  const int32_t id = static_cast<int32_t>(nodes_.size());
+  nodes_.push_back(Node{});
+  nodes_[id].begin = begin;
+  nodes_[id].end = end;
+  if (end - begin <= kLeafSize) return id;
+  // Split the dimension of widest spread at its median.
+  int32_t best_dim = 0;
+  float best_spread = -1;
+  for (int64_t d = 0; d < dim_; ++d) {
+    float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+    for (int32_t k = begin; k < end; ++k) {
+      const float v = points_[order_[k] * dim_ + d];
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+    if (hi - lo > best_spread) best_spread = hi - lo, best_dim = static_cast<int32_t>(d);
+  }
+  if (best_spread <= 0) return id;  // all points equal: one leaf
+  const int32_t mid = begin + (end - begin) / 2;
+  const auto coordinate = [&](int64_t row) { return points_[row * dim_ + best_dim]; };
+  std::nth_element(order_.begin() + begin, order_.begin() + mid, order_.begin() + end,
+                   [&](int64_t a, int64_t b) { return coordinate(a) < coordinate(b); });
+  const float split = coordinate(order_[mid]);
+  const int32_t left = build(begin, mid);
+  const int32_t right = build(mid, end);
+  nodes_[id].split_dim = best_dim;
+  nodes_[id].split = split;
+  nodes_[id].left = left;
+  nodes_[id].right = right;
+  return id;
+}
+
+void DescriptorTree::search(const float* query, int32_t node_id, float reach,
+                            std::vector<float>& offsets, float& best, int32_t& best_row) const {
+  const Node& node = nodes_[node_id];
+  if (node.split_dim < 0) {
+    for (int32_t k = node.begin; k < node.end; ++k) {
+      const float* p = points_.data() + static_cast<int64_t>(k) * dim_;
+      float dist = 0;
+#pragma omp simd reduction(+ : dist)
+      for (int64_t d = 0; d < dim_; ++d) dist += (query[d] - p[d]) * (query[d] - p[d]);
+      if (dist < best) best = dist, best_row = k;
+    }
+    return;
+  }
+  const int32_t d = node.split_dim;
+  const float diff = query[d] - node.split;
+  const int32_t near = diff <= 0 ? node.left : node.right;
+  const int32_t far = diff <= 0 ? node.right : node.left;
+  search(query, near, reach, offsets, best, best_row);
+  // The far cell is at least this far: the box distance with dimension d's gap replaced.
+  const float old = offsets[d];
+  const float far_reach = reach - old * old + diff * diff;
+  if (far_reach < best) {
+    offsets[d] = diff;
+    search(query, far, far_reach, offsets, best, best_row);
+    offsets[d] = old;
+  }
+}
+
+torch::Tensor DescriptorTree::nearest(const torch::Tensor& query, const torch::Tensor& guess) const {
+  require(query.dim() == 2 && query.size(1) == dim_,
+          "descriptor tree: query must be [N, " + std::to_string(dim_) + "]");
+  const int64_t n = query.size(0);
+  auto out = torch::empty({n}, torch::kInt64);
+  if (n == 0) return out;
+  require(size() > 0, "descriptor tree: no reference rows to search");
+  const auto q = query.detach().to(torch::kFloat32).contiguous();
+  torch::Tensor g;
+  if (guess.defined()) {
+    require(guess.numel() == n, "descriptor tree: guess must have one row per query row");
+    g = guess.to(torch::kInt64).contiguous();
+    require(g.min().item<int64_t>() >= 0 && g.max().item<int64_t>() < size(),
+            "descriptor tree: guess rows out of range");
+  }
+  const float* qp = q.data_ptr<float>();
+  const int64_t* gp = g.defined() ? g.data_ptr<int64_t>() : nullptr;
+  int64_t* op = out.data_ptr<int64_t>();
+#pragma omp parallel
+  {
+    std::vector<float> offsets(dim_, 0.f);
+    #pragma omp for schedule(dynamic, 64)
+    for (int64_t i = 0; i < n; ++i) {
+      const float* row = qp + i * dim_;
+      float best = std::numeric_limits<float>::infinity();
+      int32_t best_row = -1;
+      if (gp) {
+        best_row = static_cast<int32_t>(slot_[gp[i]]);
+        const float* p = points_.data() + static_cast<int64_t>(best_row) * dim_;
+        best = 0;
+        for (int64_t d = 0; d < dim_; ++d) best += (row[d] - p[d]) * (row[d] - p[d]);
+      }
+      search(row, 0, 0.f, offsets, best, best_row);
+      op[i] = order_[best_row];
+    }
+  }
+  return out;
+}
+
+}  // namespace handscs

@@ -1,0 +1,51 @@
+// Exact nearest neighbours in descriptor space for L_con's correspondences pi(i) = argmin_j
+// |P_t^i - P_t-1^j|^2 at any Gaussian count: a k-d tree over the previous step's descriptors,
+// searched with the incremental distance-to-cell bound of Arya and Mount (exact: a cell is skipped
+// only when every point in it is provably farther than the best found).
+//
+// The descriptors of one pose lie on a 3-D surface inside R^|P| (they are functions of a point of
+// the hand), so the tree prunes as in low dimension although |P| is 20-50. A starting guess per row
+// (the same Gaussian's row of the previous step, when rows persist) makes the first bound tight.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <torch/types.h>
+
+namespace handscs {
+
+class DescriptorTree {
+ public:
+  // reference [N', D] (any float dtype; searched in float32, as the descriptors are computed).
+  explicit DescriptorTree(const torch::Tensor& reference);
+
+  // argmin_j |query_i - reference_j|^2 for every row: [N] int64. guess [N] int64 (optional): a
+  // reference row per query row whose distance starts the search; any valid row keeps it exact.
+  // Of equidistant rows one is returned (not necessarily the lowest index).
+  torch::Tensor nearest(const torch::Tensor& query,  // [N, D]
+                        const torch::Tensor& guess = {}) const;
+
+  int64_t size() const { return static_cast<int64_t>(order_.size()); }
+  int64_t dim() const { return dim_; }
+
+ private:
+  struct Node {
+    int32_t split_dim = -1;  // -1: leaf
+    float split = 0;         // left holds coordinates <= split, right >= split
+    int32_t left = -1, right = -1;
+    int32_t begin = 0, end = 0;  // rows [begin, end) of points_ (tree order)
+  };
+
+  int32_t build(int32_t begin, int32_t end);
+  void search(const float* query, int32_t node, float reach, std::vector<float>& offsets,
+              float& best, int32_t& best_row) const;
+
+  int64_t dim_ = 0;
+  std::vector<float> points_;   // [N', D] in tree order
+  std::vector<int64_t> order_;  // tree order -> reference row
+  std::vector<int64_t> slot_;   // reference row -> tree order
+  std::vector<Node> nodes_;
+};
+
+}  // namespace handscs
