@@ -82,7 +82,8 @@ def read_rows(out):
                 order.append(row)
             entry = {k: float(r[k]) for k in METRICS if r.get(k)}
             entry["seed"] = seed
-            summary = os.path.join(out, "runs", f"{r['point']}@{r['budget']}", "eval", "summary.json")
+            # handscs-bench keeps each run (--keep-runs) in runs/<point>_<budget>/.
+            summary = os.path.join(out, "runs", f"{r['point']}_{r['budget']}", "eval", "summary.json")
             if os.path.exists(summary):
                 with open(summary) as s:
                     regions = json.load(s).get("regions") or {}

@@ -18,7 +18,10 @@ struct LossWeights {
   // L_reg's terms: "paper" = |dx| + |dSigma - I|_F + |dc| of the geometry and appearance decoders
   // (paper eq. for L_reg); "all" adds the fusion decoder's offsets (this code's choice before).
   std::string reg_terms = "paper";
-  double consistency = 0.01;  // lambda_con, inter-pose consistency L_con
+  // lambda_con, inter-pose consistency L_con (mean over Gaussians). 0.1 measured best of 1e-3,
+  // 1e-2, 1e-1 and the paper's literal sum with 1e-2 (docs/BENCHMARKS.md, ablation on real_demo,
+  // 400 steps, 3 seeds: +0.16 dB, SSIM +0.002, LPIPS -0.006 over 1e-2).
+  double consistency = 0.1;
 
   template <class V>
   void visit(V& v) {
@@ -89,7 +92,10 @@ struct ConsistencyConfig {
   // N <= exact_max_gaussians, the tree above; "candidates": argmin over the K nearest canonical
   // neighbours only, approximate (72.6% agreement at K = 32 on the demo avatar), kept to compare.
   std::string search = "auto";
-  int64_t exact_max_gaussians = 4096;  // auto: GEMM up to here (~1.2 GFLOP at 4096), tree above
+  // auto: GEMM up to here, tree above. 0: the tree at every size, as it measured faster from 3k
+  // Gaussians on (real_demo avatar, 2 threads: 15 / 142 / 645 ms at 3k / 10k / 20k against the
+  // GEMM's 52 / 2304 / 9218 ms; docs/BENCHMARKS.md).
+  int64_t exact_max_gaussians = 0;
   int candidates = 32;                 // K (DESIGN.md §4)
   int64_t refresh_every = 100;         // steps between recomputing the canonical K-NN candidates
   double delta = 1.3;                  // pose similarity bandwidth (paper)
