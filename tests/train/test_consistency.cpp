@@ -8,6 +8,7 @@
 
 #include "avatar/avatar.h"
 #include "hand/lbs.h"
+#include "pose_descriptors.h"
 #include "train/consistency.h"
 
 namespace {
@@ -88,12 +89,8 @@ TEST_CASE("consistency: on the built-in hand's descriptors, candidates approach 
   // candidate search with the exact one can only grow with K (the trained-avatar figures are in
   // docs/NOTES.md, measured with handscs-bench-consistency).
   torch::NoGradGuard no_grad;
-  handscs::AvatarConfig config;
-  handscs::Avatar avatar(config, handscs::load_rig_source("builtin"));
-  torch::manual_seed(5);
-  const auto shape = torch::zeros({10}), trans = torch::zeros({3});
-  const auto a = avatar.pose(torch::randn({48}) * 0.3, shape, trans, true).descriptor;
-  const auto b = avatar.pose(torch::randn({48}) * 0.3, shape, trans, true).descriptor;
+  handscs::Avatar avatar(handscs::AvatarConfig{}, handscs::load_rig_source("builtin"));
+  const auto [a, b] = handscs_test::two_pose_descriptors(avatar);
   const auto exact = handscs::correspond_exact(a, b);
   const auto& means = avatar.gaussians().means;
   double previous = 0;

@@ -7,6 +7,7 @@
 
 #include "avatar/avatar.h"
 #include "core/error.h"
+#include "pose_descriptors.h"
 #include "train/descriptor_tree.h"
 
 namespace {
@@ -72,12 +73,8 @@ TEST_CASE("descriptor tree: exact on a 3-D surface in 36-D, with or without a gu
 
 TEST_CASE("descriptor tree: exact on the built-in hand's descriptors at two poses") {
   torch::NoGradGuard no_grad;
-  handscs::AvatarConfig config;
-  handscs::Avatar avatar(config, handscs::load_rig_source("builtin"));
-  torch::manual_seed(5);
-  const auto shape = torch::zeros({10}), trans = torch::zeros({3});
-  const auto a = avatar.pose(torch::randn({48}) * 0.3, shape, trans, true).descriptor;
-  const auto b = avatar.pose(torch::randn({48}) * 0.3, shape, trans, true).descriptor;
+  handscs::Avatar avatar(handscs::AvatarConfig{}, handscs::load_rig_source("builtin"));
+  const auto [a, b] = handscs_test::two_pose_descriptors(avatar);
   const handscs::DescriptorTree tree(b);
   const auto guess = torch::arange(a.size(0), torch::kInt64);  // as the trainer guesses
   CHECK(exact_share(a, b, tree.nearest(a, guess)) == 1.0);
