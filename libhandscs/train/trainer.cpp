@@ -41,10 +41,8 @@ constexpr int kPrefetchAhead = 4;    // frames queued for the background loader
 const char* kMetricsColumns[] = {"iteration", "seconds", "loss", "rgb", "mask", "ssim", "lpips",
                                  "reg", "consistency", "psnr", "gaussians", "skipped", "rollbacks",
                                  "lr_scale", "data_ms", "forward_ms", "losses_ms", "backward_ms",
-                                 "optimizer_ms", "gate_geometry", "gate_appearance", "gate_fusion",
-                                 "offset_dx", "offset_dsigma", "offset_dc", "offset_dx_f",
-                                 "offset_dsigma_f", "offset_dc_f"};
-// What the model uses, logged after the step times (StepResult::diagnostics keys, in this order).
+                                 "optimizer_ms"};
+// What the model uses, logged after kMetricsColumns (StepResult::diagnostics keys, in this order).
 const char* kDiagnosticColumns[] = {"gate_geometry", "gate_appearance", "gate_fusion",
                                     "offset_dx", "offset_dsigma", "offset_dc",
                                     "offset_dx_f", "offset_dsigma_f", "offset_dc_f"};
@@ -122,6 +120,7 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir)
     std::ofstream out(metrics);
     for (size_t i = 0; i < std::size(kMetricsColumns); ++i)
       out << (i ? "," : "") << kMetricsColumns[i];
+    for (const char* column : kDiagnosticColumns) out << "," << column;
     out << "\n";
   }
 }
@@ -271,8 +270,9 @@ StepResult Trainer::step() {
   in.offsets = &out.state.offsets;
   if (consistency) in.consistency = consistency_loss(out.state, current);
   auto loss = objective_->compute(in);
-  {
-    // Whether the decoders do anything: their gates and the mean size of each offset.
+  if ((iteration_ + 1) % config_.train.log_every == 0) {
+    // Whether the decoders do anything: their gates and the mean size of each offset, on the
+    // steps run() logs (each is a reduction and a sync; no need on every step).
     torch::NoGradGuard no_grad;
     const auto& decoders = avatar_->decoders();
     result.diagnostics["gate_geometry"] = decoders->geometry->gate.item<double>();

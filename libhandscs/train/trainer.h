@@ -29,7 +29,8 @@ struct StepResult {
   double loss = 0;
   double psnr = 0;           // of this step's ROI crop
   std::map<std::string, double> terms;        // unweighted loss terms (LossResult::terms)
-  std::map<std::string, double> diagnostics;  // decoder gates, mean offset norms (metrics.csv)
+  std::map<std::string, double> diagnostics;  // decoder gates, mean offset norms (metrics.csv),
+                                              // on steps whose count is a multiple of log_every
   StepTimes times;
 };
 
