@@ -104,6 +104,11 @@ struct ConsistencyConfig {
   // 1e-6 and less, so colours and embeddings dominate; "groups": each group scale-free and
   // averaged (train/consistency.h).
   std::string normalize = "none";
+  // Pose pairs less similar than this skip L_con (search and term): its weight
+  // w = exp(-|f_t - f_t-1|^2 / 2 delta^2) would scale the term below min_weight, and dissimilar pairs
+  // are those whose exact search is dearest (~10x the distance evaluations of similar pairs).
+  // 0 = every pair, as the paper.
+  double min_weight = 0.0;
 
   template <class V>
   void visit(V& v) {
@@ -118,6 +123,33 @@ struct ConsistencyConfig {
     v.choice("reduction", reduction, {"sum", "mean"}, "reduction over Gaussians");
     v.choice("normalize", normalize, {"none", "groups"},
              "attribute groups: none = raw squared differences; groups = each group scale-free");
+    v.field("min_weight", min_weight,
+            "skip L_con for pose pairs whose similarity weight is below this (0 = never)", 0.0, 1.0);
+  }
+};
+
+// Training-pose refinement (train/pose_refine.h): a learned correction of each training pose's
+// annotated pose and translation. Beyond the paper (GauHuman and 3DGS-Avatar refine body poses);
+// off by default unless it measures better on the realistic capture (docs/BENCHMARKS.md).
+struct PoseRefineConfig {
+  bool enabled = false;
+  // Adam step of the corrections (rad; translation in units of 0.1 m). A demo-capture pose is
+  // rendered ~40 times in 2,000 steps: at 5e-3 a correction can reach the ~3 degrees of a
+  // NeuralAnnot-like fit error within ten of them. Chosen before any measurement.
+  double lr = 5e-3;
+  // Weight of reg |d|^2 (rad^2): weak (3 degrees on all 48 components add 1.3e-4 to the loss), it
+  // holds components the images do not constrain near zero.
+  double reg = 1e-3;
+  // First step that learns corrections: before it the avatar is far from the images and a pose
+  // gradient says little about the pose (the corrections stay zero until then).
+  int64_t start = 100;
+
+  template <class V>
+  void visit(V& v) {
+    v.field("enabled", enabled, "learn a correction of each training pose (test poses never)");
+    v.field("lr", lr, "Adam step of the corrections (rad; translation in 0.1 m)", 0.0, 1.0);
+    v.field("reg", reg, "weight of the penalty: reg x the sum of squared corrections", 0.0, 1e6);
+    v.field("start", start, "first step that learns the corrections", 0, 1e9);
   }
 };
 
@@ -135,6 +167,7 @@ struct TrainConfig {
   LearningRates lr;
   DensifyConfig densify;
   ConsistencyConfig consistency;
+  PoseRefineConfig pose_refine;
 
   template <class V>
   void visit(V& v) {
@@ -151,6 +184,7 @@ struct TrainConfig {
     v.section("lr", lr, "learning rates");
     v.section("densify", densify, "densification and pruning");
     v.section("consistency", consistency, "inter-pose consistency");
+    v.section("pose_refine", pose_refine, "training-pose refinement (beyond the paper)");
   }
 };
 

@@ -45,7 +45,8 @@ const char* kMetricsColumns[] = {"iteration", "seconds", "loss", "rgb", "mask", 
 // What the model uses, logged after kMetricsColumns (StepResult::diagnostics keys, in this order).
 const char* kDiagnosticColumns[] = {"gate_geometry", "gate_appearance", "gate_fusion",
                                     "offset_dx", "offset_dsigma", "offset_dc",
-                                    "offset_dx_f", "offset_dsigma_f", "offset_dc_f"};
+                                    "offset_dx_f", "offset_dsigma_f", "offset_dc_f",
+                                    "pose_refine_deg", "pose_refine_global_deg", "pose_refine_mm"};
 
 // Camera of the same view resampled by `scale` (u' = scale u; pixel centres stay at i + 0.5).
 Camera scaled_camera(const Camera& camera, double scale, int width, int height) {
@@ -104,6 +105,9 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir)
 
   avatar_ = std::make_unique<Avatar>(config_.model, load_rig_source(config_.model.rig));
   build_optimizer();
+  if (config_.train.pose_refine.enabled)
+    pose_corrections_ =
+        std::make_unique<PoseCorrections>(capture_->num_poses(), config_.train.pose_refine);
   densifier_ = std::make_unique<Densifier>(config_.train.densify);
 
   std::shared_ptr<const Lpips> lpips;
@@ -179,10 +183,11 @@ std::array<float, 3> Trainer::background_for(int64_t iteration) const {
   return {u(rng), u(rng), u(rng)};
 }
 
-torch::Tensor Trainer::consistency_loss(const AvatarState& state, const FrameInfo& frame) {
+torch::Tensor Trainer::consistency_loss(const AvatarState& state, const torch::Tensor& rendered_pose,
+                                        double* pair_weight) {
   auto& g = avatar_->gaussians();
   const auto& cc = config_.train.consistency;
-  auto pose = pose_tensor(frame.pose);
+  auto pose = rendered_pose.detach().to(torch::kFloat32).clone();
   if (!config_.model.flat_hand_mean)
     pose.slice(0, 3, 48) += avatar_->rig().hands_mean.to(torch::kFloat32);
   const auto feature = pose_feature(pose);
@@ -190,7 +195,12 @@ torch::Tensor Trainer::consistency_loss(const AvatarState& state, const FrameInf
       consistency_attributes(state.canonical_means, state.canonical_covariances,
                              state.canonical_colors, g.embed_geometry, g.embed_appearance);
   torch::Tensor loss;
-  if (prev_descriptor_.defined() && prev_descriptor_.size(0) == g.size()) {
+  const double weight = prev_descriptor_.defined()
+                            ? pose_similarity(feature, prev_pose_feature_, cc.delta)
+                            : 0.0;
+  if (prev_descriptor_.defined()) *pair_weight = weight;
+  if (prev_descriptor_.defined() && prev_descriptor_.size(0) == g.size() &&
+      weight >= cc.min_weight) {
     torch::Tensor match;
     const bool gemm =
         cc.search == "exact" || (cc.search == "auto" && g.size() <= cc.exact_max_gaussians);
@@ -207,7 +217,6 @@ torch::Tensor Trainer::consistency_loss(const AvatarState& state, const FrameInf
       match = DescriptorTree(prev_descriptor_).nearest(state.descriptor,
                                                        torch::arange(g.size(), torch::kInt64));
     }
-    const double weight = pose_similarity(feature, prev_pose_feature_, cc.delta);
     const auto diff = consistency_distances(attributes, prev_attributes_.index_select(0, match),
                                             state.canonical_covariances, cc.normalize);
     loss = weight * (cc.reduction == "sum" ? diff.sum() : diff.mean());
@@ -258,8 +267,18 @@ StepResult Trainer::step() {
   const bool consistency = config_.train.loss.consistency > 0;
   RasterSettings settings;
   settings.background = bg;
-  auto out = avatar_->forward(pose_tensor(current.pose), shape_tensor(current.shape),
-                              trans_tensor(current.trans), camera, settings, probe, consistency);
+  auto pose = pose_tensor(current.pose);
+  auto trans = trans_tensor(current.trans);
+  CorrectedPose corrected;  // delta undefined without pose refinement
+  if (pose_corrections_) {
+    const bool learn = iteration_ >= config_.train.pose_refine.start;
+    corrected = pose_corrections_->apply(current.pose_index, pose, trans, learn);
+    pose = corrected.pose;
+    trans = corrected.trans;
+  }
+  const bool learn_pose = corrected.delta.defined() && corrected.delta.requires_grad();
+  auto out = avatar_->forward(pose, shape_tensor(current.shape), trans, camera, settings, probe,
+                              consistency);
   const auto t2 = Clock::now();
 
   LossInputs in;
@@ -268,8 +287,13 @@ StepResult Trainer::step() {
   in.target = target;
   in.mask = mask;
   in.offsets = &out.state.offsets;
-  if (consistency) in.consistency = consistency_loss(out.state, current);
+  if (consistency) in.consistency = consistency_loss(out.state, pose, &result.consistency_weight);
   auto loss = objective_->compute(in);
+  if (learn_pose) {
+    const auto penalty = pose_corrections_->penalty(corrected.delta);
+    loss.terms["pose_refine"] = penalty.item<double>();
+    loss.total = loss.total + penalty;
+  }
   if ((iteration_ + 1) % config_.train.log_every == 0) {
     // Whether the decoders do anything: their gates and the mean size of each offset, on the
     // steps run() logs (each is a reduction and a sync; no need on every step).
@@ -280,6 +304,8 @@ StepResult Trainer::step() {
     result.diagnostics["gate_fusion"] = decoders->fusion->gate.item<double>();
     for (const auto& [name, norms] : offset_norms(out.state.offsets))
       result.diagnostics["offset_" + name] = norms.mean().item<double>();
+    if (pose_corrections_)
+      for (const auto& [name, value] : pose_corrections_->summary()) result.diagnostics[name] = value;
   }
   const auto t3 = Clock::now();
 
@@ -291,6 +317,9 @@ StepResult Trainer::step() {
     for (auto* p : group.params)
       if (finite && p->grad().defined() && !torch::isfinite(p->grad()).all().item<bool>())
         finite = false;
+  if (finite && learn_pose && corrected.delta.grad().defined() &&
+      !torch::isfinite(corrected.delta.grad()).all().item<bool>())
+    finite = false;
   result.loss = loss.total.item<double>();
   result.terms = loss.terms;
   {
@@ -310,6 +339,8 @@ StepResult Trainer::step() {
   } else {
     bad_in_a_row_ = 0;
     optimizer_->step(iteration_, total);
+    if (learn_pose && corrected.delta.grad().defined())
+      pose_corrections_->step(current.pose_index, corrected.delta.grad());
     if (densify && probe.grad().defined())
       densifier_->accumulate(probe.grad(), out.render.radii);
     optimizer_->zero_grad();
@@ -389,6 +420,8 @@ Checkpoint Trainer::make_checkpoint() {
   put("consistency/attributes", prev_attributes_);
   put("consistency/pose_feature", prev_pose_feature_);
   put("consistency/candidates", candidates_);
+  if (pose_corrections_)
+    for (const auto& [name, tensor] : pose_corrections_->state()) ckpt.tensors[name] = tensor;
   put("densify/grad_sum", densifier_->grad_sum());
   put("densify/count", densifier_->visible_count());
   return ckpt;
@@ -432,6 +465,15 @@ void Trainer::load_from(const Checkpoint& ckpt, const std::string& source) {
   prev_attributes_ = get("consistency/attributes");
   prev_pose_feature_ = get("consistency/pose_feature");
   candidates_ = get("consistency/candidates");
+  if (pose_corrections_) {
+    pose_corrections_ =
+        std::make_unique<PoseCorrections>(capture_->num_poses(), config_.train.pose_refine);
+    if (ckpt.tensors.count("pose_refine/values"))
+      pose_corrections_->load_state(ckpt.tensors, source);
+    else
+      spdlog::info("{}: no pose corrections stored; pose refinement starts from the annotations",
+                   source);
+  }
   densifier_ = std::make_unique<Densifier>(config_.train.densify);
   if (auto grad_sum = get("densify/grad_sum"); grad_sum.defined()) {
     densifier_->grad_sum() = grad_sum;
@@ -530,6 +572,8 @@ TrainSummary Trainer::run() {
   }
   const bool interrupted = g_stop_requested && iteration_ < total;
   if (last_checkpoint_.find(checkpoint_name(iteration_)) == std::string::npos) save_checkpoint();
+  if (pose_corrections_)
+    write_file_atomic(run_dir_ + "/pose_refine.csv", pose_corrections_->to_csv());
   bar.finish(status);
   std::signal(SIGINT, previous_int);
   std::signal(SIGTERM, previous_term);

@@ -14,6 +14,7 @@
 #include "train/checkpoint.h"
 #include "train/densify.h"
 #include "train/losses.h"
+#include "train/pose_refine.h"
 #include "train/run_config.h"
 
 namespace handscs {
@@ -29,6 +30,9 @@ struct StepResult {
   double loss = 0;
   double psnr = 0;           // of this step's ROI crop
   std::map<std::string, double> terms;        // unweighted loss terms (LossResult::terms)
+  // L_con's pose-similarity weight of this step and the previous one (-1: no pair); the term is
+  // absent when it is below train.consistency.min_weight.
+  double consistency_weight = -1;
   std::map<std::string, double> diagnostics;  // decoder gates, mean offset norms (metrics.csv),
                                               // on steps whose count is a multiple of log_every
   StepTimes times;
@@ -73,7 +77,9 @@ class Trainer {
   bool rollback();
   const FrameInfo& frame_for(int64_t iteration);
   std::array<float, 3> background_for(int64_t iteration) const;
-  torch::Tensor consistency_loss(const AvatarState& state, const FrameInfo& frame);
+  // pose: the pose the step rendered (annotated, or corrected by pose refinement).
+  torch::Tensor consistency_loss(const AvatarState& state, const torch::Tensor& pose,
+                                 double* weight);
   void validate();
   void log_step(const StepResult& result);
 
@@ -84,6 +90,7 @@ class Trainer {
   std::unique_ptr<Adam> optimizer_;
   std::unique_ptr<Densifier> densifier_;
   std::unique_ptr<Objective> objective_;
+  std::unique_ptr<PoseCorrections> pose_corrections_;  // null unless train.pose_refine.enabled
   int64_t iteration_ = 0;
   int64_t skipped_total_ = 0;
   int64_t bad_in_a_row_ = 0;

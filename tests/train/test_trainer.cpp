@@ -3,6 +3,7 @@
 // checkpoints are refused.
 #include "catch_torch.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <string>
@@ -176,5 +177,36 @@ TEST_CASE("trainer: the k-d tree and the GEMM search give the same L_con") {
   REQUIRE(terms[1].size() == terms[0].size());
   for (size_t i = 0; i < terms[0].size(); ++i)
     CHECK_THAT(terms[1][i], Catch::Matchers::WithinRel(terms[0][i], 2e-3));
+  handscs::set_threads(2);
+}
+
+TEST_CASE("trainer: pose pairs less similar than train.consistency.min_weight skip L_con") {
+  handscs::set_threads(1);
+  const int steps = 10;
+  // Every pair first: the weights of the seed's frame sequence (they depend on the poses alone).
+  std::vector<double> weights;
+  {
+    auto config = tiny_run_config();
+    handscs::Trainer trainer(config, fresh_dir("min_weight_all"));
+    for (int i = 0; i < steps; ++i) {
+      const auto r = trainer.step();
+      CHECK(r.terms.count("consistency") == (i == 0 ? 0u : 1u));
+      weights.push_back(r.consistency_weight);
+    }
+  }
+  CHECK(weights[0] == -1);  // no previous step
+  std::vector<double> sorted(weights.begin() + 1, weights.end());
+  std::sort(sorted.begin(), sorted.end());
+  const double threshold = sorted[sorted.size() / 2];  // about half the pairs skip
+  REQUIRE(sorted.front() < threshold);
+  auto config = tiny_run_config();
+  config.train.consistency.min_weight = threshold;
+  handscs::Trainer trainer(config, fresh_dir("min_weight_half"));
+  for (int i = 0; i < steps; ++i) {
+    const auto r = trainer.step();
+    INFO("step " << i + 1 << ", weight " << weights[i]);
+    CHECK(r.consistency_weight == Approx(weights[i]).margin(1e-12));
+    CHECK(r.terms.count("consistency") == (i > 0 && weights[i] >= threshold ? 1u : 0u));
+  }
   handscs::set_threads(2);
 }
