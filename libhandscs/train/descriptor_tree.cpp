@@ -5,6 +5,7 @@
 #include <numeric>
 
 #include <ATen/ATen.h>
+#include <torch/linalg.h>
 
 #include "core/error.h"
 
@@ -19,9 +20,15 @@ constexpr int32_t kLeafSize = 8;
 DescriptorTree::DescriptorTree(const torch::Tensor& reference) {
   require(reference.dim() == 2, "descriptor tree: reference must be [N, D]");
   require(reference.size(0) < std::numeric_limits<int32_t>::max(), "descriptor tree: too many rows");
-  const auto data = reference.detach().to(torch::kFloat32).contiguous();
-  dim_ = data.size(1);
-  const int64_t n = data.size(0);
+  dim_ = reference.size(1);
+  const int64_t n = reference.size(0);
+  const auto reference64 = reference.detach().to(torch::kFloat64);
+  centre_ = n > 0 ? reference64.mean(0) : torch::zeros({dim_}, torch::kFloat64);
+  const auto centred = reference64 - centre_;
+  // Eigenvectors of the scatter matrix, in ascending order of eigenvalue: reversed.
+  axes_ = dim_ == 0 ? torch::zeros({0, 0}, torch::kFloat64)
+                    : std::get<1>(torch::linalg::eigh(centred.t().matmul(centred), "L")).flip(1).contiguous();
+  const auto data = to_axes(reference);
   points_.assign(data.data_ptr<float>(), data.data_ptr<float>() + n * dim_);
   order_.resize(n);
   std::iota(order_.begin(), order_.end(), 0);
@@ -34,6 +41,10 @@ DescriptorTree::DescriptorTree(const torch::Tensor& reference) {
     slot_[order_[k]] = k;
   }
   points_.swap(sorted);
+}
+
+torch::Tensor DescriptorTree::to_axes(const torch::Tensor& rows) const {
+  return (rows.detach().to(torch::kFloat64) - centre_).matmul(axes_).to(torch::kFloat32).contiguous();
 }
 
 int32_t DescriptorTree::build(int32_t begin, int32_t end) {
@@ -104,7 +115,7 @@ torch::Tensor DescriptorTree::nearest(const torch::Tensor& query, const torch::T
   auto out = torch::empty({n}, torch::kInt64);
   if (n == 0) return out;
   require(size() > 0, "descriptor tree: no reference rows to search");
-  const auto q = query.detach().to(torch::kFloat32).contiguous();
+  const auto q = to_axes(query);
   torch::Tensor g;
   if (guess.defined()) {
     require(guess.numel() == n, "descriptor tree: guess must have one row per query row");
@@ -115,11 +126,18 @@ torch::Tensor DescriptorTree::nearest(const torch::Tensor& query, const torch::T
   const float* qp = q.data_ptr<float>();
   const int64_t* gp = g.defined() ? g.data_ptr<int64_t>() : nullptr;
   int64_t* op = out.data_ptr<int64_t>();
+  // Queries in the tree order of their guesses: neighbouring queries share leaves (cache).
+  std::vector<int64_t> queue(n);
+  std::iota(queue.begin(), queue.end(), 0);
+  if (gp)
+    std::sort(queue.begin(), queue.end(),
+              [&](int64_t a, int64_t b) { return slot_[gp[a]] < slot_[gp[b]]; });
 #pragma omp parallel
   {
     std::vector<float> offsets(dim_, 0.f);
     #pragma omp for schedule(dynamic, 64)
-    for (int64_t i = 0; i < n; ++i) {
+    for (int64_t k = 0; k < n; ++k) {
+      const int64_t i = queue[k];
       const float* row = qp + i * dim_;
       float best = std::numeric_limits<float>::infinity();
       int32_t best_row = -1;

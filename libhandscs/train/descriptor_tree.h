@@ -4,8 +4,17 @@
 // only when every point in it is provably farther than the best found).
 //
 // The descriptors of one pose lie on a 3-D surface inside R^|P| (they are functions of a point of
-// the hand), so the tree prunes as in low dimension although |P| is 20-50. A starting guess per row
-// (the same Gaussian's row of the previous step, when rows persist) makes the first bound tight.
+// the hand), so the tree prunes as in low dimension although |P| is 20-50. Points are stored in
+// their principal axes (a rotation: distances unchanged), so that the splits follow the few
+// directions the surface spreads in: half the distance evaluations of splitting raw coordinates on
+// real_demo descriptors at 10k. A starting guess per row (the same Gaussian's row of the previous
+// step, when rows persist) gives a first bound and orders the queries by tree position, so that
+// consecutive queries visit the same leaves.
+//
+// What limits it: another pose's descriptors lie off this surface, typically 7-30 times the
+// spacing of its points away (real_demo, 10k Gaussians, random training pose pairs), and the
+// search must rule out every cell within that distance: 250 distance evaluations per query for
+// similar poses, 3,000 for dissimilar ones (docs/BENCHMARKS.md, "Correspondence search").
 #pragma once
 
 #include <cstdint>
@@ -38,11 +47,14 @@ class DescriptorTree {
   };
 
   int32_t build(int32_t begin, int32_t end);
+  torch::Tensor to_axes(const torch::Tensor& rows) const;  // [N, D] -> float32 [N, D]
   void search(const float* query, int32_t node, float reach, std::vector<float>& offsets,
               float& best, int32_t& best_row) const;
 
   int64_t dim_ = 0;
-  std::vector<float> points_;   // [N', D] in tree order
+  torch::Tensor centre_;        // [D] float64: mean of the reference rows
+  torch::Tensor axes_;          // [D, D] float64: principal axes (columns, largest spread first)
+  std::vector<float> points_;   // [N', D] in tree order, centred and in principal axes
   std::vector<int64_t> order_;  // tree order -> reference row
   std::vector<int64_t> slot_;   // reference row -> tree order
   std::vector<Node> nodes_;

@@ -4,9 +4,11 @@
 // argmin (a double-precision GEMM over all pairs), and what each search costs, the GEMM in float
 // as the trainer runs it included. Pairs are random training frames, as the trainer's consecutive
 // iterations are. --gaussians resamples the avatar to other counts as densification does (clones
-// of random Gaussians, moved by a normal step of their own scale). Prints one JSON object. Usage:
+// of random Gaussians, moved by a normal step of their own scale). With --min-weight, the mean cost
+// per step when pairs less similar than that skip the search (train.consistency.min_weight), and
+// the share of the pairs' similarity weight those skipped pairs carried. Prints one JSON object:
 //   handscs-bench-consistency --checkpoint RUN [--capture ROOT] [--k 16,32,64,128] [--pairs 20]
-//                             [--gaussians 3000,10000,20000]
+//                             [--gaussians 3000,10000,20000] [--min-weight 0.05]
 #include <torch/torch.h>
 
 #include <CLI/CLI.hpp>
@@ -41,6 +43,14 @@ torch::Tensor descriptor_of(handscs::Avatar& avatar, const handscs::FrameInfo& f
   return avatar
       .pose(tensor(f.pose.data(), 48), tensor(f.shape.data(), 10), tensor(f.trans.data(), 3), true)
       .descriptor;
+}
+
+// The pose feature f(theta) of L_con's similarity weight (absolute pose, as the trainer uses).
+torch::Tensor pose_feature_of(handscs::Avatar& avatar, const handscs::FrameInfo& f) {
+  auto pose = torch::from_blob(const_cast<float*>(f.pose.data()), {48}, torch::kFloat32).clone();
+  if (!avatar.config().flat_hand_mean)
+    pose.slice(0, 3, 48) += avatar.rig().hands_mean.to(torch::kFloat32);
+  return handscs::pose_feature(pose);
 }
 
 // The avatar's Gaussians resampled to `count` rows: its own rows first (while count allows), then
@@ -83,6 +93,7 @@ int main(int argc, char** argv) {
   CLI::App app{"Inter-pose correspondence: candidate search against the exact argmin (JSON)"};
   std::string checkpoint, capture_root, ks = "8,16,32,64,128", counts;
   int pairs = 20, threads = 2;
+  double min_weight = 0.05;
   uint64_t seed = 1;
   app.add_option("--checkpoint", checkpoint, "checkpoint file or run folder")->required();
   app.add_option("--capture", capture_root, "capture root (default: the stored config's)");
@@ -90,6 +101,7 @@ int main(int argc, char** argv) {
   app.add_option("--pairs", pairs, "random pairs of training frames");
   app.add_option("--gaussians", counts,
                  "comma-separated Gaussian counts to resample the avatar to (default: as trained)");
+  app.add_option("--min-weight", min_weight, "similarity below which a pair skips the search");
   app.add_option("--threads", threads);
   app.add_option("--seed", seed);
   CLI11_PARSE(app, argc, argv);
@@ -122,7 +134,7 @@ int main(int argc, char** argv) {
     std::mt19937_64 rng(seed);
     std::uniform_int_distribution<size_t> pick(0, frames.size() - 1);
     std::map<int64_t, std::vector<double>> agreement, distance_agreement, ms;
-    std::vector<double> gemm_ms, tree_ms, tree_exact, gemm_float_exact;
+    std::vector<double> gemm_ms, tree_ms, tree_exact, gemm_float_exact, weights, step_ms;
     const auto& means = avatar.gaussians().means;
     std::map<int64_t, torch::Tensor> candidates;
     for (int64_t k : k_values) candidates[k] = handscs::nearest_neighbours(means, k);
@@ -132,6 +144,8 @@ int main(int argc, char** argv) {
       const auto* b = &frames[pick(rng)];
       while (b->pose_index == a.pose_index) b = &frames[pick(rng)];
       const auto query = descriptor_of(avatar, a), reference = descriptor_of(avatar, *b);
+      weights.push_back(handscs::pose_similarity(pose_feature_of(avatar, a),
+                                                 pose_feature_of(avatar, *b), config.train.consistency.delta));
       // Brute force in double: the minimum distance of every row (ties: any row at it is exact).
       const auto q64 = query.to(torch::kFloat64), r64 = reference.to(torch::kFloat64);
       const auto truth = handscs::correspond_exact(q64, r64);
@@ -147,6 +161,7 @@ int main(int argc, char** argv) {
       t0 = Clock::now();
       const auto tree = handscs::DescriptorTree(reference).nearest(query, guess);
       tree_ms.push_back(ms_since(t0));
+      step_ms.push_back(weights.back() >= min_weight ? tree_ms.back() : 0.0);
       tree_exact.push_back(share(tree));
       for (int64_t k : k_values) {
         t0 = Clock::now();
@@ -162,6 +177,19 @@ int main(int argc, char** argv) {
     row["tree"] = {{"ms_median", median(tree_ms)},
                    {"exact_share_mean", mean(tree_exact)},
                    {"exact_share_min", *std::min_element(tree_exact.begin(), tree_exact.end())}};
+    double skipped_weight = 0, total_weight = 0;
+    int skipped = 0;
+    for (double w : weights) {
+      total_weight += w;
+      if (w < min_weight) skipped_weight += w, ++skipped;
+    }
+    row["tree_with_min_weight"] = {{"min_weight", min_weight},
+                                   {"ms_mean_per_step", mean(step_ms)},
+                                   {"skipped_share", double(skipped) / weights.size()},
+                                   {"skipped_weight_share", skipped_weight / total_weight}};
+    row["pairs_weight_and_tree_ms"] = nlohmann::json::array();
+    for (size_t p = 0; p < weights.size(); ++p)
+      row["pairs_weight_and_tree_ms"].push_back({weights[p], tree_ms[p]});
     for (int64_t k : k_values) {
       row["candidates"][std::to_string(k)] = {
           {"agreement_mean", mean(agreement[k])},
