@@ -128,14 +128,20 @@ std::string ConfigDoc::format_number(double x) {
   return os.str();
 }
 
-namespace {
-
 json parse_json_file(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw Error(path + ": is a folder, not a JSON file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path + ": cannot open file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  const std::string text = buffer.str();
+  // Read at most kMaxJsonBytes + 1 bytes: a device such as /dev/zero must not fill the memory.
+  std::string text;
+  char chunk[1 << 16];
+  while (in.read(chunk, sizeof(chunk)) || in.gcount() > 0) {
+    text.append(chunk, static_cast<size_t>(in.gcount()));
+    if (text.size() > kMaxJsonBytes)
+      throw Error(path + ": larger than " + std::to_string(kMaxJsonBytes >> 20) +
+                  " MB; not a config, pose or camera file");
+  }
   try {
     return json::parse(text);
   } catch (const json::parse_error& e) {
@@ -151,8 +157,14 @@ json parse_json_file(const std::string& path) {
     }
     throw Error(path + ": malformed JSON at line " + std::to_string(line) + ", column " +
                 std::to_string(column) + " (" + std::string(e.what()) + ")");
+  } catch (const json::out_of_range& e) {  // 1e999: a number beyond a double
+    throw Error(path + ": a number is out of range of a double (" + std::string(e.what()) + ")");
+  } catch (const json::exception& e) {
+    throw Error(path + ": malformed JSON (" + std::string(e.what()) + ")");
   }
 }
+
+namespace {
 
 json load_json_file_depth(const std::string& path, int depth) {
   if (depth > 8) throw Error(path + ": \"extends\" chain deeper than 8 files (a cycle?)");
@@ -204,6 +216,28 @@ void apply_overrides(json& object, const std::vector<std::string>& overrides) {
     }
     *node = value;
   }
+}
+
+std::vector<std::string> json_differences(const json& a, const json& b, const std::string& prefix) {
+  std::vector<std::string> out;
+  if (a.is_object() && b.is_object()) {
+    std::set<std::string> keys;
+    for (const auto& item : a.items()) keys.insert(item.key());
+    for (const auto& item : b.items()) keys.insert(item.key());
+    for (const auto& key : keys) {
+      const std::string path = prefix.empty() ? key : prefix + "." + key;
+      const auto in_a = a.find(key), in_b = b.find(key);
+      if (in_a == a.end() || in_b == b.end()) {
+        out.push_back(path + ": " + (in_a == a.end() ? "(absent)" : in_a->dump()) + " -> " +
+                      (in_b == b.end() ? "(absent)" : in_b->dump()));
+        continue;
+      }
+      for (auto& line : json_differences(*in_a, *in_b, path)) out.push_back(std::move(line));
+    }
+  } else if (a != b) {
+    out.push_back((prefix.empty() ? "(value)" : prefix) + ": " + a.dump() + " -> " + b.dump());
+  }
+  return out;
 }
 
 }  // namespace handscs

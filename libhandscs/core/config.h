@@ -170,6 +170,14 @@ std::string config_markdown(C& config) {
   return text;
 }
 
+// Largest JSON file read (configs, POSES, cameras, rigs): far above any of them (a MANO-size rig
+// is ~2 MB), far below what would strain memory.
+constexpr size_t kMaxJsonBytes = size_t{256} << 20;
+
+// Parses one JSON file. Errors name the file: a folder, a file over kMaxJsonBytes, bad syntax
+// (line and column), numbers beyond a double.
+json parse_json_file(const std::string& path);
+
 // Reads a JSON file; a file may name a parent with "extends": "other.json" (relative to itself),
 // whose keys it overrides (RFC 7386 merge). Errors name the file, with line/column for bad JSON.
 json load_json_file(const std::string& path);
@@ -177,6 +185,10 @@ json load_json_file(const std::string& path);
 // Applies "a.b.c=value" overrides (value parsed as JSON, else taken as a string). The key must
 // already exist in `object` (the defaults), so a typo is an error naming the override.
 void apply_overrides(json& object, const std::vector<std::string>& overrides);
+
+// The keys whose values differ between two config objects, as "prefix.key: a -> b" (keys in one
+// object only read "(absent)"), in key order. Empty when equal.
+std::vector<std::string> json_differences(const json& a, const json& b, const std::string& prefix = "");
 
 // Defaults of C, merged with the file (if given) and the overrides, then validated into C.
 template <class C>

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "core/atomic_file.h"
+#include "core/config.h"
 #include "core/error.h"
 #include "hand/joint_order.h"
 #include "hand/procedural_hand.h"
@@ -246,13 +247,7 @@ const std::set<std::string> kOptionalKeys = {"vertex_labels", "units", "descript
 }  // namespace
 
 Rig load_rig(const std::string& path) {
-  const std::string text = read_file(path);
-  json root;
-  try {
-    root = json::parse(text);
-  } catch (const json::exception& e) {  // syntax errors, and numbers overflowing a double
-    throw Error(path + ": malformed JSON: " + e.what());
-  }
+  const json root = parse_json_file(path);
   if (!root.is_object()) throw Error(path + ": expected a JSON object at the top level");
   for (const auto& item : root.items())
     if (!kRequiredKeys.count(item.key()) && !kOptionalKeys.count(item.key()))

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "core/atomic_file.h"
+#include "core/config.h"
 #include "core/error.h"
 
 namespace handscs {
@@ -77,14 +78,7 @@ Camera camera_from_json(const json& object, const std::string& source) {
 }
 
 Camera read_camera_json(const std::string& path) {
-  const std::string text = read_file(path);
-  json object;
-  try {
-    object = json::parse(text);
-  } catch (const json::parse_error& e) {
-    throw Error(path + ": malformed JSON (" + e.what() + ")");
-  }
-  return camera_from_json(object, path);
+  return camera_from_json(parse_json_file(path), path);
 }
 
 json camera_to_json(const Camera& c) {

@@ -103,13 +103,13 @@ PoseFrame interpolate_pose(const PoseFrame& a, const PoseFrame& b, double t) {
   return out;
 }
 
-std::vector<PoseFrame> read_pose_source(const std::string& path) {
-  json root;
-  try {
-    root = json::parse(read_file(path));
-  } catch (const json::parse_error& e) {
-    throw Error(path + ": malformed JSON (" + std::string(e.what()) + ")");
-  }
+namespace {
+
+// An hour of video at 30 FPS is 108,000 frames; a longer interpolation is a typo, and would hold
+// ~250 bytes per pose in memory before the first frame renders.
+constexpr int kMaxInterpolationSteps = 1000000;
+
+std::vector<PoseFrame> read_pose_source_json(const json& root, const std::string& path) {
   std::vector<PoseFrame> frames;
   if (root.is_array() || (root.is_object() && root.contains("poses"))) {
     const json& list = root.is_array() ? root : root["poses"];
@@ -128,7 +128,9 @@ std::vector<PoseFrame> read_pose_source(const std::string& path) {
     const PoseFrame a = read_frame(spec["from"], where + ".from");
     const PoseFrame b = read_frame(spec["to"], where + ".to");
     const int steps = spec.value("steps", 30);
-    if (steps < 2) throw Error(where + ".steps: at least 2");
+    if (steps < 2 || steps > kMaxInterpolationSteps)
+      throw Error(where + ".steps: between 2 and " + std::to_string(kMaxInterpolationSteps) +
+                  ", got " + std::to_string(steps));
     for (int i = 0; i < steps; ++i) {
       frames.push_back(interpolate_pose(a, b, double(i) / (steps - 1)));
       frames.back().name = numbered("pose", i);
@@ -163,6 +165,17 @@ std::vector<PoseFrame> read_pose_source(const std::string& path) {
   }
   if (frames.empty()) throw Error(path + ": no poses selected");
   return frames;
+}
+
+}  // namespace
+
+std::vector<PoseFrame> read_pose_source(const std::string& path) {
+  const json root = parse_json_file(path);
+  try {
+    return read_pose_source_json(root, path);
+  } catch (const json::exception& e) {  // a value of another type than the key needs
+    throw Error(path + ": " + e.what());
+  }
 }
 
 }  // namespace handscs

@@ -114,6 +114,16 @@ TEST_CASE("config: each bad input names the file and key") {
   const auto message = error_of([&] { handscs::load_config<RootConfig>(malformed, {}); });
   CHECK(message.rfind(malformed + ": malformed JSON at line 4, column 3", 0) == 0);
 
+  const auto overflow = temp_file("overflow.json", R"({"train": {"iterations": 1e999}})");
+  CHECK(error_of([&] { handscs::load_config<RootConfig>(overflow, {}); })
+            .rfind(overflow + ": a number is out of range of a double (", 0) == 0);
+  const auto folder = std::filesystem::path(overflow).parent_path().string();
+  CHECK(error_of([&] { handscs::load_config<RootConfig>(folder, {}); }) ==
+        folder + ": is a folder, not a JSON file");
+  // A device that never ends: refused after kMaxJsonBytes, not read until memory runs out.
+  CHECK(error_of([&] { handscs::load_config<RootConfig>("/dev/zero", {}); }) ==
+        "/dev/zero: larger than 256 MB; not a config, pose or camera file");
+
   CHECK(error_of([&] { handscs::load_config<RootConfig>("", {"train.lr.mean=1"}); }) ==
         "--set train.lr.mean=1: unknown key train.lr.mean");
   CHECK(error_of([&] { handscs::load_config<RootConfig>("", {"train.iterations=abc"}); }) ==

@@ -1,0 +1,44 @@
+// POSES files: each bad file is an error naming the file (and the key where there is one), never a
+// bare nlohmann exception or an unbounded allocation.
+#include "catch_torch.h"
+
+#include <filesystem>
+#include <fstream>
+
+#include "core/error.h"
+#include "tiny_capture.h"
+#include "train/pose_source.h"
+
+namespace {
+std::string error_of(const std::string& path, const std::string& text) {
+  std::ofstream(path) << text;
+  try {
+    handscs::read_pose_source(path);
+  } catch (const handscs::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST_CASE("pose source: wrong types, overflowing numbers and huge interpolations name the file") {
+  const auto dir = handscs_test::fresh_dir("pose_source");
+  std::filesystem::create_directories(dir);
+  const auto path = dir + "/poses.json";
+  const std::string zeros45 = "0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0";
+  const std::string pose = "[0,0,0," + zeros45 + "]";
+  {
+    std::ofstream(path) << "{\"poses\": [{\"pose\": " + pose + "}]}";
+  }
+  CHECK(handscs::read_pose_source(path).size() == 1);
+  CHECK(error_of(path, "{\"poses\": [{\"pose\": " + pose.substr(0, pose.size() - 1) + ",1e999]}]}")
+            .rfind(path + ": a number is out of range of a double", 0) == 0);
+  const auto steps_type = error_of(path, "{\"interpolate\": {\"from\": {\"pose\": " + pose +
+                                             "}, \"to\": {\"pose\": " + pose + "}, \"steps\": \"ten\"}}");
+  INFO(steps_type);
+  CHECK(steps_type.rfind(path + ": [json.exception.type_error", 0) == 0);
+  CHECK(error_of(path, "{\"interpolate\": {\"from\": {\"pose\": " + pose + "}, \"to\": {\"pose\": " + pose +
+                           "}, \"steps\": 100000000}}") ==
+        path + ": interpolate.steps: between 2 and 1000000, got 100000000");
+  CHECK(error_of(dir, "") == dir + ": is a folder, not a JSON file");
+}
