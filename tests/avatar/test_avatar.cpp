@@ -11,6 +11,7 @@
 #include "core/error.h"
 #include "hand/lbs.h"
 #include "scs/descriptor.h"
+#include "small_avatar.h"
 
 namespace {
 
@@ -95,17 +96,9 @@ TEST_CASE("avatar: gradients reach every parameter group") {
 }
 
 TEST_CASE("avatar: gradients match finite differences in double precision") {
-  handscs::AvatarConfig config;
-  config.decoder_hidden = 8;
-  config.embedding_dim = 4;
-  config.scs.virtual_bones = 2;
-  config.scs.generator_hidden = 8;
-  handscs::Avatar avatar(config, handscs::load_rig_source("builtin"));
-  avatar.set_dtype(torch::kFloat64);
+  handscs::Avatar avatar = handscs_test::small_double_avatar();
   {
     torch::NoGradGuard no_grad;
-    for (auto& p : avatar.decoders()->parameters())
-      if (p.numel() == 1) p.fill_(0.3);
     avatar.gaussians().log_scales.add_(torch::randn_like(avatar.gaussians().log_scales) * 0.3);
   }
   const auto pose = small_pose(4).to(torch::kFloat64);

@@ -12,6 +12,7 @@
 #include "avatar/avatar.h"
 #include "core/error.h"
 #include "core/threads.h"
+#include "small_avatar.h"
 #include "tiny_capture.h"
 #include "train/pose_refine.h"
 #include "train/trainer.h"
@@ -71,18 +72,7 @@ TEST_CASE("pose refine: each row's Adam step equals a plain Adam loop, and other
 
 TEST_CASE("pose refine: corrections apply as pose + d and trans + 0.1 m d, and gradients match finite "
           "differences through the avatar") {
-  handscs::AvatarConfig config;
-  config.decoder_hidden = 8;
-  config.embedding_dim = 4;
-  config.scs.virtual_bones = 2;
-  config.scs.generator_hidden = 8;
-  handscs::Avatar avatar(config, handscs::load_rig_source("builtin"));
-  avatar.set_dtype(torch::kFloat64);
-  {
-    torch::NoGradGuard no_grad;
-    for (auto& p : avatar.decoders()->parameters())
-      if (p.numel() == 1) p.fill_(0.3);  // open the gates: the decoders see the pose too
-  }
+  handscs::Avatar avatar = handscs_test::small_double_avatar();  // gates open: decoders see the pose
   auto gen = at::detail::createCPUGenerator(5);
   const auto pose = at::normal(0.0, 0.2, {48}, gen, torch::kFloat64);
   const auto trans = at::normal(0.0, 0.01, {3}, gen, torch::kFloat64);
