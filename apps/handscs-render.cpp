@@ -95,7 +95,10 @@ void add_avatar_mode(CLI::App& app, AvatarMode& mode) {
   group->add_option("--poses", mode.poses,
                     "POSES JSON: {\"poses\": [{\"pose\": [48], \"shape\": [10], \"trans\": [3]}, ...]}, "
                     "{\"interpolate\": {\"from\", \"to\", \"steps\"}} or {\"capture\": {...}, \"frames\": \"test\"}");
-  group->add_option("--orbit", mode.orbit, "N turntable views around the hand (instead of --camera)");
+  // At most 100,000 views (nearly an hour of 30 FPS video): a larger number is a typo that would
+  // run for days.
+  group->add_option("--orbit", mode.orbit, "N turntable views around the hand (instead of --camera)")
+      ->check(CLI::Range(1, 100000));
   group->add_option("--video", mode.video, "also write the frames as an MP4 video");
   group->add_option("--fps", mode.video_fps, "frame rate of the video (default 30)");
   group->add_flag("--export-ply", mode.export_ply, "also write each frame's posed Gaussians as a 3DGS PLY");

@@ -1,5 +1,9 @@
 #include "core/cli.h"
 
+#include <algorithm>
+#include <cctype>
+#include <cstring>
+
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
@@ -24,6 +28,16 @@ void start_up(const CommonOptions& options, const std::string& program) {
   const int threads = set_threads(options.threads);
   spdlog::info("{}: {} thread{}, BLAS {}", program, threads, threads == 1 ? "" : "s",
                blas_in_use());
+}
+
+std::string shell_quote(const std::string& text) {
+  const bool plain = !text.empty() && std::all_of(text.begin(), text.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || std::strchr("/._-+=:,", c) != nullptr;
+  });
+  if (plain) return text;
+  std::string out = "'";
+  for (char c : text) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
 }
 
 }  // namespace handscs

@@ -22,4 +22,8 @@ void add_common_options(CLI::App& app, CommonOptions& options, bool with_overrid
 // Applies logging and thread settings and logs the thread count and BLAS library in use.
 void start_up(const CommonOptions& options, const std::string& program);
 
+// `text` as one POSIX shell word ('...' with embedded quotes escaped), for commands a program
+// prints for the user to paste; plain words (letters, digits, /._-+=:,) are left as they are.
+std::string shell_quote(const std::string& text);
+
 }  // namespace handscs

@@ -72,8 +72,9 @@ std::string frame_name(int64_t k) {
 
 AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
   require(!options.out_dir.empty(), "--out DIR is required");
-  const std::string ckpt_path = resolve_checkpoint_path(options.checkpoint);
-  const Checkpoint ckpt = load_checkpoint(ckpt_path);
+  const OpenedCheckpoint opened = open_checkpoint(options.checkpoint);
+  const std::string& ckpt_path = opened.path;
+  const Checkpoint& ckpt = opened.checkpoint;
   RunConfig config;
   config_from_json(ckpt.meta.at("config"), ckpt_path + " (stored config)", config);
   Avatar avatar = restore_avatar(ckpt, config.model, load_rig_source(config.model.rig), ckpt_path);

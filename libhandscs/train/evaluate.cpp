@@ -54,6 +54,15 @@ std::string resolve_checkpoint_path(const std::string& path) {
   return path;
 }
 
+OpenedCheckpoint open_checkpoint(const std::string& path) {
+  OpenedCheckpoint out;
+  out.path = resolve_checkpoint_path(path);
+  out.checkpoint = load_checkpoint(out.path);
+  spdlog::info("checkpoint: {} (step {})", out.path,
+               out.checkpoint.meta.value("iteration", int64_t{-1}));
+  return out;
+}
+
 std::string paper_table(const std::string& label, const EvalSummary& s, double fps) {
   std::string header = "| Method | " + label + " PSNR ↑ | SSIM ↑ | LPIPS ↓ |";
   std::string rule = "|---|---|---|---|";
@@ -80,8 +89,9 @@ std::string paper_table(const std::string& label, const EvalSummary& s, double f
 }
 
 ModelEvalResult evaluate_avatar(const RunConfig& config_in, const ModelEvalOptions& options) {
-  const std::string ckpt_path = resolve_checkpoint_path(options.checkpoint);
-  const Checkpoint ckpt = load_checkpoint(ckpt_path);
+  const OpenedCheckpoint opened = open_checkpoint(options.checkpoint);
+  const std::string& ckpt_path = opened.path;
+  const Checkpoint& ckpt = opened.checkpoint;
   RunConfig config = config_in;
   // The architecture comes from the checkpoint; data and evaluation settings from the caller.
   RunConfig stored;

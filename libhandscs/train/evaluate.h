@@ -7,6 +7,7 @@
 #include <string>
 
 #include "metrics/eval_report.h"
+#include "train/checkpoint.h"
 #include "train/run_config.h"
 
 namespace handscs {
@@ -37,6 +38,14 @@ ModelEvalResult evaluate_avatar(const RunConfig& config, const ModelEvalOptions&
 
 // Resolves a checkpoint argument: a file as is, a run folder to its latest checkpoint.
 std::string resolve_checkpoint_path(const std::string& path);
+
+struct OpenedCheckpoint {
+  std::string path;  // the file used
+  Checkpoint checkpoint;
+};
+// resolve_checkpoint_path + load_checkpoint, logging the file used and its step (a run folder's
+// newest checkpoint is not always the one a user expects).
+OpenedCheckpoint open_checkpoint(const std::string& path);
 
 // The paper-style Markdown table: the capture's column group, then one per region (summary.regions),
 // then FPS; with regions, a line under it gives each region's image count and pixel share.

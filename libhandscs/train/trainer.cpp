@@ -22,6 +22,7 @@
 #include "train/avatar_state_io.h"
 #include "train/consistency.h"
 #include "train/descriptor_tree.h"
+#include "train/run_folder.h"
 
 namespace handscs {
 
@@ -94,7 +95,7 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir)
   validate_run_config(config_, "config");
   ensure_directory(run_dir_);
   ensure_directory(run_dir_ + "/checkpoints");
-  write_file_atomic(run_dir_ + "/config.json", config_to_json(config_).dump(2) + "\n");
+  remove_stale_temporaries(run_dir_);
 
   capture_ = std::make_unique<Capture>(Capture::open(config_.data, run_dir_ + "/cache"));
   require(!capture_->train().empty(),
@@ -118,15 +119,22 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir)
       lpips = std::make_shared<const Lpips>(config_.eval.lpips);
   }
   objective_ = std::make_unique<Objective>(config_.train.loss, lpips);
+}
 
+void Trainer::write_run_files() {
+  // Not in the constructor: a resume that fails (or a config that fails later checks) must leave
+  // the folder as it was.
+  if (run_files_written_) return;
+  write_file_atomic(run_dir_ + "/config.json", config_to_json(config_).dump(2) + "\n");
   const std::string metrics = run_dir_ + "/metrics.csv";
   if (!std::filesystem::exists(metrics)) {
-    std::ofstream out(metrics);
+    std::string header;
     for (size_t i = 0; i < std::size(kMetricsColumns); ++i)
-      out << (i ? "," : "") << kMetricsColumns[i];
-    for (const char* column : kDiagnosticColumns) out << "," << column;
-    out << "\n";
+      header += (i ? "," : "") + std::string(kMetricsColumns[i]);
+    for (const char* column : kDiagnosticColumns) header += "," + std::string(column);
+    write_file_atomic(metrics, header + "\n");
   }
+  run_files_written_ = true;
 }
 
 Trainer::~Trainer() = default;
@@ -432,9 +440,14 @@ void Trainer::load_from(const Checkpoint& ckpt, const std::string& source) {
     throw Error(source + ": not a HandSCS training checkpoint");
   RunConfig stored;
   config_from_json(ckpt.meta.at("config"), source + " (stored config)", stored);
-  if (config_to_json(stored.model) != config_to_json(config_.model))
-    throw Error(source + ": its model section differs from the run's config; resume with the same "
-                         "model settings");
+  if (config_to_json(stored.model) != config_to_json(config_.model)) {
+    std::string differences;
+    for (const auto& line :
+         json_differences(config_to_json(stored.model), config_to_json(config_.model), "model"))
+      differences += "\n  " + line;
+    throw Error(source + ": its model differs from the config given (checkpoint -> given):" +
+                differences + "\nresume with the checkpoint's model settings");
+  }
   avatar_ = std::make_unique<Avatar>(
       restore_avatar(ckpt, config_.model, load_rig_source(config_.model.rig), source));
   build_optimizer();
@@ -483,6 +496,7 @@ void Trainer::load_from(const Checkpoint& ckpt, const std::string& source) {
 }
 
 std::string Trainer::save_checkpoint() {
+  write_run_files();
   const std::string path = run_dir_ + "/checkpoints/" + checkpoint_name(iteration_);
   handscs::save_checkpoint(path, make_checkpoint());
   last_checkpoint_ = path;
@@ -498,16 +512,23 @@ std::string Trainer::latest_checkpoint(const std::string& run_dir) {
 
 bool Trainer::resume() {
   const auto files = list_checkpoints(run_dir_);
+  std::string reasons;
   for (const auto& file : files) {
     try {
       load_from(load_checkpoint(file), file);
       last_checkpoint_ = file;
       spdlog::info("resumed from {} at step {}", file, iteration_);
+      truncate_metrics_log(run_dir_ + "/metrics.csv", iteration_);
       return true;
     } catch (const Error& e) {
       spdlog::warn("cannot resume from {}; trying an older checkpoint", e.what());
+      reasons += "\n" + std::string(e.what());
     }
   }
+  if (!files.empty())
+    throw Error(run_dir_ + ": none of its " + std::to_string(files.size()) +
+                " checkpoints can be resumed; nothing was changed:" + reasons);
+  truncate_metrics_log(run_dir_ + "/metrics.csv", 0);
   return false;
 }
 
@@ -528,6 +549,7 @@ void Trainer::validate() {
 }
 
 void Trainer::log_step(const StepResult& r) {
+  write_run_files();
   static const char* terms[] = {"rgb", "mask", "ssim", "lpips", "reg", "consistency"};
   std::ofstream out(run_dir_ + "/metrics.csv", std::ios::app);
   out << r.iteration << "," << elapsed_seconds_ << "," << r.loss;
@@ -552,6 +574,7 @@ TrainSummary Trainer::run() {
   g_stop_requested = false;
   auto previous_int = std::signal(SIGINT, request_stop);
   auto previous_term = std::signal(SIGTERM, request_stop);
+  write_run_files();
   const auto start = Clock::now();
   const double elapsed_before = elapsed_seconds_;
   if (last_checkpoint_.empty()) save_checkpoint();  // the state a first rollback returns to

@@ -50,12 +50,16 @@ struct TrainSummary {
 
 class Trainer {
  public:
-  // Opens the capture, builds the avatar and optimiser, writes config.json into run_dir.
+  // Opens the capture, builds the avatar and optimiser; removes temporaries of killed writes from
+  // run_dir. config.json and the metrics.csv header are written with the first step logged,
+  // checkpoint saved or run() (write_run_files), not before.
   Trainer(const RunConfig& config, const std::string& run_dir);
   ~Trainer();
 
   // Loads the newest valid checkpoint of run_dir (an unreadable newest one is reported and the
-  // previous one used). Returns false when run_dir has none.
+  // previous one used) and drops metrics.csv rows after its step. Returns false when run_dir has
+  // no checkpoint; throws Error, having changed nothing, when it has some and none can be resumed
+  // (damaged, or another model: the message lists the keys that differ).
   bool resume();
   StepResult step();
   // Runs to config.train.iterations (or until SIGINT/SIGTERM), with a progress bar.
@@ -72,6 +76,7 @@ class Trainer {
 
  private:
   void build_optimizer();
+  void write_run_files();
   Checkpoint make_checkpoint();
   void load_from(const Checkpoint& checkpoint, const std::string& source);
   bool rollback();
@@ -96,6 +101,7 @@ class Trainer {
   int64_t bad_in_a_row_ = 0;
   int64_t rollbacks_ = 0;
   std::string last_checkpoint_;
+  bool run_files_written_ = false;
   // Inter-pose state of the previous step (detached) and the canonical K-NN candidate sets.
   torch::Tensor prev_descriptor_, prev_attributes_, prev_pose_feature_, candidates_;
   torch::Tensor next_descriptor_, next_attributes_, next_pose_feature_;  // this step's, pending

@@ -10,6 +10,8 @@
 #include <algorithm>
 #include <chrono>
 #include <fstream>
+#include <map>
+#include <set>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -26,11 +28,14 @@ namespace {
 const std::string kBin = HANDSCS_BIN_DIR;
 const std::string kSource = HANDSCS_SOURCE_DIR;
 
+// One log per test process: ctest -j runs the cases of this file side by side.
+const std::string kLog = "/tmp/handscs_cli_test_" + std::to_string(getpid()) + ".log";
+
 int run(const std::string& command) {
-  const int status = std::system((command + " > /tmp/handscs_cli_test.log 2>&1").c_str());
+  const int status = std::system((command + " > " + kLog + " 2>&1").c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
-std::string log_text() { return handscs::read_file("/tmp/handscs_cli_test.log"); }
+std::string log_text() { return handscs::read_file(kLog); }
 }  // namespace
 
 TEST_CASE("cli: train, resume, evaluate and render the tiny capture") {
@@ -113,9 +118,11 @@ TEST_CASE("cli: kill -9 during checkpoint writes leaves a loadable checkpoint") 
   const auto run_dir = fresh_dir("cli_kill");
   // A checkpoint every step, so the kill lands inside or between writes; a few kills at
   // different times.
-  const std::string command = kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " +
-                              run_dir + " --threads 1 --log-level error --set data.root=" +
-                              tiny_capture_dir() + " train.iterations=100000 train.checkpoint_every=1";
+  // --resume: the first start finds no checkpoint and starts afresh, the later ones continue.
+  const std::string command = kBin + "/handscs-train --resume --config " + kSource +
+                              "/configs/tiny.json --out " + run_dir +
+                              " --threads 1 --log-level error --set data.root=" + tiny_capture_dir() +
+                              " train.iterations=100000 train.checkpoint_every=1";
   for (int delay_ms : {1500, 2300, 3100}) {
     const pid_t pid = fork();
     REQUIRE(pid >= 0);
@@ -138,4 +145,75 @@ TEST_CASE("cli: kill -9 during checkpoint writes leaves a loadable checkpoint") 
     for (const auto& entry : std::filesystem::directory_iterator(run_dir + "/checkpoints"))
       if (entry.path().extension() == ".ckpt") CHECK_NOTHROW(handscs::load_checkpoint(entry.path()));
   }
+  // A last resume (to a step already passed: it stops at once) removes the temporaries of killed
+  // writes and leaves one metrics row per logged step.
+  REQUIRE(run(kBin + "/handscs-train --resume --out " + run_dir +
+              " --threads 1 --set train.iterations=1") == 0);
+  for (const auto& entry : std::filesystem::directory_iterator(run_dir + "/checkpoints"))
+    CHECK(entry.path().filename().string().find(".tmp.") == std::string::npos);
+  std::ifstream csv(run_dir + "/metrics.csv");
+  std::string row;
+  std::getline(csv, row);
+  std::set<std::string> steps;
+  while (std::getline(csv, row)) {
+    INFO(row);
+    CHECK(steps.insert(row.substr(0, row.find(','))).second);
+  }
+}
+
+namespace {
+// Every file under `dir` with its bytes.
+std::map<std::string, std::string> snapshot(const std::string& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(dir))
+    if (entry.is_regular_file()) files[entry.path().string()] = handscs::read_file(entry.path().string());
+  return files;
+}
+}  // namespace
+
+TEST_CASE("cli: a run folder is never overwritten or mixed without --overwrite") {
+  const auto run_dir = fresh_dir("cli_safe");
+  const std::string train = kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " +
+                            run_dir + " --threads 2 --set data.root=" + tiny_capture_dir();
+  REQUIRE(run(train + " train.iterations=4") == 0);
+  const auto before = snapshot(run_dir);
+  REQUIRE(before.count(run_dir + "/checkpoints/step_00000004.ckpt") == 1);
+
+  // A fresh run into it: refused, nothing changed.
+  CHECK(run(train + " train.iterations=2") == 1);
+  CHECK(log_text().find(run_dir + " holds a run (2 checkpoints (newest step_00000004.ckpt), "
+                        "config.json, metrics.csv)") != std::string::npos);
+  CHECK(snapshot(run_dir) == before);
+
+  // A resume with another model: refused with the keys that differ, nothing changed.
+  CHECK(run(kBin + "/handscs-train --resume --out " + run_dir +
+            " --threads 2 --set model.embedding_dim=16 train.iterations=6") == 1);
+  INFO(log_text());
+  CHECK(log_text().find("model.embedding_dim: 32 -> 16") != std::string::npos);
+  CHECK(log_text().find("nothing was changed") != std::string::npos);
+  CHECK(snapshot(run_dir) == before);
+
+  // A resume with a config that fails (a bad value; a capture that cannot be opened): refused
+  // before config.json is touched.
+  const auto bad = run_dir + "_bad.json";
+  std::ofstream(bad) << R"({"train": {"iterations": -3}})";
+  CHECK(run(kBin + "/handscs-train --resume --out " + run_dir + " --config " + bad) == 1);
+  CHECK(log_text().find("train.iterations") != std::string::npos);
+  CHECK(snapshot(run_dir) == before);
+  std::ofstream(bad) << R"({"data": {"root": "/nonexistent/capture"}})";
+  CHECK(run(kBin + "/handscs-train --resume --out " + run_dir + " --config " + bad) == 1);
+  CHECK(log_text().find("/nonexistent/capture") != std::string::npos);
+  CHECK(snapshot(run_dir) == before);
+
+  // handscs-eval names the checkpoint it scores.
+  REQUIRE(run(kBin + "/handscs-eval --checkpoint " + run_dir + " --out " + run_dir +
+              "_eval --max-images 2 --threads 2") == 0);
+  CHECK(log_text().find("checkpoint: " + run_dir + "/checkpoints/step_00000004.ckpt (step 4)") !=
+        std::string::npos);
+
+  // --overwrite replaces the run: the old checkpoint is gone, the new run's is there.
+  CHECK(run(train + " train.iterations=2 --resume --overwrite") != 0);  // exclusive flags
+  REQUIRE(run(train + " train.iterations=2 --overwrite") == 0);
+  CHECK_FALSE(std::filesystem::exists(run_dir + "/checkpoints/step_00000004.ckpt"));
+  CHECK(std::filesystem::exists(run_dir + "/checkpoints/step_00000002.ckpt"));
 }

@@ -1,0 +1,39 @@
+// Run-folder safety for handscs-train: a folder that holds a run is never written into by another
+// run unless asked (--overwrite), temporaries of killed checkpoint writes are cleaned up, and a
+// resume drops the log rows its checkpoint does not cover. What the tools promise: docs/SAFETY.md.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace handscs {
+
+// The files of one run: what --overwrite removes and what makes a folder hold a run. The mask
+// cache (cache/) is not among them: it is keyed by a hash of its settings and shared safely.
+struct RunFolderContents {
+  std::vector<std::string> checkpoints;  // checkpoints/step_*.ckpt, newest first
+  bool config = false;                   // config.json
+  bool metrics = false;                  // metrics.csv
+  bool validation = false;               // validation/
+  bool pose_refine = false;              // pose_refine.csv
+
+  bool holds_run() const;
+  std::string describe() const;  // e.g. "2 checkpoints (newest step_00000400.ckpt), config.json, metrics.csv"
+};
+
+RunFolderContents inspect_run_folder(const std::string& dir);
+
+// Before a fresh (not resumed) run: throws Error naming the folder and what it holds when it holds
+// a run, unless `overwrite`, in which case that run's files (RunFolderContents) are removed.
+void prepare_fresh_run_folder(const std::string& dir, bool overwrite);
+
+// Removes "<file>.tmp.<pid>" files of write_file_atomic whose writer is no longer running, in dir
+// and dir/checkpoints. Returns how many were removed.
+int remove_stale_temporaries(const std::string& dir);
+
+// Keeps the header of a metrics log and its rows with iteration <= `iteration` (a resumed run logs
+// the later steps again). Atomic; a missing file is left missing.
+void truncate_metrics_log(const std::string& path, int64_t iteration);
+
+}  // namespace handscs

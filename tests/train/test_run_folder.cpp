@@ -1,0 +1,135 @@
+// Run-folder safety against hand-made folders: a folder holding a run is refused and left byte for
+// byte unless --overwrite, which removes that run's files only; temporaries of dead writers go,
+// those of live ones stay; a resume drops log rows after its checkpoint, torn rows too; an
+// incompatible resume names the keys and changes nothing.
+#include "catch_torch.h"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+
+#include "core/atomic_file.h"
+#include "core/config.h"
+#include "core/error.h"
+#include "core/threads.h"
+#include "tiny_capture.h"
+#include "train/run_folder.h"
+#include "train/trainer.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::map<std::string, std::string> snapshot(const std::string& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& entry : fs::recursive_directory_iterator(dir))
+    if (entry.is_regular_file()) files[entry.path().string()] = handscs::read_file(entry.path().string());
+  return files;
+}
+
+void write(const std::string& path, const std::string& text) {
+  fs::create_directories(fs::path(path).parent_path());
+  std::ofstream(path) << text;
+}
+
+}  // namespace
+
+TEST_CASE("run folder: a folder holding a run is refused, and --overwrite removes only that run") {
+  const auto dir = handscs_test::fresh_dir("folder_guard");
+  handscs::prepare_fresh_run_folder(dir, false);  // absent: fine
+  fs::create_directories(dir + "/cache");
+  write(dir + "/cache/masks-1/a.png", "mask");
+  handscs::prepare_fresh_run_folder(dir, false);  // a mask cache alone is no run
+  write(dir + "/config.json", "{}");
+  write(dir + "/metrics.csv", "iteration\n1\n");
+  write(dir + "/checkpoints/step_00000010.ckpt", "ten");
+  write(dir + "/checkpoints/step_00000020.ckpt", "twenty");
+  write(dir + "/validation/step_00000020.png", "png");
+  write(dir + "/notes.txt", "the user's own file");
+  const auto before = snapshot(dir);
+  CHECK_THROWS_WITH(handscs::prepare_fresh_run_folder(dir, false),
+                    dir + " holds a run (2 checkpoints (newest step_00000020.ckpt), config.json, "
+                          "metrics.csv, validation/); continue it with --resume, replace it with "
+                          "--overwrite, or choose another --out");
+  CHECK(snapshot(dir) == before);
+  handscs::prepare_fresh_run_folder(dir, true);
+  const auto after = snapshot(dir);
+  CHECK(after.size() == 2);
+  CHECK(after.count(dir + "/cache/masks-1/a.png") == 1);
+  CHECK(after.count(dir + "/notes.txt") == 1);
+  CHECK_FALSE(handscs::inspect_run_folder(dir).holds_run());
+}
+
+TEST_CASE("run folder: temporaries of dead writers are removed, a live writer's are kept") {
+  const auto dir = handscs_test::fresh_dir("folder_tmp");
+  const pid_t child = fork();
+  REQUIRE(child >= 0);
+  if (child == 0) _exit(0);
+  waitpid(child, nullptr, 0);  // reaped: no process has this pid now
+  const auto dead = dir + "/checkpoints/step_00000005.ckpt.tmp." + std::to_string(child);
+  const auto live = dir + "/config.json.tmp." + std::to_string(getpid());
+  write(dead, "torn");
+  write(live, "being written");
+  write(dir + "/checkpoints/step_00000004.ckpt", "whole");
+  write(dir + "/x.tmp.notapid", "not ours");
+  CHECK(handscs::remove_stale_temporaries(dir) == 1);
+  CHECK_FALSE(fs::exists(dead));
+  CHECK(fs::exists(live));
+  CHECK(fs::exists(dir + "/checkpoints/step_00000004.ckpt"));
+  CHECK(fs::exists(dir + "/x.tmp.notapid"));
+}
+
+TEST_CASE("run folder: a resume's log keeps the rows up to its step, and no torn row") {
+  const auto dir = handscs_test::fresh_dir("folder_log");
+  const auto path = dir + "/metrics.csv";
+  write(path, "iteration,loss,psnr\n10,0.5,20\n20,0.4,21\n30,0.3,22\n40,0.2");
+  handscs::truncate_metrics_log(path, 30);
+  CHECK(handscs::read_file(path) == "iteration,loss,psnr\n10,0.5,20\n20,0.4,21\n30,0.3,22\n");
+  handscs::truncate_metrics_log(path, 20);
+  CHECK(handscs::read_file(path) == "iteration,loss,psnr\n10,0.5,20\n20,0.4,21\n");
+  handscs::truncate_metrics_log(path, 0);
+  CHECK(handscs::read_file(path) == "iteration,loss,psnr\n");
+  handscs::truncate_metrics_log(dir + "/absent.csv", 5);
+  CHECK_FALSE(fs::exists(dir + "/absent.csv"));
+}
+
+TEST_CASE("run folder: config differences are listed key by key") {
+  const handscs::json a = {{"x", 1}, {"s", {{"c", 2}, {"d", 3}}}};
+  const handscs::json b = {{"x", 1}, {"s", {{"c", 5}}}, {"e", true}};
+  const auto d = handscs::json_differences(a, b, "model");
+  REQUIRE(d.size() == 3);
+  CHECK(d[0] == "model.e: (absent) -> true");
+  CHECK(d[1] == "model.s.c: 2 -> 5");
+  CHECK(d[2] == "model.s.d: 3 -> (absent)");
+  CHECK(handscs::json_differences(a, a).empty());
+}
+
+TEST_CASE("run folder: an incompatible resume names what differs and changes nothing") {
+  handscs::set_threads(2);
+  auto config = handscs_test::tiny_run_config();
+  config.train.iterations = 2;
+  const auto dir = handscs_test::fresh_dir("folder_resume");
+  {
+    handscs::Trainer trainer(config, dir);
+    trainer.run();
+  }
+  const auto before = snapshot(dir);
+  auto other = config;
+  other.model.embedding_dim = 16;
+  other.model.decoder_hidden = 64;
+  handscs::Trainer trainer(other, dir);
+  try {
+    trainer.resume();
+    FAIL("resume of another model succeeded");
+  } catch (const handscs::Error& e) {
+    const std::string message = e.what();
+    INFO(message);
+    CHECK(message.find("none of its 2 checkpoints can be resumed; nothing was changed") != std::string::npos);
+    CHECK(message.find("model.embedding_dim: 32 -> 16") != std::string::npos);
+    CHECK(message.find("model.decoder_hidden: 256 -> 64") != std::string::npos);
+  }
+  CHECK(snapshot(dir) == before);
+}
