@@ -12,6 +12,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "core/progress.h"
 #include "sweep/csv_table.h"
 #include "sweep/pareto.h"
@@ -50,12 +51,6 @@ double number(const std::string& cell) {
   } catch (const std::exception&) {
     return std::nan("");
   }
-}
-
-std::string join(const std::vector<std::string>& items, const std::string& sep) {
-  std::string out;
-  for (size_t i = 0; i < items.size(); ++i) out += (i ? sep : "") + items[i];
-  return out;
 }
 
 CsvTable load_or_start(const std::string& path, const std::vector<std::string>& columns) {
