@@ -12,6 +12,7 @@
 #include <tuple>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "data/capture_impl.h"
 #include "data/image_checks.h"
 #include "data/interhand_annotations.h"
@@ -39,16 +40,13 @@ struct Candidate {
   Camera camera;
 };
 
-std::string join(const std::vector<std::string>& items, const std::string& sep) {
-  std::string out;
-  for (const auto& item : items) out += (out.empty() ? "" : sep) + item;
-  return out;
-}
-
 // Reason order in the summary line.
 const std::vector<std::string> kReasonOrder = {
     "null MANO",        "no joint_3d entry", "other hand",  "interacting",       "missing image",
-    "unreadable image", "wrong image size",  "black image", "hand outside image"};
+    "damaged JPEG",     "unreadable image", "wrong image size",  "black image", "hand outside image"};
+
+// Damaged JPEGs are each logged with what is wrong, up to this many lines (the summary counts all).
+constexpr size_t kDamageLines = 10;
 
 std::string make_summary(const std::string& source, const std::vector<SkippedImage>& skipped,
                          size_t total) {
@@ -349,12 +347,15 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   impl->monochrome_cameras.assign(mono.begin(), mono.end());
 
   std::vector<size_t> usable;
-  size_t dropped_mono = 0;
+  size_t dropped_mono = 0, damaged = 0;
   for (int64_t i = 0; i < num_candidates; ++i) {
     const Candidate& cand = candidates[i];
     std::string reason;
     const int expected_w = (cand.image->width + 7) / 8, expected_h = (cand.image->height + 7) / 8;
-    if (!scans[i].readable) {
+    if (!scans[i].damage.empty()) {
+      reason = "damaged JPEG";
+      if (++damaged <= kDamageLines) spdlog::warn("{}: damaged JPEG ({}): skipped", cand.path, scans[i].damage);
+    } else if (!scans[i].readable) {
       reason = "unreadable image";
     } else if (scans[i].scaled_width != expected_w || scans[i].scaled_height != expected_h) {
       reason = "wrong image size";  // the JPEG's size differs from data.json's width x height
@@ -373,6 +374,7 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
     }
     usable.push_back(static_cast<size_t>(i));
   }
+  if (damaged > kDamageLines) spdlog::warn("... and {} more damaged JPEGs", damaged - kDamageLines);
   impl->skipped = skipped;
   impl->skip_summary = make_summary(layout.data_json, skipped, considered);
   if (!impl->skip_summary.empty()) spdlog::warn("{}", impl->skip_summary);

@@ -68,8 +68,8 @@ struct FrameSample {
 struct SkippedImage {
   std::string path;
   std::string reason;  // "null MANO", "no joint_3d entry", "other hand", "interacting",
-                       // "missing image", "unreadable image", "wrong image size", "black image",
-                       // "hand outside image"
+                       // "missing image", "damaged JPEG", "unreadable image", "wrong image size",
+                       // "black image", "hand outside image"
 };
 
 // The rig source the capture poses for its masks (and the trainer should load): config.rig, with

@@ -9,6 +9,7 @@ namespace handscs {
 
 struct ImageScan {
   bool readable = false;    // decoded without error
+  std::string damage;       // a .jpg/.jpeg whose bytes are not a whole JPEG: what is wrong (else "")
   bool black = false;       // brightest (8x8-averaged) value <= kBlackLevel
   bool monochrome = false;  // fewer than kMonochromeFraction of pixels have a channel spread > 4
   int scaled_width = 0, scaled_height = 0;  // size of the 1/8 decode: ceil(width / 8) for JPEG
@@ -29,7 +30,8 @@ bool is_monochrome(const cv::Mat& bgr);
 // True when no pixel of an 8-bit image exceeds `level`.
 bool is_black(const cv::Mat& image, int level = kBlackLevel);
 
-// Decodes `path` at 1/8 scale and runs the checks. Never throws (unreadable files report so).
+// Reads `path`, checks a JPEG's structure (core/jpeg_structure.h), decodes it at 1/8 scale and runs
+// the checks. Never throws (unreadable and damaged files report so).
 ImageScan scan_image(const std::string& path);
 
 }  // namespace handscs

@@ -1,12 +1,16 @@
 #include "metrics/image_tensor.h"
 
 #include <cstring>
+#include <filesystem>
+#include <limits>
 
 #include <ATen/ATen.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/jpeg_structure.h"
 
 namespace handscs {
 
@@ -78,9 +82,33 @@ cv::Mat rgb_tensor_to_mat(const torch::Tensor& rgb) {
   return image;
 }
 
-torch::Tensor load_rgb_image(const std::string& path, const std::array<double, 3>& background) {
-  const cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
-  if (image.empty()) throw Error(path + ": cannot read image");
+namespace {
+// The file decoded as stored (cv::IMREAD_UNCHANGED), after a structure check of JPEGs: a damaged
+// JPEG would decode with a grey tail and be scored as if whole. `what` names the file's role.
+cv::Mat decode_checked(const std::string& path, const std::string& what) {
+  if (!std::filesystem::is_regular_file(path)) throw Error(path + ": cannot read " + what);
+  const std::string bytes = read_file(path);
+  if (has_jpeg_extension(path)) {
+    const std::string problem = jpeg_structure_problem(bytes);
+    if (!problem.empty()) throw Error(path + ": damaged JPEG " + what + " (" + problem + ")");
+  }
+  if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max()))
+    throw Error(path + ": larger than 2 GB; not a " + what);
+  const cv::Mat encoded(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data()));
+  cv::Mat image;
+  try {
+    image = cv::imdecode(encoded, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    throw Error(path + ": cannot decode " + what + " (" + e.what() + ")");
+  }
+  if (image.empty()) throw Error(path + ": cannot read " + what);
+  return image;
+}
+}  // namespace
+
+torch::Tensor load_rgb_image(const std::string& path, const std::array<double, 3>& background, bool* is_grey) {
+  const cv::Mat image = decode_checked(path, "image");
+  if (is_grey) *is_grey = image.channels() == 1;
   try {
     return mat_to_rgb_tensor(image, background);
   } catch (const Error& e) {
@@ -89,8 +117,7 @@ torch::Tensor load_rgb_image(const std::string& path, const std::array<double, 3
 }
 
 torch::Tensor load_mask_image(const std::string& path) {
-  const cv::Mat mask = cv::imread(path, cv::IMREAD_UNCHANGED);
-  if (mask.empty()) throw Error(path + ": cannot read mask");
+  const cv::Mat mask = decode_checked(path, "mask");
   try {
     return mat_to_mask_tensor(mask);
   } catch (const Error& e) {

@@ -22,8 +22,10 @@ torch::Tensor mat_to_mask_tensor(const cv::Mat& mask);
 // 8-bit BGR OpenCV image from [H, W, 3] RGB in [0, 1] (clamped, rounded to nearest).
 cv::Mat rgb_tensor_to_mat(const torch::Tensor& rgb);  // [H, W, 3]
 
-// Reads an image file with cv::imread (unchanged depth) into [H, W, 3]. Throws Error naming the file.
-torch::Tensor load_rgb_image(const std::string& path, const std::array<double, 3>& background = {0, 0, 0});
+// Reads an image file (unchanged depth; a .jpg/.jpeg is first checked for damage) into [H, W, 3].
+// `is_grey`, when given, says whether the file had one channel. Throws Error naming the file.
+torch::Tensor load_rgb_image(const std::string& path, const std::array<double, 3>& background = {0, 0, 0},
+                             bool* is_grey = nullptr);
 
 // Reads a mask file into [H, W] in [0, 1]. Throws Error naming the file.
 torch::Tensor load_mask_image(const std::string& path);

@@ -42,6 +42,17 @@ cv::Mat side_by_side(const torch::Tensor& pred, const torch::Tensor& gt) {
   cv::hconcat(std::vector<cv::Mat>{rgb_tensor_to_mat(pred), rgb_tensor_to_mat(gt), heat}, out);
   return out;
 }
+
+// Scores over a capture with damaged JPEGs would silently cover fewer images than the protocol
+// asks: training skips them, evaluation refuses.
+void refuse_damaged_images(const Capture& capture) {
+  std::vector<std::string> damaged;
+  for (const auto& skipped : capture.skipped())
+    if (skipped.reason == "damaged JPEG") damaged.push_back(skipped.path);
+  if (damaged.empty()) return;
+  throw Error(std::to_string(damaged.size()) + " damaged JPEG(s) in the capture (first: " + damaged.front() +
+              "; the warnings above say what is wrong with each): repair or remove them before scoring");
+}
 }  // namespace
 
 std::string resolve_checkpoint_path(const std::string& path) {
@@ -107,6 +118,7 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, const ModelEvalOptio
                                 ? (run_dir / "cache").string()
                                 : options.out_dir + "/cache";
   Capture capture = Capture::open(config.data, cache);
+  refuse_damaged_images(capture);
   Avatar avatar = restore_avatar(ckpt, config.model, load_rig_source(config.model.rig), ckpt_path);
   ImageScorer scorer(config.eval);
   RegionLegend legend;

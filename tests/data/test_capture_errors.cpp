@@ -85,8 +85,8 @@ TEST_CASE("capture errors: null MANO, missing and black images are skipped with 
   CHECK(more.frames().size() == 48 - 8);
   CHECK(more.skip_summary().rfind(
             annotation(root, "data") +
-                ": skipped 8 of 48 images (null MANO 4, missing image 1, unreadable "
-                "image 1, wrong image size 1, black image 1): ",
+                ": skipped 8 of 48 images (null MANO 4, missing image 1, damaged JPEG "
+                "1, wrong image size 1, black image 1): ",
             0) == 0);
   // With black-image skipping off, the black frame is used.
   CaptureConfig keep_black = data_test::tiny_config(root);

@@ -3,6 +3,10 @@
 
 #include "metrics/image_tensor.h"
 
+#include <fstream>
+
+#include "core/atomic_file.h"
+
 TEST_CASE("mat_to_rgb_tensor converts BGR 8-bit to RGB in [0,1]", "[image]") {
   cv::Mat bgr(2, 3, CV_8UC3, cv::Scalar(10, 20, 255));  // B=10, G=20, R=255
   const auto rgb = handscs::mat_to_rgb_tensor(bgr);
@@ -63,4 +67,18 @@ TEST_CASE("image files round-trip through load_rgb_image and rgb_tensor_to_mat",
   CHECK((loaded - hwc).abs().max().item<float>() <= 0.5f / 255.0f + 1e-6f);
   CHECK(metrics_test::error_of([&] { handscs::load_rgb_image(dir + "/none.png"); }) ==
         dir + "/none.png: cannot read image");
+}
+
+TEST_CASE("load_rgb_image refuses a damaged JPEG with its path", "[image]") {
+  const auto dir = metrics_test::temp_dir("image_tensor_jpeg");
+  const auto path = dir + "/pred.jpg";
+  cv::Mat image(48, 64, CV_8UC3);
+  cv::randu(image, cv::Scalar(0, 0, 0), cv::Scalar(255, 255, 255));
+  REQUIRE(cv::imwrite(path, image));
+  CHECK(handscs::load_rgb_image(path).size(0) == 48);
+  const std::string whole = handscs::read_file(path);
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << whole.substr(0, whole.size() / 2);
+  CHECK_FALSE(cv::imread(path).empty());  // libjpeg alone decodes it, with a grey tail
+  CHECK(metrics_test::error_of([&] { handscs::load_rgb_image(path); }) ==
+        path + ": damaged JPEG image (truncated: the image data ends without an end-of-image marker)");
 }

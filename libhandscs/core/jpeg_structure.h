@@ -1,0 +1,19 @@
+// A byte-level check of a JPEG file's marker structure, run before decoding: libjpeg decodes a
+// truncated or partly overwritten file into an image with a grey tail and only prints a warning
+// without a path, so damage has to be found before the decoder sees the bytes.
+#pragma once
+
+#include <string>
+
+namespace handscs {
+
+// "" when the bytes are a structurally whole JPEG: SOI, well-formed segments, entropy-coded data
+// holding only stuffed bytes and restart markers in sequence, and an EOI marker. Otherwise what is
+// wrong, e.g. "truncated: the image data ends without an end-of-image marker", "not a JPEG file
+// (PNG data)". A flip inside the entropy-coded data that keeps this structure is not detected.
+std::string jpeg_structure_problem(const std::string& file_bytes);
+
+// True for the .jpg / .jpeg extensions (any case): the files jpeg_structure_problem applies to.
+bool has_jpeg_extension(const std::string& path);
+
+}  // namespace handscs

@@ -1,0 +1,112 @@
+// The JPEG structure check against files written by libjpeg (through OpenCV): whole baseline,
+// progressive and restart-interval files pass; every truncation, a PNG or BMP renamed, an invalid
+// marker or a restart marker out of order is named; and a damaged JPEG in a capture is skipped with
+// its path and reason.
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "core/atomic_file.h"
+#include "core/jpeg_structure.h"
+#include "data/capture.h"
+#include "data/image_checks.h"
+#include "data_test_helpers.h"
+#include "synth_fixture.h"
+
+// Catch last: LibTorch pulls in glog, whose CHECK macro would otherwise replace Catch's.
+#include <catch2/catch.hpp>
+
+using namespace handscs;
+
+namespace {
+
+// A textured 96x64 colour image: enough entropy-coded data for 0xFF bytes and many blocks.
+cv::Mat test_image() {
+  cv::Mat image(64, 96, CV_8UC3);
+  cv::randu(image, cv::Scalar(0, 0, 0), cv::Scalar(255, 255, 255));
+  cv::GaussianBlur(image, image, cv::Size(3, 3), 0);
+  return image;
+}
+
+std::string encode(const std::string& ext, const std::vector<int>& params = {}) {
+  std::vector<uint8_t> bytes;
+  REQUIRE(cv::imencode(ext, test_image(), bytes, params));
+  return std::string(bytes.begin(), bytes.end());
+}
+
+// Offset of the first entropy-coded byte (after the SOS segment).
+size_t scan_start(const std::string& jpeg) {
+  const size_t sos = jpeg.find("\xFF\xDA");
+  REQUIRE(sos != std::string::npos);
+  const size_t length = (static_cast<uint8_t>(jpeg[sos + 2]) << 8) | static_cast<uint8_t>(jpeg[sos + 3]);
+  return sos + 2 + length;
+}
+
+}  // namespace
+
+TEST_CASE("jpeg structure: whole files written by libjpeg pass") {
+  CHECK(jpeg_structure_problem(encode(".jpg")).empty());
+  CHECK(jpeg_structure_problem(encode(".jpg", {cv::IMWRITE_JPEG_QUALITY, 100})).empty());
+  CHECK(jpeg_structure_problem(encode(".jpg", {cv::IMWRITE_JPEG_PROGRESSIVE, 1})).empty());
+  CHECK(jpeg_structure_problem(encode(".jpg", {cv::IMWRITE_JPEG_RST_INTERVAL, 2})).empty());
+  // Trailing bytes after the end-of-image marker are allowed (cameras append data there).
+  CHECK(jpeg_structure_problem(encode(".jpg") + std::string(16, '\0')).empty());
+  // The InterHand2.6M samples.
+  for (const auto& entry : std::filesystem::directory_iterator(data_test::samples_dir()))
+    if (has_jpeg_extension(entry.path().string())) {
+      INFO(entry.path());
+      CHECK(jpeg_structure_problem(read_file(entry.path().string())).empty());
+    }
+}
+
+TEST_CASE("jpeg structure: every truncation is found") {
+  for (const auto& jpeg : {encode(".jpg"), encode(".jpg", {cv::IMWRITE_JPEG_PROGRESSIVE, 1})}) {
+    // Brute force over every length short of the final EOI marker's two bytes.
+    for (size_t length = 0; length + 2 <= jpeg.size() - 1; ++length) {
+      const std::string problem = jpeg_structure_problem(jpeg.substr(0, length));
+      INFO("length " << length << " of " << jpeg.size());
+      CHECK_FALSE(problem.empty());
+    }
+    CHECK(jpeg_structure_problem(jpeg.substr(0, jpeg.size() / 2)) ==
+          "truncated: the image data ends without an end-of-image marker");
+  }
+}
+
+TEST_CASE("jpeg structure: other formats, invalid markers and restart order are named") {
+  CHECK(jpeg_structure_problem(encode(".png")) == "not a JPEG file (PNG data)");
+  CHECK(jpeg_structure_problem(encode(".bmp")) == "not a JPEG file (BMP data)");
+  CHECK(jpeg_structure_problem("") == "empty file");
+  CHECK(jpeg_structure_problem("not a jpeg") == "not a JPEG file (no start-of-image marker)");
+
+  // A 0xFF byte followed by a code that is no marker, inside the image data.
+  std::string bad = encode(".jpg");
+  const size_t at = scan_start(bad) + 10;
+  bad[at] = '\xFF';
+  bad[at + 1] = '\x02';
+  CHECK(jpeg_structure_problem(bad) == "corrupt: unknown marker 0x02 at byte " + std::to_string(at));
+
+  // Restart markers must count RST0, RST1, ...: swap the first one for RST5.
+  std::string restarts = encode(".jpg", {cv::IMWRITE_JPEG_RST_INTERVAL, 1});
+  const size_t rst = restarts.find("\xFF\xD0", scan_start(restarts));
+  REQUIRE(rst != std::string::npos);
+  restarts[rst + 1] = '\xD5';
+  CHECK(jpeg_structure_problem(restarts) ==
+        "corrupt: restart marker 0xD5 out of sequence at byte " + std::to_string(rst));
+}
+
+TEST_CASE("jpeg structure: a truncated JPEG in a capture is skipped with its reason") {
+  const std::string root = data_test::copy_of_tiny("damaged_jpeg");
+  const auto& scene = data_test::tiny_capture().scene;
+  const std::string path = root + "/images/test/Capture0/0000_synth_rom/cam400004/image" +
+                           std::to_string(scene.frames[5].frame_idx) + ".jpg";
+  const std::string whole = read_file(path);
+  data_test::write_text(path, whole.substr(0, whole.size() * 3 / 4));
+  // libjpeg alone decodes it (with a grey tail): the structure check is what catches it.
+  CHECK_FALSE(cv::imread(path).empty());
+  CHECK(scan_image(path).damage == "truncated: the image data ends without an end-of-image marker");
+  Capture capture = Capture::open(data_test::tiny_config(root));
+  REQUIRE(capture.skipped().size() == 1);
+  CHECK(capture.skipped()[0].path == path);
+  CHECK(capture.skipped()[0].reason == "damaged JPEG");
+  CHECK(capture.frames().size() == 47);
+}
