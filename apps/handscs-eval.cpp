@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   try {
     handscs::start_up(common, "handscs-eval");
+    handscs::check_eval_mode_options(model, cli);
     if (model.model_mode()) return handscs::run_model_eval_command(model, cli, common.overrides);
     const handscs::EvalConfig config = handscs::resolve_eval_config(cli, common.overrides);
     handscs::require(cli.folder_mode(),

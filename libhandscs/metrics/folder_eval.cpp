@@ -107,10 +107,16 @@ EvalReport run_folder_eval(const FolderEvalInputs& inputs, const EvalConfig& con
       require(!pair.pred.empty(), "no prediction in " + inputs.pred_dir);
       require(!pair.gt.empty(), "no ground truth in " + inputs.gt_dir);
       require(inputs.mask_dir.empty() || !pair.mask.empty(), "no mask in " + inputs.mask_dir);
-      const auto gt = load_rgb_image(pair.gt, resolved.background);
+      bool gt_grey = false, pred_grey = false;
+      const auto gt = load_rgb_image(pair.gt, resolved.background, &gt_grey);
       entry.width = gt.size(1);
       entry.height = gt.size(0);
-      const auto pred = load_rgb_image(pair.pred, resolved.background);
+      const auto pred = load_rgb_image(pair.pred, resolved.background, &pred_grey);
+      // A grey image scored against a colour one would count the missing colour as error.
+      if (gt_grey != pred_grey)
+        throw Error(std::string(pred_grey ? "the prediction is grey and the ground truth colour"
+                                          : "the prediction is colour and the ground truth grey") +
+                    " (" + pair.pred + ", " + pair.gt + "): convert one so both match");
       const auto mask = pair.mask.empty() ? torch::Tensor() : load_mask_image(pair.mask);
       const auto regions = legend.empty() ? torch::Tensor()
                                           : region_planes(load_region_mask(regions_path, entry.width,

@@ -7,6 +7,7 @@
 
 #include "core/config.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "train/checkpoint.h"
 #include "train/evaluate.h"
 #include "train/run_config.h"
@@ -24,21 +25,63 @@ void add_model_eval_options(CLI::App& app, ModelEvalCommandLine& cli) {
       ->check(CLI::IsMember({"test", "train"}));
   group->add_flag("--side-by-side", cli.side_by_side,
                   "also write prediction | ground truth | error heat map PNGs");
-  group->add_option("--max-images", cli.max_images, "score at most this many frames, evenly spaced over the split (0 = all)");
+  group->add_option("--max-images", cli.max_images, "score at most this many frames, evenly spaced over the split (0 = all)")
+      ->check(CLI::NonNegativeNumber);
   group->add_option("--label", cli.label, "column label of table.md (default split/CaptureN)");
+}
+
+void check_eval_mode_options(const ModelEvalCommandLine& model, const EvalCommandLine& folder) {
+  std::vector<std::string> misplaced;
+  if (model.model_mode()) {
+    for (const auto& [flag, value] : {std::pair<const char*, const std::string*>{"--pred", &folder.folder.pred_dir},
+                                      {"--gt", &folder.folder.gt_dir},
+                                      {"--mask", &folder.folder.mask_dir},
+                                      {"--json", &folder.json_path},
+                                      {"--csv", &folder.csv_path}})
+      if (!value->empty()) misplaced.push_back(flag);
+    if (!misplaced.empty())
+      throw Error(join(misplaced, ", ") + ": folder-mode option(s), not used with --checkpoint (model mode "
+                  "writes summary.json, per_image.csv and table.md to --out)");
+    return;
+  }
+  const ModelEvalCommandLine defaults;
+  if (!model.config.empty()) misplaced.push_back("--config");
+  if (!model.out.empty()) misplaced.push_back("--out");
+  if (model.split != defaults.split) misplaced.push_back("--split");
+  if (model.side_by_side) misplaced.push_back("--side-by-side");
+  if (model.max_images != defaults.max_images) misplaced.push_back("--max-images");
+  if (!model.label.empty()) misplaced.push_back("--label");
+  if (folder.no_regions) misplaced.push_back("--no-regions");
+  if (!misplaced.empty())
+    throw Error(join(misplaced, ", ") + ": model-mode option(s), used only with --checkpoint (folder mode "
+                "writes --json and --csv)");
 }
 
 int run_model_eval_command(const ModelEvalCommandLine& cli, const EvalCommandLine& metric_flags,
                            const std::vector<std::string>& overrides) {
   require(!cli.out.empty(), "model mode needs --out DIR");
+  // The avatar is the checkpoint's: a model key set here would be ignored, or contradict the weights.
+  for (const auto& assignment : overrides)
+    if (assignment.rfind("model.", 0) == 0 || assignment.rfind("model=", 0) == 0)
+      throw Error("--set " + assignment + ": the model is the checkpoint's and cannot be changed at "
+                  "evaluation (data.*, eval.* and train.* keys can be set)");
+  const std::string ckpt = resolve_checkpoint_path(cli.checkpoint);
+  const json stored = load_checkpoint(ckpt).meta.at("config");
   RunConfig config;
   if (!cli.config.empty()) {
     config = load_config<RunConfig>(cli.config, overrides);
+    RunConfig from_checkpoint;
+    config_from_json(stored, ckpt + " (stored config)", from_checkpoint);
+    const auto differences =
+        json_differences(config_to_json(from_checkpoint.model), config_to_json(config.model), "model");
+    if (!differences.empty())
+      spdlog::warn("{}: its model section differs from the checkpoint's ({}); the checkpoint's is used",
+                   cli.config, join(differences, "; "));
+    config.model = from_checkpoint.model;
   } else {
-    const std::string ckpt = resolve_checkpoint_path(cli.checkpoint);
-    json stored = load_checkpoint(ckpt).meta.at("config");
-    apply_overrides(stored, overrides);
-    config_from_json(stored, ckpt + " (stored config)" + (overrides.empty() ? "" : " + --set"), config);
+    json merged = stored;
+    apply_overrides(merged, overrides);
+    config_from_json(merged, ckpt + " (stored config)" + (overrides.empty() ? "" : " + --set"), config);
   }
   config.eval = resolve_eval_config(metric_flags, {}, config.eval);
   ModelEvalOptions options;

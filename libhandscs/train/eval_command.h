@@ -28,8 +28,13 @@ struct ModelEvalCommandLine {
 // Adds the "Model mode" option group.
 void add_model_eval_options(CLI::App& app, ModelEvalCommandLine& cli);
 
+// Throws Error naming the options given that the chosen mode cannot use (folder options with
+// --checkpoint, model options without it): an option that would be ignored is an error.
+void check_eval_mode_options(const ModelEvalCommandLine& model, const EvalCommandLine& folder);
+
 // Model mode end to end: resolves the config (--config or the checkpoint's, then --set on run-config
-// keys, then the metric flags), evaluates, writes the outputs, prints the table. Exit status: 0 when
+// keys, then the metric flags; the model section is always the checkpoint's, and --set model.* is
+// refused), evaluates, writes the outputs, prints the table. Exit status: 0 when
 // every image was scored, 2 when some failed.
 int run_model_eval_command(const ModelEvalCommandLine& cli, const EvalCommandLine& metric_flags,
                            const std::vector<std::string>& overrides);

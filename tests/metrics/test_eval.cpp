@@ -110,10 +110,20 @@ TEST_CASE("folder eval turns each bad pair into a failure entry excluded from th
   cv::Mat bright(16, 20, CV_32FC3, cv::Scalar(0.5, 0.5, 0.5));
   bright.at<cv::Vec3f>(0, 0)[2] = 1.5f;
   REQUIRE(cv::imwrite(pred + "/g.pfm", bright));
+  write_png(gt + "/h.png", random_hwc(16, 20, 9));
+  cv::Mat grey(16, 20, CV_8UC1, cv::Scalar(128));
+  REQUIRE(cv::imwrite(pred + "/h.png", grey));                            // grey against colour
+  write_png(gt + "/i.png", random_hwc(16, 20, 10));
+  {
+    std::vector<uint8_t> jpeg;
+    REQUIRE(cv::imencode(".jpg", handscs::rgb_tensor_to_mat(random_hwc(16, 20, 11)), jpeg));
+    std::ofstream(pred + "/i.jpg", std::ios::binary)
+        .write(reinterpret_cast<const char*>(jpeg.data()), static_cast<std::streamsize>(jpeg.size() - 20));
+  }                                                                       // truncated JPEG
   std::ofstream(pred + "/notes.txt") << "ignored: not an image";
 
   const auto report = handscs::run_folder_eval({pred, gt, "", ""}, handscs::EvalConfig{});
-  REQUIRE(report.entries.size() == 7);
+  REQUIRE(report.entries.size() == 9);
   std::map<std::string, std::string> errors;
   for (const auto& entry : report.entries) errors[entry.name] = entry.ok ? "ok" : entry.error;
   CHECK(errors["a"] == "ok");
@@ -123,20 +133,24 @@ TEST_CASE("folder eval turns each bad pair into a failure entry excluded from th
   CHECK(errors["e"] == pred + "/e.png: cannot read image");
   CHECK(errors["f"] == "prediction has 1 non-finite values (NaN or inf)");
   CHECK(errors["g"] == "prediction has 1 values outside [0, 1] (min 0.5, max 1.5)");
+  CHECK(errors["h"] == "the prediction is grey and the ground truth colour (" + pred + "/h.png, " + gt +
+                           "/h.png): convert one so both match");
+  CHECK(errors["i"] == pred + "/i.jpg: damaged JPEG image (truncated: the image data ends without an "
+                               "end-of-image marker)");
   const auto s = report.summary();
-  CHECK(s.num_entries == 7);
+  CHECK(s.num_entries == 9);
   CHECK(s.num_scored == 1);
-  CHECK(s.num_failed == 6);
+  CHECK(s.num_failed == 8);
   CHECK(*s.psnr == report.entries[0].scores.psnr);
   CHECK(*s.ssim == report.entries[0].scores.ssim);
   const auto j = handscs::eval_report_to_json(report);
-  CHECK(j["summary"]["failed"] == 6);
+  CHECK(j["summary"]["failed"] == 8);
   CHECK(j["images"].size() == 1);
-  CHECK(j["failed"].size() == 6);
+  CHECK(j["failed"].size() == 8);
   CHECK(j["failed"][0]["name"] == "b");
   CHECK(j["failed"][0]["error"] == "size mismatch: prediction 20x16, ground truth 24x16");
   const auto table = handscs::format_eval_table(report);
-  CHECK(table.find("6 of 7 images failed and are excluded from the means:") != std::string::npos);
+  CHECK(table.find("8 of 9 images failed and are excluded from the means:") != std::string::npos);
 }
 
 TEST_CASE("folder eval composites the ground truth with the mask", "[eval]") {

@@ -78,4 +78,18 @@ TEST_CASE("handscs-eval exits 2 when some images fail and 1 on bad options", "[e
   CHECK(run.status == 1);
   CHECK(run.output.find(dir + "/missing.pt: cannot open file") != std::string::npos);
   CHECK_FALSE(std::filesystem::exists(dir + "/o.json"));
+  // Options of the other mode are errors, never ignored.
+  run = run_eval("--pred " + dir + "/pred --gt " + pairs + "/ref --json " + dir + "/o.json --out " + dir +
+                     "/o --max-images 3",
+                 dir);
+  CHECK(run.status == 1);
+  CHECK(run.output.find("--out, --max-images: model-mode option(s), used only with --checkpoint") !=
+        std::string::npos);
+  run = run_eval("--checkpoint " + dir + "/run --out " + dir + "/o --json " + dir + "/o.json", dir);
+  CHECK(run.status == 1);
+  CHECK(run.output.find("--json: folder-mode option(s), not used with --checkpoint") != std::string::npos);
+  run = run_eval("--checkpoint " + dir + "/run --out " + dir + "/o --max-images -1", dir);
+  CHECK(run.status != 0);
+  CHECK(run.output.find("--max-images") != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(dir + "/o.json"));
 }

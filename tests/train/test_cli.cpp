@@ -217,3 +217,29 @@ TEST_CASE("cli: a run folder is never overwritten or mixed without --overwrite")
   CHECK_FALSE(std::filesystem::exists(run_dir + "/checkpoints/step_00000004.ckpt"));
   CHECK(std::filesystem::exists(run_dir + "/checkpoints/step_00000002.ckpt"));
 }
+
+TEST_CASE("cli: handscs-eval refuses damaged ground truth and --set model.*") {
+  const auto run_dir = fresh_dir("cli_eval_refusals");
+  REQUIRE(run(kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
+              " --threads 2 --set data.root=" + tiny_capture_dir() + " train.iterations=2") == 0);
+  const std::string eval = kBin + "/handscs-eval --checkpoint " + run_dir + " --threads 2 --max-images 2 --out " +
+                           run_dir + "_eval";
+  CHECK(run(eval + " --set model.embedding_dim=16") == 1);
+  CHECK(log_text().find("--set model.embedding_dim=16: the model is the checkpoint's and cannot be changed at "
+                        "evaluation") != std::string::npos);
+  // A copy of the capture with one truncated JPEG: training would skip it, evaluation refuses.
+  const auto capture = fresh_dir("cli_eval_damaged_capture");
+  std::filesystem::copy(tiny_capture_dir(), capture, std::filesystem::copy_options::recursive);
+  std::string damaged;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(capture + "/images"))
+    if (entry.path().extension() == ".jpg") damaged = entry.path().string();
+  REQUIRE_FALSE(damaged.empty());
+  const std::string whole = handscs::read_file(damaged);
+  std::ofstream(damaged, std::ios::binary | std::ios::trunc) << whole.substr(0, whole.size() / 2);
+  CHECK(run(eval + " --set data.root=" + capture) == 1);
+  INFO(log_text());
+  CHECK(log_text().find(damaged + ": damaged JPEG (truncated: the image data ends without an end-of-image "
+                        "marker): skipped") != std::string::npos);
+  CHECK(log_text().find("1 damaged JPEG(s) in the capture (first: " + damaged) != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(run_dir + "_eval/summary.json"));
+}
