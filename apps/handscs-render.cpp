@@ -2,7 +2,9 @@
 //   PLY scene:  --ply scene.ply --camera camera.json --out image.png [--alpha alpha.png] [--background R G B]
 //   Avatar:     --checkpoint CKPT|RUN_DIR --poses POSES (--camera camera.json | --orbit N) --out DIR
 //               [--video out.mp4] [--export-ply]   (--camera, --out and --background are shared)
+#include <algorithm>
 #include <array>
+#include <cctype>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -16,7 +18,9 @@
 #include "core/atomic_file.h"
 #include "core/cli.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "io/ply.h"
+#include "io/ply_check.h"
 #include "render/camera_json.h"
 #include "render/rasterize.h"
 #include "train/avatar_render.h"
@@ -59,8 +63,24 @@ void write_png(const std::string& path, const torch::Tensor& image) {
   handscs::write_file_atomic(path, std::string(encoded.begin(), encoded.end()));
 }
 
+// The PLY mode writes PNG: another extension would hold PNG bytes under a misleading name.
+void require_png_name(const std::string& flag, const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  handscs::require(ext == ".png", flag + " " + path + ": the PLY mode writes PNG images; name the file .png");
+}
+
 void run_ply_mode(const PlyMode& mode) {
-  const handscs::GaussianPly ply = handscs::read_gaussian_ply(mode.ply);
+  require_png_name("--out", mode.out);
+  if (!mode.alpha.empty()) require_png_name("--alpha", mode.alpha);
+  handscs::GaussianPly ply = handscs::read_gaussian_ply(mode.ply);
+  const handscs::PlyCheck check = handscs::check_gaussian_ply(ply);
+  handscs::require(check.total > 0, mode.ply + ": holds no Gaussians (0 vertices)");
+  handscs::require(check.num_drawable() > 0, mode.ply + ": none of its Gaussians can be drawn (" + check.summary() + ")");
+  if (check.num_drawable() < check.total) {
+    spdlog::warn("{}: {}; they are left out", mode.ply, check.summary());
+    ply = handscs::select_gaussians(ply, check.drawable);
+  }
   const handscs::Camera camera = handscs::read_camera_json(mode.camera);
   for (float c : mode.background)
     handscs::require(c >= 0 && c <= 1, "--background: values must be in [0, 1]");
@@ -124,6 +144,27 @@ void run_avatar_mode(const AvatarMode& mode, const PlyMode& shared) {
                result.fps, result.forward_ms, shared.out);
 }
 
+// An option the chosen mode cannot use is an error, never silently ignored.
+void check_mode_options(const PlyMode& ply, const AvatarMode& avatar) {
+  std::vector<std::string> misplaced;
+  if (!avatar.checkpoint.empty()) {
+    if (!ply.ply.empty()) misplaced.push_back("--ply");
+    if (!ply.alpha.empty()) misplaced.push_back("--alpha");
+    handscs::require(misplaced.empty(), handscs::join(misplaced, ", ") +
+                                            ": PLY-scene option(s), not used with --checkpoint (avatar mode); "
+                                            "give one mode");
+    return;
+  }
+  const AvatarMode defaults;
+  if (!avatar.poses.empty()) misplaced.push_back("--poses");
+  if (avatar.orbit != defaults.orbit) misplaced.push_back("--orbit");
+  if (!avatar.video.empty()) misplaced.push_back("--video");
+  if (avatar.video_fps != defaults.video_fps) misplaced.push_back("--fps");
+  if (avatar.export_ply) misplaced.push_back("--export-ply");
+  handscs::require(misplaced.empty(), handscs::join(misplaced, ", ") +
+                                          ": avatar-mode option(s), used only with --checkpoint");
+}
+
 int main(int argc, char** argv) {
   CLI::App app{"handscs-render: render Gaussians to images"};
   handscs::CommonOptions common;
@@ -135,6 +176,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   try {
     handscs::start_up(common, "handscs-render");
+    check_mode_options(ply, avatar);
     if (!avatar.checkpoint.empty()) {
       run_avatar_mode(avatar, ply);
       return 0;

@@ -3,6 +3,7 @@
 // handscs-render PLY mode end to end.
 #include "catch_torch.h"  // first: torch, minus glog's CHECK, then Catch2
 
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -10,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
@@ -17,6 +19,7 @@
 
 #include "core/atomic_file.h"
 #include "io/ply.h"
+#include "io/ply_check.h"
 #include "test_support.h"
 
 using namespace handscs;
@@ -209,6 +212,38 @@ TEST_CASE("PLY: bad files give clear errors naming the file") {
         p + ": cannot write: rotations must hold 4 x 4 values, got shape [4, 3]");
 }
 
+TEST_CASE("PLY check: undrawable Gaussians are counted by defect and left out") {
+  GaussianPly g = random_ply(50, 3);
+  const float nan = std::nanf(""), inf = std::numeric_limits<float>::infinity();
+  g.means[3][1] = nan;
+  g.means[4][0] = inf;
+  g.f_dc[5][2] = nan;
+  g.opacity_logits[6] = nan;
+  g.opacity_logits[7] = -inf;  // opacity 0: drawable (sigmoid is defined)
+  g.log_scales[8][0] = 200.0f;  // exp overflows to inf
+  g.log_scales[3][2] = nan;     // a second defect of Gaussian 3
+  g.rotations[9] = torch::zeros({4});
+  const PlyCheck check = check_gaussian_ply(g);
+  CHECK(check.total == 50);
+  CHECK(check.num_drawable() == 50 - 6);  // Gaussians 3, 4, 5, 6, 8 and 9
+  // Brute force: a Gaussian is drawable iff every activated value is finite and the rotation non-zero.
+  for (int64_t i = 0; i < 50; ++i) {
+    bool ok = std::isfinite(g.means[i].sum().item<float>()) && std::isfinite(g.f_dc[i].sum().item<float>()) &&
+              !std::isnan(g.opacity_logits[i].item<float>()) &&
+              std::isfinite(torch::exp(g.log_scales[i]).sum().item<float>()) &&
+              g.rotations[i].abs().sum().item<float>() > 0;
+    INFO("Gaussian " << i);
+    CHECK(check.drawable[i].item<bool>() == ok);
+  }
+  CHECK(check.summary() == "6 of 50 Gaussians cannot be drawn (NaN/Inf position 2, NaN/Inf colour 1, NaN opacity 1, "
+                           "NaN/Inf scale 2, zero or NaN/Inf rotation 1)");
+  const GaussianPly kept = select_gaussians(g, check.drawable);
+  CHECK(kept.size() == 44);
+  CHECK(kept.f_rest.size(0) == 44);
+  CHECK(check_gaussian_ply(kept).summary().empty());
+  CHECK(check_gaussian_ply(GaussianPly{}).num_drawable() == 0);
+}
+
 TEST_CASE("handscs-render renders a PLY from a camera file (PLY mode end to end)") {
   TempDir dir;
   const std::string bin = std::string(HANDSCS_BIN_DIR) + "/handscs-render";
@@ -242,4 +277,32 @@ TEST_CASE("handscs-render renders a PLY from a camera file (PLY mode end to end)
                           " --out " + dir.file("x.png") + " --log-level off";
   CHECK(std::system(bad.c_str()) != 0);
   CHECK(!fs::exists(dir.file("x.png")));
+  // An all-NaN PLY, a .jpg name for PNG output and avatar-mode options fail with their reason.
+  const auto run_logged = [&](const std::string& args) {
+    const std::string log = dir.file("log.txt");
+    const int status = std::system((bin + args + " > " + log + " 2>&1").c_str());
+    return std::make_pair(WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_file(log));
+  };
+  const std::string camera_out = " --camera " + dir.file("cam.json") + " --out ";
+  auto nan_ply = random_ply(4, 0);
+  nan_ply.means.fill_(std::nanf(""));
+  write_gaussian_ply(dir.file("nan.ply"), nan_ply);
+  auto [code, text] = run_logged(" --ply " + dir.file("nan.ply") + camera_out + dir.file("n.png"));
+  CHECK(code == 1);
+  CHECK(text.find(dir.file("nan.ply") + ": none of its Gaussians can be drawn (4 of 4 Gaussians cannot be drawn "
+                  "(NaN/Inf position 4))") != std::string::npos);
+  std::tie(code, text) = run_logged(" --ply " + dir.file("one.ply") + camera_out + dir.file("x.jpg"));
+  CHECK(code == 1);
+  CHECK(text.find("--out " + dir.file("x.jpg") + ": the PLY mode writes PNG images; name the file .png") !=
+        std::string::npos);
+  std::tie(code, text) = run_logged(" --ply " + dir.file("one.ply") + camera_out + dir.file("y.png") + " --orbit 3");
+  CHECK(code == 1);
+  CHECK(text.find("--orbit: avatar-mode option(s), used only with --checkpoint") != std::string::npos);
+  std::tie(code, text) = run_logged(" --ply " + dir.file("one.ply") + " --checkpoint " + dir.file("none") +
+                                    " --poses p.json" + camera_out + dir.file("z"));
+  CHECK(code == 1);
+  CHECK(text.find("--ply: PLY-scene option(s), not used with --checkpoint (avatar mode); give one mode") !=
+        std::string::npos);
+  CHECK_FALSE(fs::exists(dir.file("n.png")));
+  CHECK_FALSE(fs::exists(dir.file("x.jpg")));
 }
