@@ -166,6 +166,7 @@ TEST_CASE("trainer: the k-d tree and the GEMM search give the same L_con") {
   for (const char* search : {"exact", "tree"}) {
     auto config = tiny_run_config();
     config.train.consistency.search = search;
+    config.train.consistency.min_weight = 0;  // every pair searched
     handscs::Trainer trainer(config, fresh_dir(std::string("search_") + search));
     terms.emplace_back();
     for (int i = 0; i < 6; ++i) {
@@ -187,6 +188,7 @@ TEST_CASE("trainer: pose pairs less similar than train.consistency.min_weight sk
   std::vector<double> weights;
   {
     auto config = tiny_run_config();
+    config.train.consistency.min_weight = 0;
     handscs::Trainer trainer(config, fresh_dir("min_weight_all"));
     for (int i = 0; i < steps; ++i) {
       const auto r = trainer.step();
