@@ -1,8 +1,10 @@
 #include "data/interhand_annotations.h"
 
+#include <cmath>
 #include <functional>
 #include <unordered_map>
 
+#include "core/camera_checks.h"
 #include "core/error.h"
 #include "data/json_view.h"
 
@@ -132,6 +134,8 @@ std::map<std::string, InterHandCamera> read_interhand_cameras(const std::string&
     princpt.at(id).numbers(camera.princpt.data(), 2);
     if (!(camera.focal[0] > 0 && camera.focal[1] > 0))
       focal.at(id).fail("focal lengths must be positive");
+    const std::string not_rotation = rotation_problem(camera.camrot);
+    if (!not_rotation.empty()) camrot.at(id).fail(not_rotation);
     cameras[id] = camera;
   }
   return cameras;
@@ -166,6 +170,27 @@ std::map<int64_t, InterHandJoints> read_interhand_joints(const std::string& path
   return frames;
 }
 
+std::string mano_problem(const ManoParams& params) {
+  for (int i = 0; i < 10; ++i)
+    if (std::abs(params.shape[i]) > kMaxManoShape)
+      return "shape[" + std::to_string(i) + "] = " + std::to_string(params.shape[i]) + " is beyond +-" +
+             std::to_string(static_cast<int>(kMaxManoShape)) + " standard deviations: not a hand";
+  for (int joint = 0; joint < 16; ++joint) {
+    const double angle = std::sqrt(params.pose[3 * joint] * params.pose[3 * joint] +
+                                   params.pose[3 * joint + 1] * params.pose[3 * joint + 1] +
+                                   params.pose[3 * joint + 2] * params.pose[3 * joint + 2]);
+    if (angle > kMaxManoAngle)
+      return "pose[" + std::to_string(3 * joint) + ".." + std::to_string(3 * joint + 2) +
+             "] rotates joint " + std::to_string(joint) + " by " + std::to_string(angle) +
+             " rad, more than 2 pi";
+  }
+  for (int i = 0; i < 3; ++i)
+    if (std::abs(params.trans[i]) > kMaxManoTranslation)
+      return "trans[" + std::to_string(i) + "] = " + std::to_string(params.trans[i]) + " m is more than " +
+             std::to_string(static_cast<int>(kMaxManoTranslation)) + " m from the capture's origin";
+  return "";
+}
+
 std::map<int64_t, InterHandMano> read_interhand_mano(const std::string& path, int capture) {
   const std::string key = std::to_string(capture);
   std::map<int64_t, InterHandMano> frames;
@@ -177,6 +202,8 @@ std::map<int64_t, InterHandMano> read_interhand_mano(const std::string& path, in
     entry.at("pose").numbers(params.pose.data(), 48);
     entry.at("shape").numbers(params.shape.data(), 10);
     entry.at("trans").numbers(params.trans.data(), 3);
+    const std::string implausible = mano_problem(params);
+    if (!implausible.empty()) entry.fail(implausible);
     return params;
   };
   auto visit = [&](const JsonElement& element) {

@@ -77,7 +77,18 @@ std::map<std::string, InterHandCamera> read_interhand_cameras(const std::string&
 // joint_3d.json, one capture: frame_idx -> joints. The capture must be present.
 std::map<int64_t, InterHandJoints> read_interhand_joints(const std::string& path, int capture);
 
+// Bounds of plausible MANO values. Shape coefficients are in standard deviations of the MANO
+// shape space (NeuralAnnot fits stay within about +-3); an axis-angle beyond 2 pi is no joint
+// rotation a fit produces; InterHand2.6M's hands lie within ~1 m of the capture's origin.
+constexpr double kMaxManoShape = 10.0;
+constexpr double kMaxManoAngle = 2.0 * 3.14159265358979323846;
+constexpr double kMaxManoTranslation = 10.0;  // m
+
+// "" when every value is within the bounds above, else the first value outside, named.
+std::string mano_problem(const ManoParams& params);
+
 // MANO_NeuralAnnot.json, one capture: frame_idx -> MANO parameters. The capture must be present.
+// Implausible values (mano_problem) are errors naming the file, frame and hand.
 std::map<int64_t, InterHandMano> read_interhand_mano(const std::string& path, int capture);
 
 // camera.json entry -> library camera (metres): K from focal/princpt, R = camrot,

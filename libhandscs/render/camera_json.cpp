@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "core/atomic_file.h"
+#include "core/camera_checks.h"
 #include "core/config.h"
 #include "core/error.h"
 
@@ -62,18 +63,10 @@ Camera camera_from_json(const json& object, const std::string& source) {
   if (!(cam.K[0] > 0 && cam.K[4] > 0)) fail(source, "K", "fx and fy must be positive");
   if (cam.K[1] != 0 || cam.K[3] != 0 || cam.K[6] != 0 || cam.K[7] != 0 || cam.K[8] != 1)
     fail(source, "K", "expected [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (no skew)");
-  // R must be a rotation: R R^T = I within 1e-4 and det +1.
-  double worst = 0;
-  for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b) {
-      double dot = 0;
-      for (int k = 0; k < 3; ++k) dot += cam.R[3 * a + k] * cam.R[3 * b + k];
-      worst = std::max(worst, std::abs(dot - (a == b ? 1.0 : 0.0)));
-    }
-  const auto& R = cam.R;
-  const double det = R[0] * (R[4] * R[8] - R[5] * R[7]) - R[1] * (R[3] * R[8] - R[5] * R[6]) +
-                     R[2] * (R[3] * R[7] - R[4] * R[6]);
-  if (worst > 1e-4 || det < 0) fail(source, "R", "not a rotation matrix (R R^T != I or det < 0)");
+  const std::string implausible = camera_intrinsics_problem(cam);
+  if (!implausible.empty()) fail(source, implausible.rfind("image", 0) == 0 ? "width" : "K", implausible);
+  const std::string not_rotation = rotation_problem(cam.R);
+  if (!not_rotation.empty()) fail(source, "R", not_rotation);
   return cam;
 }
 

@@ -1,6 +1,7 @@
 // Every bad annotation input gives an error naming the file and the key path (exact texts).
 #include <nlohmann/json.hpp>
 
+#include "core/camera_checks.h"
 #include "data/interhand_annotations.h"
 #include "data/json_view.h"
 #include "data_test_helpers.h"
@@ -158,6 +159,27 @@ TEST_CASE("annotation errors: data.json missing keys and wrong shapes") {
         p + ": images[0].frame_idx: expected integer, got 7.5");
 }
 
+TEST_CASE("camera checks: implausible intrinsics and sizes are named") {
+  Camera camera;
+  camera.width = 334;
+  camera.height = 512;
+  camera.K = {1200, 0, 160, 0, 1200, 250, 0, 0, 1};  // an InterHand2.6M camera
+  CHECK(camera_intrinsics_problem(camera).empty());
+  camera.K[0] = 1e-30;
+  CHECK(camera_intrinsics_problem(camera) ==
+        "fx = 1e-30 is 2.99401e-33 image widths: outside the plausible 0.04-120 (fields of view of 170 to 0.5 "
+        "degrees)");
+  camera.K[0] = 1e30;
+  CHECK(camera_intrinsics_problem(camera).rfind("fx = 1e+30 is ", 0) == 0);
+  camera.K[0] = 1200;
+  camera.K[2] = 1e12;
+  CHECK(camera_intrinsics_problem(camera) ==
+        "cx = 1e+12 lies more than 1 image width outside the image (0-334)");
+  camera.K[2] = 160;
+  camera.width = camera.height = 30000;
+  CHECK(camera_intrinsics_problem(camera) == "image of 30000x30000 = 900 megapixels exceeds the 100 megapixel limit");
+}
+
 TEST_CASE("annotation errors: camera.json missing capture, keys and wrong shapes") {
   std::string p = file("c0.json", valid_cameras());
   CHECK(error_of([&] { read_interhand_cameras(p, 3); }) == p + ": (top level): missing key \"3\"");
@@ -167,6 +189,12 @@ TEST_CASE("annotation errors: camera.json missing capture, keys and wrong shapes
   p = file("c1.json", c);
   CHECK(error_of([&] { read_interhand_cameras(p, 0); }) ==
         p + ": 0.camrot.400002[1]: expected array of 3, got array of 2");
+  // An all-zero rotation (issue 14: reported as "hand outside image") is named.
+  c = valid_cameras();
+  c["0"]["camrot"]["400002"] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+  p = file("c_zero_rot.json", c);
+  CHECK(error_of([&] { read_interhand_cameras(p, 0); }) ==
+        p + ": 0.camrot.400002: not a rotation matrix (R R^T != I or det < 0)");
 
   c = valid_cameras();
   c["0"]["focal"].erase("400002");
@@ -243,6 +271,28 @@ TEST_CASE("annotation errors: MANO_NeuralAnnot.json wrong shapes and keys") {
   p = file("m4.json", m);
   CHECK(error_of([&] { read_interhand_mano(p, 0); }) ==
         p + ": 0.7.left: expected object, got number");
+
+  // Implausible values name the file, frame, hand and value (issue 14: shape 1e6 gave empty masks).
+  m = valid_mano();
+  m["0"]["7"]["right"]["shape"][3] = 1e6;
+  p = file("m6.json", m);
+  CHECK(error_of([&] { read_interhand_mano(p, 0); }) ==
+        p + ": 0.7.right: shape[3] = 1000000.000000 is beyond +-10 standard deviations: not a hand");
+  m = valid_mano();
+  m["0"]["7"]["right"]["pose"][4] = 7.0;  // joint 1: |(0.1, 7, 0.1)| > 2 pi
+  p = file("m7.json", m);
+  CHECK(error_of([&] { read_interhand_mano(p, 0); }).find(p + ": 0.7.right: pose[3..5] rotates joint 1 by 7.00") == 0);
+  m = valid_mano();
+  m["0"]["7"]["right"]["trans"][2] = 1e30;
+  p = file("m8.json", m);
+  CHECK(error_of([&] { read_interhand_mano(p, 0); }).find(p + ": 0.7.right: trans[2] = ") == 0);
+  // The bounds themselves are plausible: 9.9 standard deviations, an angle of 6.2 rad, 9.9 m.
+  ManoParams edge;
+  edge.shape.fill(9.9);
+  edge.pose.fill(0);
+  edge.pose[0] = 6.2;
+  edge.trans = {9.9, -9.9, 0};
+  CHECK(mano_problem(edge).empty());
 
   // Null frames and null hands are data, not errors.
   m = valid_mano();

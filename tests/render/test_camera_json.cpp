@@ -70,4 +70,11 @@ TEST_CASE("camera JSON: bad files name the file and the key") {
   CHECK(err(with("\"width\": 512", "\"width\": 512, \"near\": 2, \"far\": 1")) ==
         "cam.json: near: need 0 < near < far, got 2.000000, 1.000000");
   CHECK(error_of([] { read_camera_json("/nonexistent/cam.json"); }) == "/nonexistent/cam.json: cannot open file");
+  // Implausible intrinsics and sizes (core/camera_checks.h), named.
+  CHECK(err(with("256.5", "1e12")) == "cam.json: K: cx = 1e+12 lies more than 1 image width outside the image (0-512)");
+  CHECK(err(with("[[500,", "[[1e-30,")) ==
+        "cam.json: K: fx = 1e-30 is 1.95313e-33 image widths: outside the plausible 0.04-120 (fields of view of 170 "
+        "to 0.5 degrees)");
+  CHECK(err(with("\"width\": 512, \"height\": 334", "\"width\": 30000, \"height\": 30000")) ==
+        "cam.json: width: image of 30000x30000 = 900 megapixels exceeds the 100 megapixel limit");
 }
