@@ -11,6 +11,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "core/camera_checks.h"
 #include "core/error.h"
 #include "core/text.h"
 #include "data/capture_impl.h"
@@ -76,10 +77,10 @@ uint64_t fnv1a(const std::string& text) {
 }
 
 void check_cameras_exist(const std::vector<std::string>& wanted, const std::set<std::string>& have,
-                         const char* key, const std::string& data_json, int capture) {
+                         const std::string& key, const std::string& data_json, int capture) {
   for (const auto& id : wanted)
     if (!have.count(id))
-      throw Error("capture." + std::string(key) + ": camera \"" + id +
+      throw Error(key + ": camera \"" + id +
                   "\" has no images in capture " + std::to_string(capture) + " of " + data_json);
 }
 
@@ -188,14 +189,17 @@ Capture::Capture(Capture&&) noexcept = default;
 Capture& Capture::operator=(Capture&&) noexcept = default;
 Capture::~Capture() = default;
 
-Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache_dir) {
+Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache_dir,
+                      const std::string& config_key) {
+  // Messages name keys as the user wrote them: data.held_out_poses in a run config.
+  const auto key = [&config_key](const char* name) { return config_key + "." + name; };
   auto impl = std::make_unique<Impl>(static_cast<size_t>(config.cache.budget_mb) << 20);
   impl->config = config;
   const CaptureConfig& c = impl->config;
   require(c.split_rule != "novel_view" || !c.test_cameras.empty() || c.train_cameras.empty(),
-          "capture.test_cameras: split_rule novel_view with train_cameras needs a list of test "
+          key("test_cameras") + ": split_rule novel_view with train_cameras needs a list of test "
           "cameras");
-  impl->layout = resolve_capture_layout(c.root, c.split);
+  impl->layout = resolve_capture_layout(c.root, c.split, key("root"));
   const CaptureLayout& layout = impl->layout;
 
   // Annotations, filtered to the capture (and sequences) while streaming.
@@ -211,7 +215,7 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
     for (const auto& image : images) sequences_seen.insert(image.seq_name);
     for (const auto& seq : c.sequences)
       if (!sequences_seen.count(seq))
-        throw Error("capture.sequences: sequence \"" + seq + "\" has no images in capture " +
+        throw Error(key("sequences") + ": sequence \"" + seq + "\" has no images in capture " +
                     std::to_string(c.capture) + " of " + layout.data_json);
   }
   const auto cameras = read_interhand_cameras(layout.camera_json, c.capture);
@@ -227,8 +231,8 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
                   " in " + layout.data_json + ")");
     data_cameras.insert(image.camera);
   }
-  check_cameras_exist(c.train_cameras, data_cameras, "train_cameras", layout.data_json, c.capture);
-  check_cameras_exist(c.test_cameras, data_cameras, "test_cameras", layout.data_json, c.capture);
+  check_cameras_exist(c.train_cameras, data_cameras, key("train_cameras"), layout.data_json, c.capture);
+  check_cameras_exist(c.test_cameras, data_cameras, key("test_cameras"), layout.data_json, c.capture);
   std::set<std::string> train_cams(c.train_cameras.begin(), c.train_cameras.end());
   std::set<std::string> test_cams(c.test_cameras.begin(), c.test_cameras.end());
   if (c.split_rule == "novel_view") {
@@ -240,7 +244,7 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
         if (!test_cams.count(id)) train_cams.insert(id);
     for (const auto& id : test_cams)
       if (train_cams.count(id))
-        throw Error("capture.test_cameras: camera \"" + id +
+        throw Error(key("test_cameras") + ": camera \"" + id +
                     "\" is also a training camera (novel_view needs disjoint lists)");
   } else if (test_cams.empty()) {
     test_cams = train_cams;  // novel_pose tests the held-out poses from the training views
@@ -285,6 +289,11 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
     }
     const Camera camera =
         camera_from_interhand(cameras.at(image.camera), image.width, image.height);
+    const std::string implausible = camera_intrinsics_problem(camera);
+    if (!implausible.empty())
+      throw Error(layout.camera_json + ": " + std::to_string(c.capture) + ": camera " + image.camera +
+                  " (with the " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+                  " image size of " + path + "): " + implausible);
     candidates.push_back({&image, params, &j->second, path, camera});
   }
 
@@ -308,7 +317,7 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
 
   const Rig rig = load_rig_source(capture_rig_source(c));
   if ((rig.handedness == Handedness::right) != right)
-    throw Error("capture.rig: rig \"" + c.rig + "\" is a " +
+    throw Error(key("rig") + ": rig \"" + c.rig + "\" is a " +
                 (rig.handedness == Handedness::right ? "right" : "left") +
                 " hand but capture.hand is " + c.hand);
   const std::vector<std::vector<float>> posed = pose_rig(rig, pose_params, c.flat_hand_mean);
@@ -393,7 +402,7 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   for (auto& [frame, index] : pose_of) index = next++;
   impl->num_poses = next;
   if (c.split_rule == "novel_pose" && c.held_out_poses >= impl->num_poses)
-    throw Error("capture.held_out_poses: " + std::to_string(c.held_out_poses) +
+    throw Error(key("held_out_poses") + ": " + std::to_string(c.held_out_poses) +
                 " held-out poses leave nothing to train on (the selection has " +
                 std::to_string(impl->num_poses) + " poses)");
   const int first_held_out = impl->num_poses - c.held_out_poses;

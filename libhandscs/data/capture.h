@@ -87,8 +87,11 @@ class Capture {
  public:
   // Reads the annotations, selects and checks frames (skips are logged as one summary line), poses
   // the rig for every pose and splits train/test. mask_cache_dir: where masks are cached on disk
-  // ("" = no disk cache). Throws Error naming the file and key for bad annotations or config.
-  static Capture open(const CaptureConfig& config, const std::string& mask_cache_dir = "");
+  // ("" = no disk cache). Throws Error naming the file and key for bad annotations or config;
+  // config_key is where the config sits in the user's file ("data" in a run config, "capture" in a
+  // POSES file), so messages name keys as written there.
+  static Capture open(const CaptureConfig& config, const std::string& mask_cache_dir = "",
+                      const std::string& config_key = "data");
 
   Capture(Capture&&) noexcept;
   Capture& operator=(Capture&&) noexcept;

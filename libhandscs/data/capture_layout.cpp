@@ -8,8 +8,9 @@ namespace handscs {
 
 namespace fs = std::filesystem;
 
-CaptureLayout resolve_capture_layout(const std::string& root, const std::string& split) {
-  require(!root.empty(), "capture.root: empty (set it to the dataset folder)");
+CaptureLayout resolve_capture_layout(const std::string& root, const std::string& split,
+                                     const std::string& root_key) {
+  require(!root.empty(), root_key + ": empty (set it to the dataset folder)");
   require(fs::is_directory(root), root + ": capture root is not a folder");
   // The 5 fps release unpacks its images into InterHand2.6M_5fps_batch1/; annotations are
   // downloaded separately and may sit beside it or inside it.

@@ -13,6 +13,8 @@ struct CaptureLayout {
 
 // Finds the image and annotation folders under `root` for `split`; throws Error naming the root and
 // the folders looked for when either is missing.
-CaptureLayout resolve_capture_layout(const std::string& root, const std::string& split);
+// root_key names the root in errors as the user wrote it (e.g. "data.root").
+CaptureLayout resolve_capture_layout(const std::string& root, const std::string& split,
+                                     const std::string& root_key = "data.root");
 
 }  // namespace handscs

@@ -35,23 +35,23 @@ BoneTopology make_static_topology(const ScsConfig& config) {
   };
   for (const auto& e : config.removed_edges)
     for (int j : e)
-      require(j >= 0 && j < kJoints21, "scs.removed_edges: joint id " + std::to_string(j) +
+      require(j >= 0 && j < kJoints21, "model.scs.removed_edges: joint id " + std::to_string(j) +
                                            " outside MANO21 [0, 20]");
   for (const auto& e : config.cross_edges)
     for (int j : e)
-      require(j >= 0 && j < kJoints21, "scs.cross_edges: joint id " + std::to_string(j) +
+      require(j >= 0 && j < kJoints21, "model.scs.cross_edges: joint id " + std::to_string(j) +
                                            " outside MANO21 [0, 20]");
 
   const auto mano = mano21_edges();
   for (const auto& e : config.removed_edges)
-    require(contains(mano, e), "scs.removed_edges: " + edge_name(e) + " is not a MANO edge");
+    require(contains(mano, e), "model.scs.removed_edges: " + edge_name(e) + " is not a MANO edge");
 
   BoneTopology topology;
   for (const auto& e : mano)
     if (!contains(config.removed_edges, e)) topology.edges.push_back(e);
   for (const auto& e : config.cross_edges) {
-    require(e[0] != e[1], "scs.cross_edges: " + edge_name(e) + " has zero length by construction");
-    require(!contains(topology.edges, e), "scs.cross_edges: " + edge_name(e) + " is already a bone");
+    require(e[0] != e[1], "model.scs.cross_edges: " + edge_name(e) + " has zero length by construction");
+    require(!contains(topology.edges, e), "model.scs.cross_edges: " + edge_name(e) + " is already a bone");
     topology.edges.push_back(e);
   }
 

@@ -143,7 +143,7 @@ std::vector<PoseFrame> read_pose_source_json(const json& root, const std::string
       throw Error(path + ": frames: expected \"test\", \"train\" or \"all\", got \"" + which + "\"");
     const std::string camera_id = root.value("camera", "");
     const int64_t max_frames = root.value("max_frames", int64_t{0});
-    Capture capture = Capture::open(capture_config, "");
+    Capture capture = Capture::open(capture_config, "", "capture");
     const auto& source = which == "test" ? capture.test() : which == "train" ? capture.train()
                                                                              : capture.frames();
     for (const auto& f : source) {

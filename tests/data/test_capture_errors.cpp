@@ -112,6 +112,22 @@ TEST_CASE("capture errors: frames whose hand is outside the view are skipped") {
                                      0) == 0);
 }
 
+TEST_CASE("capture errors: implausible camera intrinsics and MANO values are errors naming them") {
+  const std::string root = data_test::copy_of_tiny("implausible");
+  rewrite(annotation(root, "camera"), [](json& c) { c["0"]["focal"]["400004"][0] = 1e-30; });
+  const std::string camera_error = error_of([&] { Capture::open(data_test::tiny_config(root)); });
+  INFO(camera_error);
+  CHECK(camera_error.rfind(annotation(root, "camera") + ": 0: camera 400004 (with the ", 0) == 0);
+  CHECK(camera_error.find("): fx = 1e-30 is ") != std::string::npos);
+  rewrite(annotation(root, "camera"), [](json& c) { c["0"]["focal"]["400004"][0] = 1000.0; });
+  const int64_t frame = data_test::tiny_capture().scene.frames[2].frame_idx;
+  rewrite(annotation(root, "MANO_NeuralAnnot"),
+          [&](json& m) { m["0"][std::to_string(frame)]["right"]["shape"][0] = 1e6; });
+  CHECK(error_of([&] { Capture::open(data_test::tiny_config(root)); }) ==
+        annotation(root, "MANO_NeuralAnnot") + ": 0." + std::to_string(frame) +
+            ".right: shape[0] = 1000000.000000 is beyond +-10 standard deviations: not a hand");
+}
+
 TEST_CASE("capture errors: monochrome cameras are detected and dropped") {
   const std::string root = data_test::copy_of_tiny("monochrome");
   for (const auto& frame : data_test::tiny_capture().scene.frames) {
@@ -137,24 +153,24 @@ TEST_CASE("capture errors: bad configuration values name the key") {
   CaptureConfig config = data_test::tiny_config(root);
   config.train_cameras = {"400002", "499999"};
   CHECK(error_of([&] { Capture::open(config); }) ==
-        "capture.train_cameras: camera \"499999\" has no images in capture 0 of " + data);
+        "data.train_cameras: camera \"499999\" has no images in capture 0 of " + data);
 
   config = data_test::tiny_config(root);
   config.held_out_poses = 12;
   CHECK(error_of([&] { Capture::open(config); }) ==
-        "capture.held_out_poses: 12 held-out poses leave nothing to train on (the selection has 12 "
+        "data.held_out_poses: 12 held-out poses leave nothing to train on (the selection has 12 "
         "poses)");
 
   config = data_test::tiny_config(root);
   config.split_rule = "novel_view";
   config.train_cameras = {"400002"};
   CHECK(error_of([&] { Capture::open(config); }) ==
-        "capture.test_cameras: split_rule novel_view with train_cameras needs a list of test "
+        "data.test_cameras: split_rule novel_view with train_cameras needs a list of test "
         "cameras");
   config.test_cameras = {"400002"};
   config.train_cameras = {"400002", "400004"};
   CHECK(error_of([&] { Capture::open(config); }) ==
-        "capture.test_cameras: camera \"400002\" is also a training camera (novel_view needs "
+        "data.test_cameras: camera \"400002\" is also a training camera (novel_view needs "
         "disjoint lists)");
 
   config = data_test::tiny_config(root);
@@ -181,7 +197,7 @@ TEST_CASE("capture errors: missing folders and annotation files") {
         "/nonexistent/handscs_capture: capture root is not a folder");
   config.root = "";
   CHECK(error_of([&] { Capture::open(config); }) ==
-        "capture.root: empty (set it to the dataset folder)");
+        "data.root: empty (set it to the dataset folder)");
 
   const std::string empty = data_test::fresh_dir("empty_root");
   config.root = empty;

@@ -54,13 +54,13 @@ TEST_CASE("topology: bad edge lists are errors naming the key") {
   ScsConfig bad_joint;
   bad_joint.cross_edges = {{13, 21}};
   CHECK_THROWS_WITH(handscs::make_static_topology(bad_joint),
-                    "scs.cross_edges: joint id 21 outside MANO21 [0, 20]");
+                    "model.scs.cross_edges: joint id 21 outside MANO21 [0, 20]");
   ScsConfig not_mano;
   not_mano.removed_edges = {{1, 4}};
   CHECK_THROWS_WITH(handscs::make_static_topology(not_mano),
-                    "scs.removed_edges: (1, 4) is not a MANO edge");
+                    "model.scs.removed_edges: (1, 4) is not a MANO edge");
   ScsConfig duplicate;
   duplicate.cross_edges = {{2, 1}};
   CHECK_THROWS_WITH(handscs::make_static_topology(duplicate),
-                    "scs.cross_edges: (2, 1) is already a bone");
+                    "model.scs.cross_edges: (2, 1) is already a bone");
 }
