@@ -120,6 +120,14 @@ TEST_CASE("config: each bad input names the file and key") {
   const auto folder = std::filesystem::path(overflow).parent_path().string();
   CHECK(error_of([&] { handscs::load_config<RootConfig>(folder, {}); }) ==
         folder + ": is a folder, not a JSON file");
+  // A key given twice (nlohmann would keep the last silently), at the top and nested under arrays.
+  const auto twice = temp_file("twice.json", R"({"train": {"iterations": 400, "seed": 1, "iterations": 4}})");
+  CHECK(error_of([&] { handscs::load_config<RootConfig>(twice, {}); }) ==
+        twice + ": train.iterations: key given twice (remove one; JSON readers would keep the last)");
+  const auto nested = temp_file("nested.json", R"({"poses": [{"pose": 1}, {"trans": 2, "trans": 3}]})");
+  CHECK(error_of([&] { handscs::parse_json_file(nested); }) ==
+        nested + ": poses[].trans: key given twice (remove one; JSON readers would keep the last)");
+  CHECK(handscs::parse_json_file(temp_file("same_names.json", R"({"a": {"x": 1}, "b": {"x": 2}})"))["b"]["x"] == 2);
   // A device that never ends: refused after kMaxJsonBytes, not read until memory runs out.
   CHECK(error_of([&] { handscs::load_config<RootConfig>("/dev/zero", {}); }) ==
         "/dev/zero: larger than 256 MB; not a config, pose or camera file");
@@ -130,6 +138,9 @@ TEST_CASE("config: each bad input names the file and key") {
         "defaults + --set: train.iterations: expected integer, got string");
   CHECK(error_of([&] { handscs::load_config<RootConfig>("", {"novalue"}); }) ==
         "--set novalue: expected key.path=value");
+  // A section given a value is blamed itself, not the valid --set after it.
+  const auto section_error = error_of([&] { handscs::load_config<RootConfig>("", {"train=5", "train.iterations=3"}); });
+  CHECK(section_error.rfind("--set train=5: train is a section, not a value; set its keys, e.g. train.", 0) == 0);
 }
 
 TEST_CASE("config: markdown documentation lists every key") {
