@@ -1,8 +1,10 @@
 #include "data/interhand_annotations.h"
 
 #include <cmath>
+#include <filesystem>
 #include <functional>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "core/camera_checks.h"
 #include "core/error.h"
@@ -47,12 +49,23 @@ void require_object_member(const JsonElement& element, const std::string& path) 
   if (element.in_array) throw Error(path + ": " + element.top + ": expected object, got array");
 }
 
+// True for a relative path none of whose components is "..": joined to the images folder it
+// stays inside it (InterHand2.6M's file_name is "Capture0/<seq>/cam<id>/image<frame>.jpg").
+bool is_contained_relative_path(const std::string& file_name) {
+  const std::filesystem::path path(file_name);
+  if (file_name.empty() || path.is_absolute() || path.has_root_name()) return false;
+  for (const auto& part : path)
+    if (part == "..") return false;
+  return true;
+}
+
 }  // namespace
 
 std::vector<InterHandImage> read_interhand_images(const std::string& path,
                                                   const ImageFilter& filter) {
   std::vector<InterHandImage> images;
   std::unordered_map<int64_t, ImageAnnotation> annotations;
+  std::unordered_set<int64_t> image_ids;
   auto keep_top = [](const std::string& key) { return key == "images" || key == "annotations"; };
   auto visit = [&](const JsonElement& element) {
     if (!element.in_array) throw Error(path + ": " + element.top + ": expected array, got object");
@@ -65,7 +78,12 @@ std::vector<InterHandImage> read_interhand_images(const std::string& path,
       if (!filter.sequences.empty() && !filter.sequences.count(seq)) return;
       InterHandImage image;
       image.id = item.at("id").integer();
+      if (!image_ids.insert(image.id).second)
+        item.at("id").fail("duplicate image id " + std::to_string(image.id));
       image.file_name = item.at("file_name").string();
+      if (!is_contained_relative_path(image.file_name))
+        item.at("file_name").fail("\"" + image.file_name +
+                                  "\" is not a relative path inside the images folder (absolute, or has ..)");
       image.width = static_cast<int>(item.at("width").integer());
       image.height = static_cast<int>(item.at("height").integer());
       if (image.width <= 0 || image.height <= 0)
@@ -79,6 +97,8 @@ std::vector<InterHandImage> read_interhand_images(const std::string& path,
     } else {
       ImageAnnotation annotation;
       const int64_t image_id = item.at("image_id").integer();
+      if (annotations.count(image_id))
+        item.at("image_id").fail("second annotation for image_id " + std::to_string(image_id));
       item.at("bbox").numbers(annotation.bbox.data(), 4);
       item.at("joint_valid").flags(annotation.joint_valid.data(), kInterHandJoints);
       annotation.hand_type = item.at("hand_type").string();

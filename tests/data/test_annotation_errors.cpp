@@ -157,6 +157,25 @@ TEST_CASE("annotation errors: data.json missing keys and wrong shapes") {
   p = file("d10.json", d);
   CHECK(error_of([&] { read_interhand_images(p, {}); }) ==
         p + ": images[0].frame_idx: expected integer, got 7.5");
+  // Paths leaving the images folder, duplicate image ids and duplicate annotations (issue 14).
+  for (const char* bad : {"../../../../etc/passwd", "/etc/passwd", "Capture0/../../x.jpg"}) {
+    json escaping = valid_data();
+    escaping["images"][0]["file_name"] = bad;
+    const std::string path = file("d_escape.json", escaping);
+    CHECK(error_of([&] { read_interhand_images(path, {}); }) ==
+          path + ": images[0].file_name: \"" + bad +
+              "\" is not a relative path inside the images folder (absolute, or has ..)");
+  }
+  json twice = valid_data();
+  twice["images"].push_back(twice["images"][0]);
+  twice["images"][1]["file_name"] = "Capture0/seq/cam400002/image8.jpg";
+  std::string dup = file("d_dup_id.json", twice);
+  CHECK(error_of([&] { read_interhand_images(dup, {}); }) == dup + ": images[1].id: duplicate image id 5");
+  twice = valid_data();
+  twice["annotations"].push_back(twice["annotations"][0]);
+  dup = file("d_dup_annotation.json", twice);
+  CHECK(error_of([&] { read_interhand_images(dup, {}); }) ==
+        dup + ": annotations[1].image_id: second annotation for image_id 5");
 }
 
 TEST_CASE("camera checks: implausible intrinsics and sizes are named") {
