@@ -4,6 +4,10 @@
 #include <cctype>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
 
 namespace handscs {
 namespace {
@@ -94,6 +98,14 @@ std::string jpeg_structure_problem(const std::string& file_bytes) {
       }
     }
   }
+}
+
+std::string read_image_file(const std::string& path, std::string& jpeg_problem) {
+  std::string bytes = read_file(path);
+  if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max()))
+    throw Error(path + ": larger than 2 GB; not an image file");
+  jpeg_problem = has_jpeg_extension(path) ? jpeg_structure_problem(bytes) : "";
+  return bytes;
 }
 
 }  // namespace handscs

@@ -16,4 +16,9 @@ std::string jpeg_structure_problem(const std::string& file_bytes);
 // True for the .jpg / .jpeg extensions (any case): the files jpeg_structure_problem applies to.
 bool has_jpeg_extension(const std::string& path);
 
+// An image file's bytes, for a decoder; `jpeg_problem` receives jpeg_structure_problem's answer for
+// a .jpg/.jpeg ("" otherwise). Throws Error naming the file when it cannot be read or is over 2 GB
+// (no frame is; OpenCV's decode buffer is indexed by int).
+std::string read_image_file(const std::string& path, std::string& jpeg_problem);
+
 }  // namespace handscs

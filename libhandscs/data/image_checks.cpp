@@ -2,11 +2,9 @@
 
 #include <algorithm>
 #include <cstdlib>
-#include <limits>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "core/atomic_file.h"
 #include "core/jpeg_structure.h"
 
 namespace handscs {
@@ -37,12 +35,8 @@ bool is_black(const cv::Mat& image, int level) {
 ImageScan scan_image(const std::string& path) {
   ImageScan scan;
   try {
-    const std::string bytes = read_file(path);
-    if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max())) return scan;  // > 2 GB: not a frame
-    if (has_jpeg_extension(path)) {
-      scan.damage = jpeg_structure_problem(bytes);
-      if (!scan.damage.empty()) return scan;
-    }
+    const std::string bytes = read_image_file(path, scan.damage);
+    if (!scan.damage.empty()) return scan;
     const cv::Mat encoded(1, static_cast<int>(bytes.size()), CV_8UC1,
                           const_cast<char*>(bytes.data()));
     const cv::Mat small = cv::imdecode(encoded, cv::IMREAD_REDUCED_COLOR_8);

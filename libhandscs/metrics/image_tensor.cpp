@@ -2,13 +2,11 @@
 
 #include <cstring>
 #include <filesystem>
-#include <limits>
 
 #include <ATen/ATen.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/jpeg_structure.h"
 
@@ -87,13 +85,9 @@ namespace {
 // JPEG would decode with a grey tail and be scored as if whole. `what` names the file's role.
 cv::Mat decode_checked(const std::string& path, const std::string& what) {
   if (!std::filesystem::is_regular_file(path)) throw Error(path + ": cannot read " + what);
-  const std::string bytes = read_file(path);
-  if (has_jpeg_extension(path)) {
-    const std::string problem = jpeg_structure_problem(bytes);
-    if (!problem.empty()) throw Error(path + ": damaged JPEG " + what + " (" + problem + ")");
-  }
-  if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max()))
-    throw Error(path + ": larger than 2 GB; not a " + what);
+  std::string problem;
+  const std::string bytes = read_image_file(path, problem);
+  if (!problem.empty()) throw Error(path + ": damaged JPEG " + what + " (" + problem + ")");
   const cv::Mat encoded(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data()));
   cv::Mat image;
   try {

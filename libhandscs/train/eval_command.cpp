@@ -65,23 +65,14 @@ int run_model_eval_command(const ModelEvalCommandLine& cli, const EvalCommandLin
     if (assignment.rfind("model.", 0) == 0 || assignment.rfind("model=", 0) == 0)
       throw Error("--set " + assignment + ": the model is the checkpoint's and cannot be changed at "
                   "evaluation (data.*, eval.* and train.* keys can be set)");
-  const std::string ckpt = resolve_checkpoint_path(cli.checkpoint);
-  const json stored = load_checkpoint(ckpt).meta.at("config");
   RunConfig config;
   if (!cli.config.empty()) {
     config = load_config<RunConfig>(cli.config, overrides);
-    RunConfig from_checkpoint;
-    config_from_json(stored, ckpt + " (stored config)", from_checkpoint);
-    const auto differences =
-        json_differences(config_to_json(from_checkpoint.model), config_to_json(config.model), "model");
-    if (!differences.empty())
-      spdlog::warn("{}: its model section differs from the checkpoint's ({}); the checkpoint's is used",
-                   cli.config, join(differences, "; "));
-    config.model = from_checkpoint.model;
   } else {
-    json merged = stored;
-    apply_overrides(merged, overrides);
-    config_from_json(merged, ckpt + " (stored config)" + (overrides.empty() ? "" : " + --set"), config);
+    const std::string ckpt = resolve_checkpoint_path(cli.checkpoint);
+    json stored = load_checkpoint(ckpt).meta.at("config");
+    apply_overrides(stored, overrides);
+    config_from_json(stored, ckpt + " (stored config)" + (overrides.empty() ? "" : " + --set"), config);
   }
   config.eval = resolve_eval_config(metric_flags, {}, config.eval);
   ModelEvalOptions options;

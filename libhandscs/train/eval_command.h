@@ -33,8 +33,8 @@ void add_model_eval_options(CLI::App& app, ModelEvalCommandLine& cli);
 void check_eval_mode_options(const ModelEvalCommandLine& model, const EvalCommandLine& folder);
 
 // Model mode end to end: resolves the config (--config or the checkpoint's, then --set on run-config
-// keys, then the metric flags; the model section is always the checkpoint's, and --set model.* is
-// refused), evaluates, writes the outputs, prints the table. Exit status: 0 when
+// keys, then the metric flags; --set model.* is refused, as evaluate_avatar always uses the
+// checkpoint's model section), evaluates, writes the outputs, prints the table. Exit status: 0 when
 // every image was scored, 2 when some failed.
 int run_model_eval_command(const ModelEvalCommandLine& cli, const EvalCommandLine& metric_flags,
                            const std::vector<std::string>& overrides);

@@ -15,6 +15,7 @@
 #include "core/config.h"
 #include "core/error.h"
 #include "core/progress.h"
+#include "core/text.h"
 #include "data/capture.h"
 #include "metrics/image_scorer.h"
 #include "metrics/image_tensor.h"
@@ -107,6 +108,10 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, const ModelEvalOptio
   // The architecture comes from the checkpoint; data and evaluation settings from the caller.
   RunConfig stored;
   config_from_json(ckpt.meta.at("config"), ckpt_path + " (stored config)", stored);
+  const auto differences = json_differences(config_to_json(stored.model), config_to_json(config.model), "model");
+  if (!differences.empty())
+    spdlog::warn("the given config's model section differs from the checkpoint's ({}); the checkpoint's is used",
+                 join(differences, "; "));
   config.model = stored.model;
   config.data.rig = stored.model.rig;
   config.data.flat_hand_mean = stored.model.flat_hand_mean;
