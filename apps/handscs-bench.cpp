@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "core/cli.h"
 #include "core/error.h"
 #include "sweep/subprocess.h"
 #include "sweep/sweep_config.h"
@@ -46,7 +47,7 @@ int main(int argc, char** argv) {
     spdlog::info("handscs-bench: results in {}/results.csv, plots {}/*.png, table {}/summary.md",
                  options.out_dir, options.out_dir, options.out_dir);
   } catch (const std::exception& e) {
-    spdlog::error("{}", e.what());
+    spdlog::error("{}", handscs::error_text(e));
     return 1;
   }
   return 0;

@@ -28,7 +28,7 @@ int main(int argc, char** argv) {
                      "nothing to evaluate: give --pred DIR --gt DIR --json FILE, or --checkpoint CKPT --out DIR");
     return handscs::run_folder_eval_command(cli, config);
   } catch (const std::exception& e) {
-    spdlog::error("{}", e.what());
+    spdlog::error("{}", handscs::error_text(e));
     return 1;
   }
 }

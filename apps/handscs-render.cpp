@@ -185,7 +185,7 @@ int main(int argc, char** argv) {
                      "nothing to render: give --ply, --camera and --out (see --help)");
     run_ply_mode(ply);
   } catch (const std::exception& e) {
-    spdlog::error("{}", e.what());
+    spdlog::error("{}", handscs::error_text(e));
     return 1;
   }
   return 0;

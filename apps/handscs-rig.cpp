@@ -23,7 +23,7 @@ int main(int argc, char** argv) {
     handscs::start_up(common, "handscs-rig");
     handscs::run_rig_tool(options);
   } catch (const std::exception& e) {
-    spdlog::error("{}", e.what());
+    spdlog::error("{}", handscs::error_text(e));
     return 1;
   }
   return 0;

@@ -33,7 +33,7 @@ int main(int argc, char** argv) {
     config = handscs::apply_synth_overrides(config, common.overrides);
     handscs::generate_synth_capture(config, out);
   } catch (const std::exception& e) {
-    spdlog::error("{}", e.what());
+    spdlog::error("{}", handscs::error_text(e));
     return 1;
   }
   return 0;

@@ -58,7 +58,7 @@ int main(int argc, char** argv) {
                  handscs::shell_quote(run_dir + "/eval"));
     return summary.interrupted ? 130 : 0;  // 130: stopped by a signal (shell convention)
   } catch (const std::exception& e) {
-    spdlog::error("{}", e.what());
+    spdlog::error("{}", handscs::error_text(e));
     return 1;
   }
 }

@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdlib>
 #include <cstring>
+
+#include <c10/util/Exception.h>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
@@ -21,6 +24,14 @@ void add_common_options(CLI::App& app, CommonOptions& options, bool with_overrid
     app.add_option("--set", options.overrides,
                    "override a config key, e.g. --set train.iterations=2000 (repeatable)")
         ->take_all();
+}
+
+std::string error_text(const std::exception& e) {
+  const auto* torch_error = dynamic_cast<const c10::Error*>(&e);
+  const char* keep_trace = std::getenv("HANDSCS_BACKTRACE");
+  if (torch_error && !(keep_trace && std::strcmp(keep_trace, "1") == 0))
+    return torch_error->what_without_backtrace();
+  return e.what();
 }
 
 void start_up(const CommonOptions& options, const std::string& program) {

@@ -1,6 +1,7 @@
 // Options every executable shares (--threads, --log-level, --set) and the start-up they trigger.
 #pragma once
 
+#include <exception>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,11 @@ void add_common_options(CLI::App& app, CommonOptions& options, bool with_overrid
 
 // Applies logging and thread settings and logs the thread count and BLAS library in use.
 void start_up(const CommonOptions& options, const std::string& program);
+
+// The message a program prints for an exception that ends it: e.what(), but for LibTorch's
+// c10::Error only the message, without the C++ stack trace it carries (users act on the message;
+// the trace names internal frames). HANDSCS_BACKTRACE=1 keeps the trace for bug reports.
+std::string error_text(const std::exception& e);
 
 // `text` as one POSIX shell word ('...' with embedded quotes escaped), for commands a program
 // prints for the user to paste; plain words (letters, digits, /._-+=:,) are left as they are.
