@@ -2,16 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
+
+#include "core/text.h"
 
 namespace handscs {
 namespace {
-
-std::string number_text(double x) {
-  std::ostringstream out;
-  out << x;
-  return out.str();
-}
 
 std::string focal_problem(const char* name, double focal, int side, const char* side_name) {
   const double per_side = focal / side;

@@ -9,6 +9,8 @@
 #include <sstream>
 #include <vector>
 
+#include "core/json_keys.h"
+
 namespace handscs {
 
 std::string json_type_name(const json& value) {
@@ -131,38 +133,6 @@ std::string ConfigDoc::format_number(double x) {
   return os.str();
 }
 
-namespace {
-// A parser callback that throws on a key given twice in one object: nlohmann keeps the last one
-// silently, so {"iterations": 400, ..., "iterations": 4} would run 4 steps without a word.
-json::parser_callback_t duplicate_key_guard(const std::string& path) {
-  struct Level {
-    bool object = false;
-    std::set<std::string> keys;
-    std::string key;  // the member being read
-  };
-  auto levels = std::make_shared<std::vector<Level>>();
-  return [levels, path](int, json::parse_event_t event, json& parsed) {
-    switch (event) {
-      case json::parse_event_t::object_start: levels->push_back({true, {}, {}}); break;
-      case json::parse_event_t::array_start: levels->push_back({false, {}, {}}); break;
-      case json::parse_event_t::object_end:
-      case json::parse_event_t::array_end: levels->pop_back(); break;
-      case json::parse_event_t::key: {
-        Level& level = levels->back();
-        level.key = parsed.get<std::string>();
-        if (!level.keys.insert(level.key).second) {
-          std::string where;
-          for (const Level& l : *levels) where += l.object ? (where.empty() ? "" : ".") + l.key : "[]";
-          throw Error(path + ": " + where + ": key given twice (remove one; JSON readers would keep the last)");
-        }
-        break;
-      }
-      case json::parse_event_t::value: break;
-    }
-    return true;
-  };
-}
-}  // namespace
 
 json parse_json_file(const std::string& path) {
   std::error_code ec;
@@ -179,7 +149,11 @@ json parse_json_file(const std::string& path) {
                   " MB; not a config, pose or camera file");
   }
   try {
-    return json::parse(text, duplicate_key_guard(path));
+    JsonKeyGuard keys(path);
+    return json::parse(text, [&keys](int depth, json::parse_event_t event, json& parsed) {
+      keys.event(depth, event, parsed);
+      return true;
+    });
   } catch (const json::parse_error& e) {
     // Report the line and column of the byte offset nlohmann gives.
     size_t line = 1, column = 1;

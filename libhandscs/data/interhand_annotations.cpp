@@ -8,6 +8,7 @@
 
 #include "core/camera_checks.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "data/json_view.h"
 
 namespace handscs {
@@ -193,7 +194,7 @@ std::map<int64_t, InterHandJoints> read_interhand_joints(const std::string& path
 std::string mano_problem(const ManoParams& params) {
   for (int i = 0; i < 10; ++i)
     if (std::abs(params.shape[i]) > kMaxManoShape)
-      return "shape[" + std::to_string(i) + "] = " + std::to_string(params.shape[i]) + " is beyond +-" +
+      return "shape[" + std::to_string(i) + "] = " + number_text(params.shape[i]) + " is beyond +-" +
              std::to_string(static_cast<int>(kMaxManoShape)) + " standard deviations: not a hand";
   for (int joint = 0; joint < 16; ++joint) {
     const double angle = std::sqrt(params.pose[3 * joint] * params.pose[3 * joint] +
@@ -201,12 +202,12 @@ std::string mano_problem(const ManoParams& params) {
                                    params.pose[3 * joint + 2] * params.pose[3 * joint + 2]);
     if (angle > kMaxManoAngle)
       return "pose[" + std::to_string(3 * joint) + ".." + std::to_string(3 * joint + 2) +
-             "] rotates joint " + std::to_string(joint) + " by " + std::to_string(angle) +
+             "] rotates joint " + std::to_string(joint) + " by " + number_text(angle) +
              " rad, more than 2 pi";
   }
   for (int i = 0; i < 3; ++i)
     if (std::abs(params.trans[i]) > kMaxManoTranslation)
-      return "trans[" + std::to_string(i) + "] = " + std::to_string(params.trans[i]) + " m is more than " +
+      return "trans[" + std::to_string(i) + "] = " + number_text(params.trans[i]) + " m is more than " +
              std::to_string(static_cast<int>(kMaxManoTranslation)) + " m from the capture's origin";
   return "";
 }

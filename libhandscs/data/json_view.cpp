@@ -6,6 +6,7 @@
 
 #include "core/config.h"
 #include "core/error.h"
+#include "core/json_keys.h"
 
 namespace handscs {
 
@@ -156,8 +157,11 @@ json stream_json_elements(const std::string& path,
   int64_t index = 0;
   // nlohmann's depth: the root container's events have depth 0, top-level entries depth 1 and
   // their elements depth 2 (a discarded value is never stored in the result).
+  JsonKeyGuard keys(path);
   auto callback = [&](int depth, json::parse_event_t event, json& parsed) -> bool {
     using E = json::parse_event_t;
+    // Keys are checked at the top level and inside the kept entries (skipped ones cost nothing).
+    if ((depth <= 1 || !skip_top) && event != E::key) keys.event(depth, event, parsed);
     if (depth == 0) {
       if (event == E::object_start) root_is_object = true;
       return true;
@@ -166,6 +170,7 @@ json stream_json_elements(const std::string& path,
     if (depth == 1) {
       if (event == E::key) {
         top = parsed.get<std::string>();
+        keys.key(1, top);
         skip_top = !keep_top(top);
         return !skip_top;
       }
@@ -175,12 +180,16 @@ json stream_json_elements(const std::string& path,
       }
       return true;
     }
+    if (skip_top) return false;
+    if (event == E::key) {
+      const std::string key = parsed.get<std::string>();
+      if (depth == 2) second = key;
+      keys.key(depth, key, 2, [&] {
+        return top + (in_array ? "[" + std::to_string(index) + "]" : "." + second);
+      });
+      if (depth == 2) return true;
+    }
     if (depth == 2) {
-      if (skip_top) return false;
-      if (event == E::key) {
-        second = parsed.get<std::string>();
-        return true;
-      }
       if (event == E::value || event == E::object_end || event == E::array_end) {
         const std::string name = in_array ? std::to_string(index++) : second;
         visit(JsonElement{top, name, in_array, parsed});
@@ -188,7 +197,7 @@ json stream_json_elements(const std::string& path,
       }
       return true;
     }
-    return !skip_top;
+    return true;
   };
   try {
     return json::parse(file.get(), callback);

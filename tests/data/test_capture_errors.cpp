@@ -125,7 +125,7 @@ TEST_CASE("capture errors: implausible camera intrinsics and MANO values are err
           [&](json& m) { m["0"][std::to_string(frame)]["right"]["shape"][0] = 1e6; });
   CHECK(error_of([&] { Capture::open(data_test::tiny_config(root)); }) ==
         annotation(root, "MANO_NeuralAnnot") + ": 0." + std::to_string(frame) +
-            ".right: shape[0] = 1000000.000000 is beyond +-10 standard deviations: not a hand");
+            ".right: shape[0] = 1e+06 is beyond +-10 standard deviations: not a hand");
 }
 
 TEST_CASE("capture errors: monochrome cameras are detected and dropped") {
