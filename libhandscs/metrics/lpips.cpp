@@ -102,6 +102,26 @@ std::vector<torch::Tensor> Lpips::features(const torch::Tensor& images) const {
   return taps;
 }
 
+int64_t Lpips::min_image_side() const {
+  // Follows features()' size checks on the side length alone (outputs floor((h - k) / s) + 1).
+  const auto fits = [this](int64_t h) {
+    for (const auto& stage : spec_.stages) {
+      if (stage.pool_kernel > 0) {
+        if (h < stage.pool_kernel) return false;
+        h = (h - stage.pool_kernel) / stage.pool_stride + 1;
+      }
+      for (const auto& conv : stage.convs) {
+        if (h < conv.kernel - 2 * conv.padding) return false;
+        h = (h + 2 * conv.padding - conv.kernel) / conv.stride + 1;
+      }
+    }
+    return true;
+  };
+  int64_t side = 1;
+  while (!fits(side)) ++side;  // a few hundred steps at most for AlexNet and VGG16
+  return side;
+}
+
 std::vector<torch::Tensor> Lpips::layer_distances(const torch::Tensor& x, const torch::Tensor& y) const {
   TORCH_CHECK(x.sizes() == y.sizes(), "lpips: image sizes differ: ", x.sizes(), " vs ", y.sizes());
   const int64_t batch = x.size(0);

@@ -60,6 +60,10 @@ class Lpips {
   // The five taps of the backbone for `images` (after input range and scaling layer).
   std::vector<torch::Tensor> features(const torch::Tensor& images) const;  // [B, 3, H, W]
 
+  // Smallest image side (pixels, square images) the backbone accepts: below it a pooling window or
+  // a convolution no longer fits (features() refuses such images).
+  int64_t min_image_side() const;
+
   // A copy whose weights have `dtype` (inputs must have the weights' dtype; float32 by default).
   Lpips to(torch::Dtype dtype) const;
 

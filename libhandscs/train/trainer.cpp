@@ -39,6 +39,10 @@ double ms_between(Clock::time_point a, Clock::time_point b) {
 constexpr int kCheckpointsKept = 2;  // the newest and the one before it (if the newest is damaged)
 constexpr int kMaxRollbacks = 20;    // after this many the run is declared diverged
 constexpr int kPrefetchAhead = 4;    // frames queued for the background loader
+// A run fails when this many first training images (shuffled) all have empty hand masks: the
+// chance that a working capture gives 16 empty masks in a row is negligible, and 16 steps of a
+// tiny run cost seconds.
+constexpr int64_t kEmptyMaskSteps = 16;
 const char* kMetricsColumns[] = {"iteration", "seconds", "loss", "rgb", "mask", "ssim", "lpips",
                                  "reg", "consistency", "psnr", "gaussians", "skipped", "rollbacks",
                                  "lr_scale", "data_ms", "forward_ms", "losses_ms", "backward_ms",
@@ -119,6 +123,10 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir)
       lpips = std::make_shared<const Lpips>(config_.eval.lpips);
   }
   objective_ = std::make_unique<Objective>(config_.train.loss, lpips);
+  min_loss_side_ = min_loss_image_side(config_.train.loss, lpips.get());
+  check_training_image_sizes(capture_->train(), config_.train.resolution_scale, min_loss_side_);
+  empty_masks_ = std::make_unique<EmptyMaskWatch>(
+      std::min<int64_t>(kEmptyMaskSteps, static_cast<int64_t>(capture_->train().size())));
 }
 
 void Trainer::write_run_files() {
@@ -248,6 +256,7 @@ StepResult Trainer::step() {
   }
   const FrameInfo& current = frame_for(iteration_);
   FrameSample sample = capture_->load(current);
+  empty_masks_->record(current, !sample.mask.any().item<bool>());
   Camera camera = sample.roi_camera();
   torch::Tensor image = sample.image.to(torch::kFloat32).div_(255.0);  // [h, w, 3]
   torch::Tensor mask = sample.mask.to(torch::kFloat32);                // [h, w]
@@ -264,6 +273,10 @@ StepResult Trainer::step() {
     mask = torch::from_blob(msk_small.data, {h, w}, torch::kFloat32).clone();
     camera = scaled_camera(camera, double(w) / camera.width, w, h);
   }
+  const std::string too_small = scaled_crop_problem(current, static_cast<int>(image.size(1)),
+                                                    static_cast<int>(image.size(0)), scale,
+                                                    min_loss_side_);
+  if (!too_small.empty()) throw Error(too_small);
   const auto bg = background_for(iteration_);
   const auto bg_tensor = torch::tensor({bg[0], bg[1], bg[2]});
   const auto target = image * mask.unsqueeze(2) + bg_tensor * (1 - mask.unsqueeze(2));

@@ -16,6 +16,7 @@
 #include "train/losses.h"
 #include "train/pose_refine.h"
 #include "train/run_config.h"
+#include "train/training_checks.h"
 
 namespace handscs {
 
@@ -96,6 +97,8 @@ class Trainer {
   std::unique_ptr<Densifier> densifier_;
   std::unique_ptr<Objective> objective_;
   std::unique_ptr<PoseCorrections> pose_corrections_;  // null unless train.pose_refine.enabled
+  std::unique_ptr<EmptyMaskWatch> empty_masks_;
+  int64_t min_loss_side_ = 1;  // smallest image side the image losses accept (training_checks.h)
   int64_t iteration_ = 0;
   int64_t skipped_total_ = 0;
   int64_t bad_in_a_row_ = 0;

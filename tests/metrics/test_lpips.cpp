@@ -220,3 +220,24 @@ TEST_CASE("lpips rejects wrong shapes, dtypes and too-small images", "[lpips]") 
   CHECK_THROWS_WITH(lpips.distance(torch::zeros({1, 3, 12, 64}), torch::zeros({1, 3, 12, 64})),
                     Catch::Contains("lpips: images 12x64 are too small for LPIPS net 'alex' (stage 2 gets 2x15)"));
 }
+
+TEST_CASE("lpips min_image_side is the smallest side features() accepts (brute force)", "[lpips]") {
+  const auto lpips = load_alex();
+  const int64_t side = lpips.min_image_side();
+  const auto accepts = [&](int64_t s) {
+    try {
+      lpips.features(torch::zeros({1, 3, s, s}));
+      return true;
+    } catch (const c10::Error&) {
+      return false;
+    }
+  };
+  for (int64_t s = 1; s < side; ++s) {
+    INFO("side " << s);
+    CHECK_FALSE(accepts(s));
+  }
+  for (int64_t s = side; s < side + 8; ++s) {
+    INFO("side " << s);
+    CHECK(accepts(s));
+  }
+}

@@ -1,0 +1,82 @@
+#include "train/training_checks.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <utility>
+
+#include <spdlog/spdlog.h>
+
+#include "core/error.h"
+#include "core/text.h"
+#include "metrics/lpips.h"
+#include "metrics/ssim.h"
+
+namespace handscs {
+
+namespace {
+
+// Empty masks after the first steps are logged with their path up to this many times.
+constexpr int64_t kEmptyMaskLines = 5;
+
+// The smallest scale that brings `side` pixels to at least min_side (rounded up to 3 decimals).
+std::string smallest_scale(int side, int64_t min_side) {
+  return number_text(std::ceil(1000.0 * double(min_side) / side) / 1000.0);
+}
+
+}  // namespace
+
+int64_t min_loss_image_side(const LossWeights& weights, const Lpips* lpips) {
+  int64_t side = 1;
+  if (weights.ssim > 0) side = std::max(side, kSsimWindow);
+  if (lpips && weights.lpips > 0) side = std::max(side, lpips->min_image_side());
+  return side;
+}
+
+void check_training_image_sizes(const std::vector<FrameInfo>& train, double scale, int64_t min_side) {
+  std::map<std::pair<int, int>, const FrameInfo*> sizes;  // one frame per image size
+  for (const FrameInfo& f : train) sizes.emplace(std::make_pair(f.camera.width, f.camera.height), &f);
+  for (const auto& [size, frame] : sizes) {
+    const int w = std::max(1, static_cast<int>(std::lround(size.first * scale)));
+    const int h = std::max(1, static_cast<int>(std::lround(size.second * scale)));
+    if (w >= min_side && h >= min_side) continue;
+    throw Error("train.resolution_scale: " + number_text(scale) + " scales the " +
+                std::to_string(size.first) + "x" + std::to_string(size.second) + " images (" +
+                frame->image_path + ") to " + std::to_string(w) + "x" + std::to_string(h) +
+                ", smaller than the " + std::to_string(min_side) + "x" + std::to_string(min_side) +
+                " the image losses need (SSIM window, LPIPS backbone); use at least " +
+                smallest_scale(std::min(size.first, size.second), min_side) +
+                " (crops around the hand need more), or set train.loss.ssim and train.loss.lpips to 0");
+  }
+}
+
+std::string scaled_crop_problem(const FrameInfo& frame, int width, int height, double scale,
+                                int64_t min_side) {
+  if (width >= min_side && height >= min_side) return "";
+  const int crop_side = static_cast<int>(std::min(width, height) / scale + 0.5);
+  return "train.resolution_scale: " + number_text(scale) + " scales the crop around the hand in " +
+         frame.image_path + " to " + std::to_string(width) + "x" + std::to_string(height) +
+         ", smaller than the " + std::to_string(min_side) + "x" + std::to_string(min_side) +
+         " the image losses need (SSIM window, LPIPS backbone); use at least " +
+         smallest_scale(std::max(1, crop_side), min_side) +
+         ", or set train.loss.ssim and train.loss.lpips to 0";
+}
+
+void EmptyMaskWatch::record(const FrameInfo& frame, bool empty) {
+  ++seen_;
+  if (!empty) {
+    any_hand_ = true;
+    return;
+  }
+  ++empty_;
+  if (!any_hand_ && seen_ >= steps_)
+    throw Error("the hand masks of the first " + std::to_string(seen_) +
+                " training images are all empty (the last: " + frame.image_path +
+                "): nothing to learn from. The posed MANO hand covers no pixel of these views: "
+                "check the MANO annotation (shape, trans), data.hand, data.rig and the cameras");
+  if (any_hand_ && empty_ <= kEmptyMaskLines)
+    spdlog::warn("{}: the hand mask is empty (the posed hand covers no pixel); the step learns "
+                 "background only", frame.image_path);
+}
+
+}  // namespace handscs
