@@ -44,6 +44,8 @@ LABELS = {
     "con_sum": "L_con summed (paper's formula)",
     "con_groups": "L_con per-group normalised",
     "reg_all": "L_reg with fusion offsets",
+    "reg_1e-2": "lambda_reg = 1e-2",
+    "reg_0": "lambda_reg = 0",
 }
 METRICS = ("psnr", "ssim", "lpips")
 

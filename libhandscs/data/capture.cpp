@@ -236,9 +236,17 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   std::set<std::string> train_cams(c.train_cameras.begin(), c.train_cameras.end());
   std::set<std::string> test_cams(c.test_cameras.begin(), c.test_cameras.end());
   if (c.split_rule == "novel_view") {
-    if (train_cams.empty() && test_cams.empty())
+    if (train_cams.empty() && test_cams.empty()) {
       choose_novel_view_cameras(data_cameras, c.novel_view_train_views, c.novel_view_test_views,
                                 train_cams, test_cams);
+      if (train_cams.size() != static_cast<size_t>(c.novel_view_train_views) ||
+          test_cams.size() != static_cast<size_t>(c.novel_view_test_views))
+        spdlog::warn("{} = {} and {} = {} ask for {} cameras; capture {} has {}: using {} training "
+                     "and {} test cameras", key("novel_view_train_views"), c.novel_view_train_views,
+                     key("novel_view_test_views"), c.novel_view_test_views,
+                     c.novel_view_train_views + c.novel_view_test_views, c.capture,
+                     data_cameras.size(), train_cams.size(), test_cams.size());
+    }
     if (train_cams.empty())
       for (const auto& id : data_cameras)
         if (!test_cams.count(id)) train_cams.insert(id);

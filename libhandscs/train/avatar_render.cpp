@@ -15,6 +15,7 @@
 #include "core/config.h"
 #include "core/error.h"
 #include "core/progress.h"
+#include "data/mesh_mask.h"
 #include "io/ply.h"
 #include "metrics/image_tensor.h"
 #include "render/camera_json.h"
@@ -60,6 +61,17 @@ void write_posed_ply(const std::string& path, const PosedGaussians& p) {
   write_gaussian_ply(path, make_gaussian_ply(p.means.to(torch::kFloat32),
                                              p.colors.clamp(0, 1).to(torch::kFloat32),
                                              p.opacities.to(torch::kFloat32), scales, quats));
+}
+
+// Frames whose hand is out of view are logged by name up to this many times (then counted).
+constexpr int64_t kOutOfViewLines = 5;
+
+// Where a frame's camera came from, for messages.
+std::string camera_source(const AvatarRenderOptions& options, const PoseFrame& f, int64_t k,
+                          int64_t cameras) {
+  if (!options.camera.empty()) return options.camera;
+  if (options.orbit > 0) return "--orbit view " + std::to_string(k % cameras);
+  return "the capture camera of " + f.name;
 }
 
 std::string frame_name(int64_t k) {
@@ -114,6 +126,7 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
   RasterSettings settings;
   settings.background = options.background;
   std::vector<double> forward_ms;
+  int64_t out_of_view = 0;
   ProgressBar bar("render", count);
   c10::InferenceMode guard;
   for (int64_t k = 0; k < count; ++k) {
@@ -126,6 +139,15 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
                               settings);
     forward_ms.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    {
+      // A camera facing away, or a pose far off: the posed Gaussians miss the image entirely.
+      const auto means = out.state.posed.means.to(torch::kFloat32).contiguous();
+      if (projected_bounds(means.data_ptr<float>(), means.size(0), camera).empty() &&
+          ++out_of_view <= kOutOfViewLines)
+        spdlog::warn("{}: the hand of pose {} is not in view of {} (behind the camera or outside "
+                     "its image): background only", frame_name(k), f.name,
+                     camera_source(options, f, k, static_cast<int64_t>(cameras.size())));
+    }
     const cv::Mat rgb = rgb_tensor_to_mat(out.render.rgb.clamp(0, 1));
     const auto alpha8 = out.render.alpha.clamp(0, 1).mul(255).round().to(torch::kUInt8).contiguous();
     const cv::Mat alpha(alpha8.size(0), alpha8.size(1), CV_8UC1, alpha8.data_ptr<uint8_t>());
@@ -151,6 +173,20 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
     bar.update(k + 1);
   }
   bar.finish();
+  if (out_of_view == count) {
+    if (video.isOpened()) {
+      video.release();
+      std::filesystem::remove(video_temp);
+    }
+    throw Error("no frame shows the hand: in all " + std::to_string(count) + " frames it is behind " +
+                "the camera or outside the image (" +
+                camera_source(options, poses.front(), 0, static_cast<int64_t>(cameras.size())) +
+                "); check the camera's R and t against the poses' trans (" + options.out_dir +
+                " holds background-only images)");
+  }
+  if (out_of_view > kOutOfViewLines)
+    spdlog::warn("{} of {} frames show no hand (the first {} are named above)", out_of_view, count,
+                 kOutOfViewLines);
   if (video.isOpened()) {
     video.release();
     std::filesystem::rename(video_temp, options.video);

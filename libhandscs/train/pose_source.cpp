@@ -1,5 +1,6 @@
 #include "train/pose_source.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -9,6 +10,7 @@
 #include "core/config.h"
 #include "core/error.h"
 #include "data/capture.h"
+#include "data/interhand_annotations.h"
 
 namespace handscs {
 
@@ -48,6 +50,13 @@ PoseFrame read_frame(const json& item, const std::string& where) {
   read_numbers(item, "shape", frame.shape, false, where);
   read_numbers(item, "trans", frame.trans, false, where);
   if (item.contains("name")) frame.name = item["name"].get<std::string>();
+  // The same plausibility bounds as the MANO annotations of a capture (mano_problem).
+  ManoParams params;
+  std::copy(frame.pose.begin(), frame.pose.end(), params.pose.begin());
+  std::copy(frame.shape.begin(), frame.shape.end(), params.shape.begin());
+  std::copy(frame.trans.begin(), frame.trans.end(), params.trans.begin());
+  const std::string implausible = mano_problem(params);
+  if (!implausible.empty()) throw Error(where + ": " + implausible);
   return frame;
 }
 

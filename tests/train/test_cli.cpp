@@ -243,3 +243,35 @@ TEST_CASE("cli: handscs-eval refuses damaged ground truth and --set model.*") {
   CHECK(log_text().find("1 damaged JPEG(s) in the capture (first: " + damaged) != std::string::npos);
   CHECK_FALSE(std::filesystem::exists(run_dir + "_eval/summary.json"));
 }
+
+TEST_CASE("cli: user errors print their message without a stack trace, and name what is wrong") {
+  const auto dir = fresh_dir("cli_user_errors");
+  std::filesystem::create_directories(dir);
+  const std::string train = kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --threads 2 --set data.root=" +
+                            tiny_capture_dir();
+  // A scale that shrinks the images below the SSIM window: refused before step 1.
+  CHECK(run(train + " train.iterations=2 train.resolution_scale=0.05 --out " + dir + "/small") == 1);
+  CHECK(log_text().find("train.resolution_scale: 0.05 scales the 167x256 images") != std::string::npos);
+  CHECK(log_text().find("Exception raised from") == std::string::npos);
+  CHECK(log_text().find("frame #") == std::string::npos);
+
+  // novel_view asking for more cameras than the capture has: a warning with what is used.
+  REQUIRE(run(train + " train.iterations=2 data.split_rule=novel_view --out " + dir + "/views") == 0);
+  CHECK(log_text().find("data.novel_view_train_views = 10 and data.novel_view_test_views = 15 ask for 25 "
+                        "cameras; capture 0 has 4: using 2 training and 2 test cameras") != std::string::npos);
+
+  // A camera that faces away from the hand: every frame is background, so the render fails.
+  std::ofstream(dir + "/poses.json") << R"({"poses": [{"pose": [0,0,0, 0.3,0,0, 0.3,0,0, 0.3,0,0,
+      0,0,0,0,0,0,0,0,0, 0,0,0,0,0,0,0,0,0, 0,0,0,0,0,0,0,0,0, 0,0,0,0,0,0,0,0,0]}]})";
+  const std::string camera = R"({"K": [[300,0,128],[0,300,128],[0,0,1]], "R": [[1,0,0],[0,1,0],[0,0,1]], )";
+  std::ofstream(dir + "/front.json") << camera << R"("t": [0,0,0.5], "width": 256, "height": 256})";
+  std::ofstream(dir + "/away.json") << camera << R"("t": [0,0,-0.5], "width": 256, "height": 256})";
+  const std::string render = kBin + "/handscs-render --checkpoint " + dir + "/views --poses " + dir +
+                             "/poses.json --threads 2 --camera ";
+  CHECK(run(render + dir + "/front.json --out " + dir + "/front") == 0);
+  CHECK(run(render + dir + "/away.json --out " + dir + "/away") == 1);
+  CHECK(log_text().find("frame_0000: the hand of pose pose_0000 is not in view of " + dir + "/away.json") !=
+        std::string::npos);
+  CHECK(log_text().find("no frame shows the hand: in all 1 frames it is behind the camera or outside "
+                        "the image (" + dir + "/away.json)") != std::string::npos);
+}

@@ -42,3 +42,19 @@ TEST_CASE("pose source: wrong types, overflowing numbers and huge interpolations
         path + ": interpolate.steps: between 2 and 1000000, got 100000000");
   CHECK(error_of(dir, "") == dir + ": is a folder, not a JSON file");
 }
+
+TEST_CASE("pose source: poses beyond the MANO annotations' plausibility bounds are errors") {
+  const auto dir = handscs_test::fresh_dir("pose_bounds");
+  std::filesystem::create_directories(dir);
+  const auto path = dir + "/poses.json";
+  const std::string rest = "0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0";
+  const std::string pose = "[0,0,0, 30,0,0," + rest + "]";  // joint 1 turned by 30 rad
+  const std::string flat = "[0,0,0, 0,0,0," + rest + "]";
+  CHECK(error_of(path, "{\"poses\": [{\"pose\": " + flat + "}, {\"pose\": " + pose + "}]}") ==
+        path + ": poses[1]: pose[3..5] rotates joint 1 by 30 rad, more than 2 pi");
+  CHECK(error_of(path, "{\"poses\": [{\"pose\": " + flat + ", \"trans\": [0, 1e30, 0]}]}") ==
+        path + ": poses[0]: trans[1] = 1e+30 m is more than 10 m from the capture's origin");
+  CHECK(error_of(path, "{\"interpolate\": {\"from\": {\"pose\": " + flat + "}, \"to\": {\"pose\": " + flat +
+                           ", \"shape\": [0,0,0,0,0,0,0,0,0,40]}}}") ==
+        path + ": interpolate.to: shape[9] = 40 is beyond +-10 standard deviations: not a hand");
+}
