@@ -52,19 +52,26 @@ int32_t DescriptorTree::build(int32_t begin, int32_t end) {
   nodes_.push_back(Node{});
   nodes_[id].begin = begin;
   nodes_[id].end = end;
+  // The tight box of the node's points (every dimension): its distance to a query bounds the
+  // distance to every point inside from below.
+  boxes_.resize(boxes_.size() + 2 * dim_);
+  float* lo = boxes_.data() + static_cast<int64_t>(id) * 2 * dim_;
+  float* hi = lo + dim_;
+  std::fill_n(lo, dim_, std::numeric_limits<float>::infinity());
+  std::fill_n(hi, dim_, -std::numeric_limits<float>::infinity());
+  for (int32_t k = begin; k < end; ++k) {
+    const float* p = points_.data() + order_[k] * dim_;
+    for (int64_t d = 0; d < dim_; ++d) {
+      lo[d] = std::min(lo[d], p[d]);
+      hi[d] = std::max(hi[d], p[d]);
+    }
+  }
   if (end - begin <= kLeafSize) return id;
   // Split the dimension of widest spread at its median.
   int32_t best_dim = 0;
   float best_spread = -1;
-  for (int64_t d = 0; d < dim_; ++d) {
-    float lo = std::numeric_limits<float>::infinity(), hi = -lo;
-    for (int32_t k = begin; k < end; ++k) {
-      const float v = points_[order_[k] * dim_ + d];
-      lo = std::min(lo, v);
-      hi = std::max(hi, v);
-    }
-    if (hi - lo > best_spread) best_spread = hi - lo, best_dim = static_cast<int32_t>(d);
-  }
+  for (int64_t d = 0; d < dim_; ++d)
+    if (hi[d] - lo[d] > best_spread) best_spread = hi[d] - lo[d], best_dim = static_cast<int32_t>(d);
   if (best_spread <= 0) return id;  // all points equal: one leaf
   const int32_t mid = begin + (end - begin) / 2;
   const auto coordinate = [&](int64_t row) { return points_[row * dim_ + best_dim]; };
@@ -80,8 +87,20 @@ int32_t DescriptorTree::build(int32_t begin, int32_t end) {
   return id;
 }
 
-void DescriptorTree::search(const float* query, int32_t node_id, float reach,
-                            std::vector<float>& offsets, float& best, int32_t& best_row) const {
+float DescriptorTree::box_distance(const float* query, int32_t node_id) const {
+  const float* lo = boxes_.data() + static_cast<int64_t>(node_id) * 2 * dim_;
+  const float* hi = lo + dim_;
+  float dist = 0;
+#pragma omp simd reduction(+ : dist)
+  for (int64_t d = 0; d < dim_; ++d) {
+    const float gap = std::max(lo[d] - query[d], 0.f) + std::max(query[d] - hi[d], 0.f);
+    dist += gap * gap;
+  }
+  return dist;
+}
+
+void DescriptorTree::search(const float* query, int32_t node_id, float& best,
+                            int32_t& best_row) const {
   const Node& node = nodes_[node_id];
   if (node.split_dim < 0) {
     for (int32_t k = node.begin; k < node.end; ++k) {
@@ -93,19 +112,14 @@ void DescriptorTree::search(const float* query, int32_t node_id, float reach,
     }
     return;
   }
-  const int32_t d = node.split_dim;
-  const float diff = query[d] - node.split;
-  const int32_t near = diff <= 0 ? node.left : node.right;
-  const int32_t far = diff <= 0 ? node.right : node.left;
-  search(query, near, reach, offsets, best, best_row);
-  // The far cell is at least this far: the box distance with dimension d's gap replaced.
-  const float old = offsets[d];
-  const float far_reach = reach - old * old + diff * diff;
-  if (far_reach < best) {
-    offsets[d] = diff;
-    search(query, far, far_reach, offsets, best, best_row);
-    offsets[d] = old;
-  }
+  // The nearer box first; the other only if it can still hold a closer point.
+  const float left = box_distance(query, node.left);
+  const float right = box_distance(query, node.right);
+  const bool left_first = left <= right;
+  const int32_t first = left_first ? node.left : node.right;
+  const int32_t second = left_first ? node.right : node.left;
+  if ((left_first ? left : right) < best) search(query, first, best, best_row);
+  if ((left_first ? right : left) < best) search(query, second, best, best_row);
 }
 
 torch::Tensor DescriptorTree::nearest(const torch::Tensor& query, const torch::Tensor& guess) const {
@@ -132,24 +146,20 @@ torch::Tensor DescriptorTree::nearest(const torch::Tensor& query, const torch::T
   if (gp)
     std::sort(queue.begin(), queue.end(),
               [&](int64_t a, int64_t b) { return slot_[gp[a]] < slot_[gp[b]]; });
-#pragma omp parallel
-  {
-    std::vector<float> offsets(dim_, 0.f);
-    #pragma omp for schedule(dynamic, 64)
-    for (int64_t k = 0; k < n; ++k) {
-      const int64_t i = queue[k];
-      const float* row = qp + i * dim_;
-      float best = std::numeric_limits<float>::infinity();
-      int32_t best_row = -1;
-      if (gp) {
-        best_row = static_cast<int32_t>(slot_[gp[i]]);
-        const float* p = points_.data() + static_cast<int64_t>(best_row) * dim_;
-        best = 0;
-        for (int64_t d = 0; d < dim_; ++d) best += (row[d] - p[d]) * (row[d] - p[d]);
-      }
-      search(row, 0, 0.f, offsets, best, best_row);
-      op[i] = order_[best_row];
+#pragma omp parallel for schedule(dynamic, 64)
+  for (int64_t k = 0; k < n; ++k) {
+    const int64_t i = queue[k];
+    const float* row = qp + i * dim_;
+    float best = std::numeric_limits<float>::infinity();
+    int32_t best_row = -1;
+    if (gp) {
+      best_row = static_cast<int32_t>(slot_[gp[i]]);
+      const float* p = points_.data() + static_cast<int64_t>(best_row) * dim_;
+      best = 0;
+      for (int64_t d = 0; d < dim_; ++d) best += (row[d] - p[d]) * (row[d] - p[d]);
     }
+    search(row, 0, best, best_row);
+    op[i] = order_[best_row];
   }
   return out;
 }

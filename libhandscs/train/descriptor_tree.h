@@ -1,20 +1,22 @@
 // Exact nearest neighbours in descriptor space for L_con's correspondences pi(i) = argmin_j
-// |P_t^i - P_t-1^j|^2 at any Gaussian count: a k-d tree over the previous step's descriptors,
-// searched with the incremental distance-to-cell bound of Arya and Mount (exact: a cell is skipped
-// only when every point in it is provably farther than the best found).
+// |P_t^i - P_t-1^j|^2 at any Gaussian count: a k-d tree over the previous step's descriptors.
+// Every node keeps the tight box of its points in every dimension; a node is entered only when
+// the query's distance to its box is below the best distance found (exact: the box distance bounds
+// the distance to each point inside from below), the nearer child first.
 //
 // The descriptors of one pose lie on a 3-D surface inside R^|P| (they are functions of a point of
 // the hand), so the tree prunes as in low dimension although |P| is 20-50. Points are stored in
 // their principal axes (a rotation: distances unchanged), so that the splits follow the few
-// directions the surface spreads in: half the distance evaluations of splitting raw coordinates on
-// real_demo descriptors at 10k. A starting guess per row (the same Gaussian's row of the previous
-// step, when rows persist) gives a first bound and orders the queries by tree position, so that
-// consecutive queries visit the same leaves.
+// directions the surface spreads in. A starting guess per row (the same Gaussian's row of the
+// previous step, when rows persist) gives a first bound and orders the queries by tree position,
+// so that consecutive queries visit the same leaves.
 //
-// What limits it: another pose's descriptors lie off this surface, typically 7-30 times the
-// spacing of its points away (real_demo, 10k Gaussians, random training pose pairs), and the
-// search must rule out every cell within that distance: 250 distance evaluations per query for
-// similar poses, 3,000 for dissimilar ones (docs/BENCHMARKS.md, "Correspondence search").
+// Why boxes: another pose's descriptors lie off this surface, typically 7-30 times the spacing of
+// its points away (real_demo, 10k Gaussians, random training pose pairs). A bound built from the
+// split planes alone (Arya and Mount's incremental distance) sees only the few directions the tree
+// splits in, so it had to visit every cell within that distance; the box bound also counts the
+// query's offset from the surface in the thin directions, and prunes those cells: 3.2x faster
+// at 10k (123 -> 36 ms median per search; docs/BENCHMARKS.md, "Correspondence search").
 #pragma once
 
 #include <cstdint>
@@ -48,8 +50,9 @@ class DescriptorTree {
 
   int32_t build(int32_t begin, int32_t end);
   torch::Tensor to_axes(const torch::Tensor& rows) const;  // [N, D] -> float32 [N, D]
-  void search(const float* query, int32_t node, float reach, std::vector<float>& offsets,
-              float& best, int32_t& best_row) const;
+  // Squared distance from `query` to the tight box of a node's points (0 inside it).
+  float box_distance(const float* query, int32_t node) const;
+  void search(const float* query, int32_t node, float& best, int32_t& best_row) const;
 
   int64_t dim_ = 0;
   torch::Tensor centre_;        // [D] float64: mean of the reference rows
@@ -58,6 +61,7 @@ class DescriptorTree {
   std::vector<int64_t> order_;  // tree order -> reference row
   std::vector<int64_t> slot_;   // reference row -> tree order
   std::vector<Node> nodes_;
+  std::vector<float> boxes_;    // per node: lowest then highest coordinate of its points [2 D]
 };
 
 }  // namespace handscs

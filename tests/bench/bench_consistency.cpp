@@ -20,6 +20,7 @@
 #include <sstream>
 
 #include "core/config.h"
+#include "core/logging.h"
 #include "core/threads.h"
 #include "data/capture.h"
 #include "train/avatar_state_io.h"
@@ -90,6 +91,7 @@ double median(std::vector<double> v) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  handscs::log_to_stderr();  // stdout carries the JSON only
   CLI::App app{"Inter-pose correspondence: candidate search against the exact argmin (JSON)"};
   std::string checkpoint, capture_root, ks = "8,16,32,64,128", counts;
   int pairs = 20, threads = 2;

@@ -20,6 +20,7 @@
 #include <random>
 
 #include "core/cli.h"
+#include "core/logging.h"
 #include "data/capture.h"
 #include "synth/capture.h"
 
@@ -47,6 +48,7 @@ double median(std::vector<double> values) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  handscs::log_to_stderr();  // stdout carries the JSON only
   CLI::App app{"handscs-bench-data: capture reading speed and memory"};
   handscs::CommonOptions common;
   handscs::add_common_options(app, common, false);

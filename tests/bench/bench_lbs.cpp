@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/cli.h"
+#include "core/logging.h"
 #include "hand/lbs.h"
 #include "hand/procedural_hand.h"
 
@@ -42,6 +43,7 @@ nlohmann::json time_it(F&& f, int warmup, int repeats) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  handscs::log_to_stderr();  // stdout carries the JSON only
   CLI::App app{"handscs-bench-lbs: LBS forward / backward timings (JSON on stdout)"};
   handscs::CommonOptions common;
   common.log_level = "warn";

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <torch/csrc/autograd/autograd.h>
 
+#include "core/logging.h"
 #include "core/threads.h"
 #include "metrics/image_scorer.h"
 #include "metrics/image_tensor.h"
@@ -76,6 +77,7 @@ handscs::Lpips make_lpips(const std::string& path) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  handscs::log_to_stderr();  // stdout carries the JSON only
   CLI::App app{"handscs-bench-metrics"};
   std::string weights;
   int repeats = 9;

@@ -14,6 +14,7 @@
 #include <torch/torch.h>
 
 #include "avatar/avatar.h"
+#include "core/logging.h"
 #include "core/threads.h"
 #include "hand/lbs.h"
 #include "scs/descriptor.h"
@@ -57,6 +58,7 @@ handscs::Camera capture_camera(int width, int height) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  handscs::log_to_stderr();  // stdout carries the JSON only
   CLI::App app{"Avatar forward/backward benchmark (prints JSON)"};
   std::string counts = "778,5000,10000,20000";
   int width = 512, height = 334, threads = 2, repeats = 10;

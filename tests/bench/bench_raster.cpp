@@ -18,11 +18,12 @@
 #include <nlohmann/json.hpp>
 #include <torch/torch.h>
 
+#include "core/logging.h"
 #include "core/threads.h"
 #include "hand/lbs.h"
 #include "hand/rig.h"
-#include "render/rasterize.h"
 #include "render/raster_work.h"
+#include "render/rasterize.h"
 #include "render/simd_level.h"
 
 namespace {
@@ -168,6 +169,7 @@ double median(std::vector<double> v) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  handscs::log_to_stderr();  // stdout carries the JSON only
   CLI::App app{"handscs-bench-raster: rasterizer forward/backward timing"};
   int gaussians = 10000, width = 512, height = 334, threads = 2, repeats = 20, warmup = 3;
   uint64_t seed = 1;

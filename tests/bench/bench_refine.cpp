@@ -16,6 +16,7 @@
 #include <sstream>
 
 #include "core/config.h"
+#include "core/logging.h"
 #include "data/capture.h"
 #include "hand/lbs.h"
 #include "synth/capture.h"
@@ -59,6 +60,7 @@ std::vector<double> joint_angles(const torch::Tensor& a, const torch::Tensor& b)
 }  // namespace
 
 int main(int argc, char** argv) {
+  handscs::log_to_stderr();  // stdout carries the JSON only
   CLI::App app{"Training-pose refinement against the rendered poses of a synthetic capture (JSON)"};
   std::string run, preset = "real_demo";
   app.add_option("--run", run, "run folder trained with train.pose_refine.enabled")->required();
