@@ -8,6 +8,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/jpeg_entropy.h"
 
 namespace handscs {
 namespace {
@@ -62,7 +63,7 @@ std::string jpeg_structure_problem(const std::string& file_bytes) {
     const uint8_t marker = bytes[pos++];
     if (marker == kEoi) {
       if (!seen_scan) return "corrupt: end-of-image marker before any image data";
-      return "";
+      return jpeg_entropy_problem(file_bytes);  // the structure is whole: now the coded data
     }
     if (marker == kTem || (marker >= kRst0 && marker <= kRst7))
       return "corrupt: marker " + hex(marker) + " outside the image data at byte " + std::to_string(pos - 2);

@@ -8,9 +8,12 @@
 namespace handscs {
 
 // "" when the bytes are a structurally whole JPEG: SOI, well-formed segments, entropy-coded data
-// holding only stuffed bytes and restart markers in sequence, and an EOI marker. Otherwise what is
-// wrong, e.g. "truncated: the image data ends without an end-of-image marker", "not a JPEG file
-// (PNG data)". A flip inside the entropy-coded data that keeps this structure is not detected.
+// holding only stuffed bytes and restart markers in sequence, and an EOI marker, and (for
+// sequential Huffman JPEGs) coded data that decodes to exactly the frame's blocks
+// (jpeg_entropy.h). Otherwise what is wrong, e.g. "truncated: the image data ends without an
+// end-of-image marker", "not a JPEG file (PNG data)". A flip that changes a coefficient's value
+// bits, or that the Huffman code recovers from within the scan, is not detected (it changes a few
+// 8x8 blocks, not the rest of the image).
 std::string jpeg_structure_problem(const std::string& file_bytes);
 
 // True for the .jpg / .jpeg extensions (any case): the files jpeg_structure_problem applies to.

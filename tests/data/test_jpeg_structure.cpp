@@ -1,7 +1,8 @@
 // The JPEG structure check against files written by libjpeg (through OpenCV): whole baseline,
 // progressive and restart-interval files pass; every truncation, a PNG or BMP renamed, an invalid
-// marker or a restart marker out of order is named; and a damaged JPEG in a capture is skipped with
-// its path and reason.
+// marker or a restart marker out of order is named; a damaged JPEG in a capture is skipped with
+// its path and reason; and the walk of the coded data finds every cut closed with an end-of-image
+// marker (libjpeg's grey tail) and names flips that put the Huffman decoder out of step.
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -109,4 +110,73 @@ TEST_CASE("jpeg structure: a truncated JPEG in a capture is skipped with its rea
   CHECK(capture.skipped()[0].path == path);
   CHECK(capture.skipped()[0].reason == "damaged JPEG");
   CHECK(capture.frames().size() == 47);
+}
+
+TEST_CASE("jpeg entropy: image data cut anywhere and closed with an end-of-image marker is found") {
+  // The grey-tail case the structure check cannot see: libjpeg decodes such a file, filling the
+  // missing blocks with grey, and only prints "Premature end of JPEG file" without a path.
+  const cv::Mat grey = [] {
+    cv::Mat g;
+    cv::cvtColor(test_image(), g, cv::COLOR_BGR2GRAY);
+    return g;
+  }();
+  std::vector<uint8_t> grey_bytes;
+  REQUIRE(cv::imencode(".jpg", grey, grey_bytes));
+  const std::vector<std::string> files = {encode(".jpg"), encode(".jpg", {cv::IMWRITE_JPEG_QUALITY, 100}),
+                                          encode(".jpg", {cv::IMWRITE_JPEG_RST_INTERVAL, 2}),
+                                          encode(".jpg", {cv::IMWRITE_JPEG_PROGRESSIVE, 1}),
+                                          std::string(grey_bytes.begin(), grey_bytes.end()),
+                                          // an InterHand2.6M image (progressive, 10 scans)
+                                          read_file(data_test::samples_dir() + "/image69148.jpg")};
+  for (const auto& jpeg : files) {
+    REQUIRE(jpeg_structure_problem(jpeg).empty());
+    const size_t start = scan_start(jpeg);
+    const size_t end = jpeg.rfind("\xFF\xD9");
+    size_t found = 0, cuts = 0;
+    for (size_t cut = start; cut < end; ++cut) {
+      // Keep the structure whole: never cut after a 0xFF (a stuffed byte or a marker follows).
+      // Cuts inside a later scan's header or a table between scans are the structure check's.
+      if (static_cast<uint8_t>(jpeg[cut - 1]) == 0xFF) continue;
+      // A progressive file cut just before a marker is a whole file with fewer scans (legal).
+      if (static_cast<uint8_t>(jpeg[cut]) == 0xFF && static_cast<uint8_t>(jpeg[cut + 1]) != 0x00) continue;
+      if (!jpeg_structure_problem(jpeg.substr(0, cut) + "\xFF\xD9").empty()) ++found;
+      ++cuts;
+    }
+    INFO("cuts " << cuts);
+    CHECK(found == cuts);
+  }
+  const std::string jpeg = encode(".jpg");
+  const std::string half = jpeg.substr(0, (scan_start(jpeg) + jpeg.size()) / 2) + "\xFF\xD9";
+  std::vector<uint8_t> half_bytes(half.begin(), half.end());
+  CHECK_FALSE(cv::imdecode(half_bytes, cv::IMREAD_COLOR).empty());  // libjpeg takes it
+  const std::string problem = jpeg_structure_problem(half);
+  INFO(problem);
+  CHECK(problem.rfind("truncated image data: it ends at block ", 0) == 0);
+  // 96x64 at libjpeg's default 4:2:0 sampling: 6 x 4 MCUs of 4 Y, 1 Cb and 1 Cr blocks.
+  CHECK(problem.find(" of 144 (byte ") != std::string::npos);
+}
+
+TEST_CASE("jpeg entropy: flipped bits that put the Huffman decoder out of step are named") {
+  const std::string jpeg = encode(".jpg");
+  const size_t start = scan_start(jpeg);
+  int named = 0;
+  for (size_t at = start; at < start + 64; ++at)
+    for (int bit = 0; bit < 8; ++bit) {
+      std::string flipped = jpeg;
+      flipped[at] = static_cast<char>(static_cast<uint8_t>(flipped[at]) ^ (1 << bit));
+      // Only flips that keep the marker structure (no new or broken 0xFF) test the walker.
+      if (static_cast<uint8_t>(flipped[at]) == 0xFF || static_cast<uint8_t>(jpeg[at]) == 0xFF ||
+          static_cast<uint8_t>(jpeg[at - 1]) == 0xFF)
+        continue;
+      const std::string problem = jpeg_structure_problem(flipped);
+      if (problem.empty()) continue;
+      ++named;
+      INFO(problem);
+      CHECK((problem.rfind("corrupt image data: ", 0) == 0 || problem.rfind("truncated image data: ", 0) == 0));
+      if (named == 1) {  // libjpeg decodes such a file regardless (printing a warning)
+        std::vector<uint8_t> bytes(flipped.begin(), flipped.end());
+        CHECK_FALSE(cv::imdecode(bytes, cv::IMREAD_COLOR).empty());
+      }
+    }
+  CHECK(named > 0);
 }
