@@ -40,6 +40,28 @@ void read_numbers(const json& parent, const char* key, std::array<float, N>& out
   }
 }
 
+// "where.key", or "file: key" for a top-level member (where = "file:").
+std::string key_path(const std::string& where, const char* key) {
+  return where + (!where.empty() && where.back() == ':' ? " " : ".") + key;
+}
+
+// Optional scalar members, checked: a value of another type is an error naming its key path
+// (nlohmann's own type_error names neither file nor key).
+int64_t integer_or(const json& parent, const char* key, int64_t fallback, const std::string& where) {
+  auto it = parent.find(key);
+  if (it == parent.end()) return fallback;
+  if (!it->is_number_integer())
+    throw Error(key_path(where, key) + ": expected an integer, got " + json_type_name(*it));
+  return it->get<int64_t>();
+}
+std::string string_or(const json& parent, const char* key, const std::string& fallback,
+                      const std::string& where) {
+  auto it = parent.find(key);
+  if (it == parent.end()) return fallback;
+  if (!it->is_string()) throw Error(key_path(where, key) + ": expected a string, got " + json_type_name(*it));
+  return it->get<std::string>();
+}
+
 PoseFrame read_frame(const json& item, const std::string& where) {
   if (!item.is_object()) throw Error(where + ": expected object, got " + json_type_name(item));
   for (auto it = item.begin(); it != item.end(); ++it)
@@ -49,7 +71,7 @@ PoseFrame read_frame(const json& item, const std::string& where) {
   read_numbers(item, "pose", frame.pose, true, where);
   read_numbers(item, "shape", frame.shape, false, where);
   read_numbers(item, "trans", frame.trans, false, where);
-  if (item.contains("name")) frame.name = item["name"].get<std::string>();
+  frame.name = string_or(item, "name", "", where);
   // The same plausibility bounds as the MANO annotations of a capture (mano_problem).
   ManoParams params;
   std::copy(frame.pose.begin(), frame.pose.end(), params.pose.begin());
@@ -136,7 +158,7 @@ std::vector<PoseFrame> read_pose_source_json(const json& root, const std::string
       throw Error(where + ": needs \"from\" and \"to\" poses");
     const PoseFrame a = read_frame(spec["from"], where + ".from");
     const PoseFrame b = read_frame(spec["to"], where + ".to");
-    const int steps = spec.value("steps", 30);
+    const int64_t steps = integer_or(spec, "steps", 30, where);
     if (steps < 2 || steps > kMaxInterpolationSteps)
       throw Error(where + ".steps: between 2 and " + std::to_string(kMaxInterpolationSteps) +
                   ", got " + std::to_string(steps));
@@ -147,11 +169,11 @@ std::vector<PoseFrame> read_pose_source_json(const json& root, const std::string
   } else if (root.is_object() && root.contains("capture")) {
     CaptureConfig capture_config;
     config_from_json(root["capture"], path + ": capture", capture_config);
-    const std::string which = root.value("frames", "test");
+    const std::string which = string_or(root, "frames", "test", path + ":");
     if (which != "test" && which != "train" && which != "all")
       throw Error(path + ": frames: expected \"test\", \"train\" or \"all\", got \"" + which + "\"");
-    const std::string camera_id = root.value("camera", "");
-    const int64_t max_frames = root.value("max_frames", int64_t{0});
+    const std::string camera_id = string_or(root, "camera", "", path + ":");
+    const int64_t max_frames = integer_or(root, "max_frames", 0, path + ":");
     Capture capture = Capture::open(capture_config, "", "capture");
     const auto& source = which == "test" ? capture.test() : which == "train" ? capture.train()
                                                                              : capture.frames();

@@ -36,7 +36,12 @@ TEST_CASE("pose source: wrong types, overflowing numbers and huge interpolations
   const auto steps_type = error_of(path, "{\"interpolate\": {\"from\": {\"pose\": " + pose +
                                              "}, \"to\": {\"pose\": " + pose + "}, \"steps\": \"ten\"}}");
   INFO(steps_type);
-  CHECK(steps_type.rfind(path + ": [json.exception.type_error", 0) == 0);
+  CHECK(steps_type == path + ": interpolate.steps: expected an integer, got string");
+  CHECK(error_of(path, "{\"poses\": [{\"pose\": " + pose + ", \"name\": 5}]}") ==
+        path + ": poses[0].name: expected a string, got number");
+  CHECK(error_of(path, "{\"capture\": {}, \"frames\": 3}") == path + ": frames: expected a string, got number");
+  CHECK(error_of(path, "{\"capture\": {}, \"max_frames\": \"all\"}") ==
+        path + ": max_frames: expected an integer, got string");
   CHECK(error_of(path, "{\"interpolate\": {\"from\": {\"pose\": " + pose + "}, \"to\": {\"pose\": " + pose +
                            "}, \"steps\": 100000000}}") ==
         path + ": interpolate.steps: between 2 and 1000000, got 100000000");
