@@ -5,12 +5,20 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/jpeg_markers.h"
+
 namespace handscs {
 namespace {
 
-// Marker codes (ITU T.81 table B.1).
-constexpr uint8_t kSof0 = 0xC0, kSof1 = 0xC1, kSof2 = 0xC2, kDht = 0xC4, kSos = 0xDA, kDri = 0xDD,
-                  kEoi = 0xD9, kRst0 = 0xD0, kRst7 = 0xD7;
+using jpeg::kDht;
+using jpeg::kDri;
+using jpeg::kEoi;
+using jpeg::kRst0;
+using jpeg::kRst7;
+using jpeg::kSof0;
+using jpeg::kSof1;
+using jpeg::kSof2;
+using jpeg::kSos;
 
 // A Huffman table in the form of T.81 F.2.2.3: per code length, the first and largest code and
 // the index of the first value.
@@ -342,7 +350,7 @@ std::string jpeg_entropy_problem(const std::string& file_bytes) {
     const uint8_t* body = bytes + pos + 2;
     const size_t body_length = length - 2;
     pos += length;
-    if (marker >= 0xC0 && marker <= 0xCF && marker != kDht && marker != 0xC8 && marker != 0xCC) {
+    if (jpeg::is_frame_header(marker)) {
       // Huffman-coded sequential and progressive frames are walked; lossless and arithmetic
       // coding are not, nor a height given later by a DNL marker.
       walkable = marker == kSof0 || marker == kSof1 || marker == kSof2;

@@ -9,12 +9,17 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/jpeg_entropy.h"
+#include "core/jpeg_markers.h"
 
 namespace handscs {
 namespace {
 
-// Marker codes (ITU T.81 table B.1).
-constexpr uint8_t kSoi = 0xD8, kEoi = 0xD9, kSos = 0xDA, kRst0 = 0xD0, kRst7 = 0xD7, kTem = 0x01;
+using jpeg::kEoi;
+using jpeg::kRst0;
+using jpeg::kRst7;
+using jpeg::kSoi;
+using jpeg::kSos;
+using jpeg::kTem;
 
 std::string hex(uint8_t value) {
   char text[8];
@@ -73,7 +78,7 @@ std::string jpeg_structure_problem(const std::string& file_bytes) {
     const size_t length = (static_cast<size_t>(bytes[pos]) << 8) | bytes[pos + 1];
     if (length < 2) return "corrupt: segment " + hex(marker) + " has length " + std::to_string(length);
     if (pos + length > n) return "truncated: segment " + hex(marker) + " extends past the end of the file";
-    if (marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xCC) seen_frame = true;
+    if (jpeg::is_frame_header(marker)) seen_frame = true;
     pos += length;
     if (marker != kSos) continue;
     if (!seen_frame) return "corrupt: image data before the frame header";
