@@ -6,8 +6,10 @@ script, and never commit or redistribute the pickle or the rig file made from it
 
 Needs only python3 and numpy. The pickle is a Python-2 pickle holding chumpy and scipy objects; this
 script reads it with encoding='latin1' and replaces those classes (and any other unknown class) by
-inert stand-ins whose pickled state it reads directly: a chumpy Ch keeps its array in 'x', a scipy
-csc_matrix keeps data/indices/indptr/_shape. No code from the pickle is ever run.
+inert stand-ins whose pickled state it reads directly: a chumpy Ch keeps its array in 'x'; the chumpy
+expressions the released files use are evaluated from their state (Select: a.ravel()[idxs] reshaped
+to preferred_shape, as MANO_RIGHT.pkl's shapedirs is; Reshape; Transpose); a scipy csc_matrix keeps
+data/indices/indptr/_shape. No code from the pickle is ever run.
 
 The rig file format is docs/RIG_FORMAT.md. For the left hand the known shapedirs bug of the released
 MANO_LEFT.pkl is fixed (shapedirs[:, 0, :] *= -1; pass --no-left-shapedirs-fix for a fixed file).
@@ -55,7 +57,19 @@ class _Inert:
 
 
 class ChumpyObject(_Inert):
-    pass
+    """A chumpy object; chumpy_class names the expression (Ch, Select, ...) its state describes."""
+    chumpy_class = "chumpy.ch.Ch"
+
+
+_CHUMPY_CLASSES = {}
+
+
+def chumpy_stand_in(module, name):
+    """One inert stand-in class per chumpy class name, so evaluation knows which expression it is."""
+    full_name = f"{module}.{name}"
+    if full_name not in _CHUMPY_CLASSES:
+        _CHUMPY_CLASSES[full_name] = type(name, (ChumpyObject,), {"chumpy_class": full_name})
+    return _CHUMPY_CLASSES[full_name]
 
 
 class SparseMatrix(_Inert):
@@ -127,7 +141,7 @@ _ALLOWED = {
 class ManoUnpickler(pickle.Unpickler):
     def find_class(self, module, name):
         if module.startswith("chumpy"):
-            return ChumpyObject
+            return chumpy_stand_in(module, name)
         if module.startswith("scipy.sparse"):
             if name == "csc_matrix":
                 return CscMatrix
@@ -141,21 +155,71 @@ class ManoUnpickler(pickle.Unpickler):
         return _Inert  # any other class: kept inert
 
 
-def to_array(value, key):
-    """The numeric array behind a pickled value (ndarray, chumpy object or sparse matrix)."""
+# chumpy expressions nest (Select of a Ch); deeper than this is a cycle or not a MANO file.
+MAX_CHUMPY_DEPTH = 16
+
+
+def chumpy_value(value, key, depth):
+    """The array a chumpy object evaluates to, computed from its pickled state alone."""
+    name = value.chumpy_class.rsplit(".", 1)[-1]
+    state = value.state()
+    if not isinstance(state, dict):
+        raise ConversionError(f"{key}: chumpy {name} without a state dictionary")
+
+    def term(term_name):
+        if term_name not in state:
+            raise ConversionError(f"{key}: chumpy {name} without its '{term_name}'")
+        return state[term_name]
+
+    def operand():
+        return np.asarray(to_array(term("a"), f"{key}.a", depth + 1))
+
+    if name == "Ch":
+        return to_array(term("x"), key, depth + 1)
+    if name == "Select":
+        source = operand().ravel()
+        idxs = np.asarray(to_array(term("idxs"), f"{key}.idxs", depth + 1))
+        if idxs.dtype.kind not in "iu":
+            raise ConversionError(f"{key}: chumpy Select with non-integer idxs ({idxs.dtype})")
+        idxs = idxs.astype(np.int64).ravel()
+        if idxs.size and (idxs.min() < 0 or idxs.max() >= source.size):
+            raise ConversionError(
+                f"{key}: chumpy Select index out of range [0, {source.size}) of its 'a'")
+        result = source[idxs]
+        if "preferred_shape" in state:
+            shape = tuple(int(n) for n in state["preferred_shape"])
+            if int(np.prod(shape)) != result.size:
+                raise ConversionError(f"{key}: chumpy Select of {result.size} values cannot take "
+                                      f"its preferred_shape {list(shape)}")
+            result = result.reshape(shape)
+        return result
+    if name == "Reshape":
+        source = operand()
+        try:
+            return source.reshape(tuple(int(n) for n in term("newshape")))
+        except (TypeError, ValueError) as error:
+            raise ConversionError(f"{key}: chumpy Reshape: {error}") from None
+    if name == "Transpose":
+        axes = state.get("axes")
+        try:
+            return np.transpose(operand(), None if axes is None else [int(a) for a in axes])
+        except (TypeError, ValueError) as error:
+            raise ConversionError(f"{key}: chumpy Transpose: {error}") from None
+    raise ConversionError(f"{key}: chumpy expression {value.chumpy_class} is not supported "
+                          "(supported: Ch, Select, Reshape, Transpose); please report it with "
+                          "the file's origin")
+
+
+def to_array(value, key, depth=0):
+    """The numeric array behind a pickled value (ndarray, chumpy expression or sparse matrix)."""
+    if depth > MAX_CHUMPY_DEPTH:
+        raise ConversionError(f"{key}: chumpy expressions nested deeper than {MAX_CHUMPY_DEPTH}")
     if isinstance(value, np.ndarray):
         return value
     if isinstance(value, SparseMatrix):
         return value.toarray(key)
     if isinstance(value, ChumpyObject):
-        state = value.state()
-        if isinstance(state, dict):
-            if "x" in state:
-                return to_array(state["x"], key)
-            arrays = [v for v in state.values() if isinstance(v, np.ndarray)]
-            if len(arrays) == 1:
-                return arrays[0]
-        raise ConversionError(f"{key}: chumpy object without its array ('x')")
+        return chumpy_value(value, key, depth)
     if isinstance(value, (list, tuple, float, int)):
         return np.asarray(value)
     raise ConversionError(f"{key}: expected an array, got {type(value).__name__}")
@@ -189,7 +253,27 @@ def float_array(data, key, shape):
     return array
 
 
+MANO_KEYS = ["v_template", "f", "weights", "J_regressor", "posedirs", "shapedirs", "hands_mean"]
+
+
+def check_is_mano(data):
+    """A pickle of something else (another model, any dictionary) is named as such, not by the
+    first array that happens to have the wrong shape."""
+    if not any(key in data for key in MANO_KEYS):
+        held = ", ".join(sorted(data)[:12]) or "nothing"
+        raise ConversionError(f"not a MANO pickle: none of the keys {', '.join(MANO_KEYS)} "
+                              f"(it holds {held})")
+    if "kintree_table" in data:
+        table = np.asarray(to_array(data["kintree_table"], "kintree_table"))
+        joints = table.shape[1] if table.ndim == 2 else -1
+        if joints != len(MANO_PARENTS):
+            raise ConversionError(
+                f"kintree_table: {joints} joints, MANO has {len(MANO_PARENTS)} (SMPL has 24, "
+                "SMPL+H 52, SMPL-X 55): not a MANO hand model")
+
+
 def convert(data, hand, tips, left_fix, name):
+    check_is_mano(data)
     if "v_template" not in data:
         raise ConversionError("missing key 'v_template'")
     v_template = np.asarray(to_array(data["v_template"], "v_template"), dtype=np.float64)

@@ -3,15 +3,20 @@
 
 The pickles mimic MANO_RIGHT.pkl / MANO_LEFT.pkl as written by Python 2: protocol 2, every string
 (dictionary keys, numpy's raw array bytes) a Python-2 'str' (BINSTRING opcodes, read back with
-encoding='latin1'), shapedirs a chumpy.ch.Ch object holding its array in 'x', J_regressor a
-scipy.sparse.csc.csc_matrix (data/indices/indptr/_shape). Neither chumpy nor scipy is needed: the
-classes are stand-ins registered under those module names.
+encoding='latin1'), shapedirs as the released files hold it: a chumpy.reordering.Select whose state
+holds 'a' (a chumpy.ch.Ch with 20 shape components in 'x'), 'idxs' (flat indices of the first 10) and
+'preferred_shape' (V, 3, 10); J_regressor a scipy.sparse.csc.csc_matrix (state data, indices, indptr,
+_shape, maxprint); the released extra keys (J, hands_components, hands_coeffs, bs_style, bs_type).
+Neither chumpy nor scipy is needed: the classes are stand-ins registered under those module names.
+Also written: files the converter must refuse (a missing key, an unsupported chumpy expression, a
+body model with 24 joints, a dictionary that is no model).
 
 The reference is MANO's LBS written here in numpy (independent of the C++ code), for the converted
 rig (left hand: with the shapedirs fix), for a few poses/shapes/translations, with and without
 flat_hand_mean.
 
-Usage: fake_mano.py OUT_DIR   -> OUT_DIR/MANO_RIGHT.pkl, MANO_LEFT.pkl, broken.pkl, reference.json
+Usage: fake_mano.py OUT_DIR   -> OUT_DIR/MANO_RIGHT.pkl, MANO_LEFT.pkl, reference.json and the
+                                 refused broken_right, unsupported_right, body_right, other_right.pkl
 """
 
 import io
@@ -37,6 +42,25 @@ class Ch(object):
         self._itr = None
 
 
+class Select(object):
+    """chumpy.reordering.Select: value a.r.ravel()[idxs].reshape(preferred_shape)."""
+
+    def __init__(self, a, idxs, preferred_shape):
+        self.a = a
+        self.idxs = idxs
+        self.preferred_shape = preferred_shape
+        self._dirty_vars = set()
+        self._itr = None
+
+
+class add(object):
+    """chumpy.ch_ops.add: an expression the converter does not evaluate (it must say so)."""
+
+    def __init__(self, a, b):
+        self.a = a
+        self.b = b
+
+
 class csc_matrix(object):
     def __init__(self, dense):
         rows, cols = dense.shape
@@ -52,7 +76,6 @@ class csc_matrix(object):
         self.indptr = np.array(indptr, dtype=np.int32)
         self._shape = (rows, cols)
         self.maxprint = 50
-        self.format = "csc"
 
 
 def _register(module_name, cls):
@@ -66,6 +89,8 @@ def _register(module_name, cls):
 
 
 _register("chumpy.ch", Ch)
+_register("chumpy.reordering", Select)
+_register("chumpy.ch_ops", add)
 _register("scipy.sparse.csc", csc_matrix)
 
 
@@ -97,6 +122,17 @@ def py2_pickle(obj):
     return stream.getvalue()
 
 
+def released_shapedirs(components):
+    """shapedirs as MANO_RIGHT.pkl stores it: the first 10 of 20 shape components, selected."""
+    idxs = np.arange(components.size).reshape(components.shape)[:, :, :10].ravel()
+    return Select(Ch(components), idxs, (components.shape[0], 3, 10))
+
+
+def shapedirs_value(model):
+    """The shapedirs array the Select stands for, computed by slicing (not through idxs)."""
+    return model["shapedirs"].a.x[:, :, :10].copy()
+
+
 # --- the fake model ------------------------------------------------------------------------------
 def make_model(rng, left):
     v_template = rng.normal(scale=0.05, size=(V, 3))
@@ -117,7 +153,7 @@ def make_model(rng, left):
         "J_regressor": csc_matrix(regressor),
         "kintree_table": kintree,
         "posedirs": rng.normal(scale=1e-3, size=(V, 3, 135)),
-        "shapedirs": Ch(rng.normal(scale=1e-2, size=(V, 3, 10))),
+        "shapedirs": released_shapedirs(rng.normal(scale=1e-2, size=(V, 3, 20))),
         "hands_mean": rng.normal(scale=0.2, size=45),
         "hands_components": rng.normal(size=(45, 45)),
         "hands_coeffs": rng.normal(size=(10, 45)),
@@ -182,7 +218,7 @@ def main():
         model = make_model(rng, hand == "left")
         with open(os.path.join(out, f"MANO_{hand.upper()}.pkl"), "wb") as stream:
             stream.write(py2_pickle(model))
-        shapedirs = model["shapedirs"].x.copy()
+        shapedirs = shapedirs_value(model)
         if hand == "left":
             shapedirs[:, 0, :] *= -1  # the converter's left-hand fix
         for pose, beta, trans in zip(poses, betas, translations):
@@ -196,6 +232,16 @@ def main():
     del broken["J_regressor"]
     with open(os.path.join(out, "broken_right.pkl"), "wb") as stream:
         stream.write(py2_pickle(broken))
+    unsupported = make_model(rng, False)
+    unsupported["shapedirs"] = add(unsupported["shapedirs"], unsupported["shapedirs"])
+    with open(os.path.join(out, "unsupported_right.pkl"), "wb") as stream:
+        stream.write(py2_pickle(unsupported))
+    body = make_model(rng, False)
+    body["kintree_table"] = np.array([[4294967295] + list(range(23)), list(range(24))])
+    with open(os.path.join(out, "body_right.pkl"), "wb") as stream:
+        stream.write(py2_pickle(body))
+    with open(os.path.join(out, "other_right.pkl"), "wb") as stream:
+        stream.write(py2_pickle({"weights_of_a_network": np.zeros(3), "epoch": 7}))
     with open(os.path.join(out, "reference.json"), "w") as stream:
         json.dump(reference, stream)
 

@@ -1,7 +1,7 @@
-// scripts/convert_mano.py: fake Python-2 MANO pickles (tests/hand/fake_mano.py: chumpy/scipy class
-// names, latin1 strings) are converted, loaded as rigs, and their C++ LBS is compared with a numpy
-// reference computed from the pickles' own arrays. Needs python3 with numpy
-// (scripts/install-deps.sh).
+// scripts/convert_mano.py: fake Python-2 MANO pickles (tests/hand/fake_mano.py: the released files'
+// structure, shapedirs a chumpy Select, J_regressor a scipy csc_matrix, latin1 strings) are
+// converted, loaded as rigs, and their C++ LBS is compared with a numpy reference computed from the
+// pickles' own arrays. Needs python3 with numpy (scripts/install-deps.sh).
 #include <ATen/ATen.h>
 
 #include <cstdlib>
@@ -127,6 +127,31 @@ TEST_CASE("convert_mano.py: bad input is reported with the file and the key, and
               dir);
   CHECK(r.status != 0);
   CHECK(r.output == "convert_mano.py: " + dir + "/broken_right.pkl: missing key 'J_regressor'\n");
+  CHECK_FALSE(std::filesystem::exists(dir + "/out.json"));
+
+  // The released files' shapedirs is a chumpy Select; other chumpy expressions are named, not
+  // guessed at (the converter once took the Select's only array, its indices).
+  r = run(script + "'" + dir + "/unsupported_right.pkl' '" + dir +
+              "/out.json' --tips 3,11,19,27,35",
+          dir);
+  CHECK(r.status != 0);
+  CHECK(r.output == "convert_mano.py: " + dir +
+                        "/unsupported_right.pkl: shapedirs: chumpy expression chumpy.ch_ops.add "
+                        "is not supported (supported: Ch, Select, Reshape, Transpose); please "
+                        "report it with the file's origin\n");
+
+  r = run(script + "'" + dir + "/body_right.pkl' '" + dir + "/out.json' --tips 3,11,19,27,35", dir);
+  CHECK(r.status != 0);
+  CHECK(r.output == "convert_mano.py: " + dir +
+                        "/body_right.pkl: kintree_table: 24 joints, MANO has 16 (SMPL has 24, "
+                        "SMPL+H 52, SMPL-X 55): not a MANO hand model\n");
+
+  r = run(script + "'" + dir + "/other_right.pkl' '" + dir + "/out.json'", dir);
+  CHECK(r.status != 0);
+  CHECK(r.output == "convert_mano.py: " + dir +
+                        "/other_right.pkl: not a MANO pickle: none of the keys v_template, f, "
+                        "weights, J_regressor, posedirs, shapedirs, hands_mean (it holds epoch, "
+                        "weights_of_a_network)\n");
   CHECK_FALSE(std::filesystem::exists(dir + "/out.json"));
 
   r = run(script + "'" + dir + "/MANO_RIGHT.pkl' '" + dir + "/out.json'", dir);
