@@ -14,6 +14,14 @@ inline std::string join(const std::vector<std::string>& items, const std::string
   return out;
 }
 
+// A list for messages: "a, b, c", the first max_items only when longer ("a, b, ... (40 in all)"),
+// so an error naming what a release holds stays one readable line.
+inline std::string list_text(const std::vector<std::string>& items, size_t max_items = 12) {
+  if (items.size() <= max_items) return join(items, ", ");
+  const std::vector<std::string> head(items.begin(), items.begin() + max_items);
+  return join(head, ", ") + ", ... (" + std::to_string(items.size()) + " in all)";
+}
+
 // A number for messages: up to 6 significant digits, exponent form when large or small
 // (1e+30, 0.066, 1e-30), as a user would type it.
 inline std::string number_text(double x) {

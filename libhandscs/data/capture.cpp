@@ -206,18 +206,21 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   ImageFilter filter;
   filter.capture = c.capture;
   filter.sequences.insert(c.sequences.begin(), c.sequences.end());
-  const std::vector<InterHandImage> images = read_interhand_images(layout.data_json, filter);
-  if (images.empty())
-    throw Error(layout.data_json + ": no images of capture " + std::to_string(c.capture) +
-                (c.sequences.empty() ? "" : " in sequences " + join(c.sequences, ", ")));
-  {
-    std::set<std::string> sequences_seen;
-    for (const auto& image : images) sequences_seen.insert(image.seq_name);
-    for (const auto& seq : c.sequences)
-      if (!sequences_seen.count(seq))
-        throw Error(key("sequences") + ": sequence \"" + seq + "\" has no images in capture " +
-                    std::to_string(c.capture) + " of " + layout.data_json);
+  ImageCatalogue catalogue;
+  const std::vector<InterHandImage> images =
+      read_interhand_images(layout.data_json, filter, &catalogue);
+  if (!catalogue.captures.count(c.capture)) {
+    std::vector<std::string> present;
+    for (int capture : catalogue.captures) present.push_back(std::to_string(capture));
+    throw Error(layout.data_json + ": no images of capture " + std::to_string(c.capture) + " (" +
+                key("capture") + "); the file holds " +
+                (present.empty() ? std::string("no images") : "captures " + list_text(present)));
   }
+  for (const auto& seq : c.sequences)
+    if (!catalogue.sequences.count(seq))
+      throw Error(key("sequences") + ": sequence \"" + seq + "\" has no images in capture " +
+                  std::to_string(c.capture) + " of " + layout.data_json + "; it has " +
+                  list_text({catalogue.sequences.begin(), catalogue.sequences.end()}));
   const auto cameras = read_interhand_cameras(layout.camera_json, c.capture);
   const auto joints = read_interhand_joints(layout.joint_3d_json, c.capture);
   const auto mano = read_interhand_mano(layout.mano_json, c.capture);
@@ -327,7 +330,7 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   if ((rig.handedness == Handedness::right) != right)
     throw Error(key("rig") + ": rig \"" + c.rig + "\" is a " +
                 (rig.handedness == Handedness::right ? "right" : "left") +
-                " hand but capture.hand is " + c.hand);
+                " hand but " + key("hand") + " is " + c.hand);
   const std::vector<std::vector<float>> posed = pose_rig(rig, pose_params, c.flat_hand_mean);
   impl->num_vertices = rig.num_vertices();
   {

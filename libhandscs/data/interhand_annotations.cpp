@@ -63,7 +63,8 @@ bool is_contained_relative_path(const std::string& file_name) {
 }  // namespace
 
 std::vector<InterHandImage> read_interhand_images(const std::string& path,
-                                                  const ImageFilter& filter) {
+                                                  const ImageFilter& filter,
+                                                  ImageCatalogue* catalogue) {
   std::vector<InterHandImage> images;
   std::unordered_map<int64_t, ImageAnnotation> annotations;
   std::unordered_set<int64_t> image_ids;
@@ -75,7 +76,9 @@ std::vector<InterHandImage> read_interhand_images(const std::string& path,
     if (element.top == "images") {
       const int capture = static_cast<int>(item.at("capture").integer());
       const std::string seq = item.at("seq_name").string();
+      if (catalogue) catalogue->captures.insert(capture);
       if (filter.capture >= 0 && capture != filter.capture) return;
+      if (catalogue) catalogue->sequences.insert(seq);
       if (!filter.sequences.empty() && !filter.sequences.count(seq)) return;
       InterHandImage image;
       image.id = item.at("id").integer();

@@ -66,10 +66,18 @@ struct ImageFilter {
   std::set<std::string> sequences;
 };
 
+// What data.json holds besides the filtered images, so that an empty selection can say what there
+// is: every capture number, and the sequences of the filter's capture.
+struct ImageCatalogue {
+  std::set<int> captures;
+  std::set<std::string> sequences;
+};
+
 // data.json: images (filtered) merged with their annotations, in file order. Every kept image must
-// have an annotation entry.
+// have an annotation entry. `catalogue`, when given, receives what the file holds.
 std::vector<InterHandImage> read_interhand_images(const std::string& path,
-                                                  const ImageFilter& filter);
+                                                  const ImageFilter& filter,
+                                                  ImageCatalogue* catalogue = nullptr);
 
 // camera.json, one capture: camera id -> camera. The capture must be present.
 std::map<std::string, InterHandCamera> read_interhand_cameras(const std::string& path, int capture);

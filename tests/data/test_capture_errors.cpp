@@ -176,11 +176,13 @@ TEST_CASE("capture errors: bad configuration values name the key") {
   config = data_test::tiny_config(root);
   config.sequences = {"9999_nothing"};
   CHECK(error_of([&] { Capture::open(config); }) ==
-        data + ": no images of capture 0 in sequences 9999_nothing");
+        "data.sequences: sequence \"9999_nothing\" has no images in capture 0 of " + data +
+            "; it has 0000_synth_rom");
 
   config = data_test::tiny_config(root);
   config.capture = 5;
-  CHECK(error_of([&] { Capture::open(config); }) == data + ": no images of capture 5");
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        data + ": no images of capture 5 (data.capture); the file holds captures 0");
 
   config = data_test::tiny_config(root);
   config.hand = "left";  // the tiny capture annotates only the right hand

@@ -1,0 +1,21 @@
+// core/text.h: lists and numbers as messages print them.
+#include <catch2/catch.hpp>
+
+#include "core/text.h"
+
+using handscs::list_text;
+using handscs::number_text;
+
+TEST_CASE("text: lists are joined, long ones cut after max_items with the total") {
+  CHECK(list_text({}) == "");
+  CHECK(list_text({"0"}) == "0");
+  CHECK(list_text({"a", "b", "c"}) == "a, b, c");
+  CHECK(list_text({"a", "b", "c"}, 3) == "a, b, c");
+  CHECK(list_text({"a", "b", "c", "d"}, 2) == "a, b, ... (4 in all)");
+}
+
+TEST_CASE("text: numbers in the form a user types them") {
+  CHECK(number_text(1e30) == "1e+30");
+  CHECK(number_text(0.066) == "0.066");
+  CHECK(number_text(30) == "30");
+}
