@@ -2,8 +2,10 @@
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <cstdio>
 
 #include "core/cli.h"
+#include "core/config.h"
 #include "synth/capture.h"
 
 int main(int argc, char** argv) {
@@ -25,6 +27,15 @@ int main(int argc, char** argv) {
       ->required();
   app.add_option("--seed", seed, "seed of the motion, cameras, shape and noise")
       ->capture_default_str();
+  // A callback so that it answers before --out is required (like --help).
+  app.add_flag_callback(
+      "--print-docs",
+      [] {
+        handscs::SynthConfig defaults = handscs::synth_preset("tiny");
+        std::printf("%s", handscs::config_markdown(defaults).c_str());
+        throw CLI::Success();
+      },
+      "print every --set key (defaults of the tiny preset) as a Markdown table and exit");
   CLI11_PARSE(app, argc, argv);
   try {
     handscs::start_up(common, "handscs-synth");

@@ -39,6 +39,14 @@ TEST_CASE("synth: presets and unknown names") {
   CHECK(back.preset == "bench");
 }
 
+TEST_CASE("synth: docs/CONFIG.md documents every handscs-synth key") {
+  SynthConfig defaults = synth_preset("tiny");
+  const std::string doc = read_file(std::string(HANDSCS_SOURCE_DIR) + "/docs/CONFIG.md");
+  // Regenerate the table with: build/bin/handscs-synth --print-docs
+  CHECK(doc.find("## handscs-synth\n") != std::string::npos);
+  CHECK(doc.find(config_markdown(defaults)) != std::string::npos);
+}
+
 TEST_CASE("synth: output is a function of the seed, not of the thread count") {
   SynthConfig config = synth_preset("tiny");
   config.num_frames = 4;
