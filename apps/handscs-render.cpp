@@ -106,6 +106,7 @@ struct AvatarMode {
   std::string video;
   double video_fps = 30;
   bool export_ply = false;
+  int ply_sh_degree = 0;
 };
 
 void add_avatar_mode(CLI::App& app, AvatarMode& mode) {
@@ -122,6 +123,10 @@ void add_avatar_mode(CLI::App& app, AvatarMode& mode) {
   group->add_option("--video", mode.video, "also write the frames as an MP4 video");
   group->add_option("--fps", mode.video_fps, "frame rate of the video (default 30)");
   group->add_flag("--export-ply", mode.export_ply, "also write each frame's posed Gaussians as a 3DGS PLY");
+  group->add_option("--ply-sh-degree", mode.ply_sh_degree,
+                    "SH degree the PLY declares (default 0: f_dc only; 3 adds 45 zero f_rest, which "
+                    "the original 3DGS code's load_ply expects; the picture is the same)")
+      ->check(CLI::Range(0, handscs::kMaxPlyShDegree));
 }
 
 void run_avatar_mode(const AvatarMode& mode, const PlyMode& shared) {
@@ -134,6 +139,7 @@ void run_avatar_mode(const AvatarMode& mode, const PlyMode& shared) {
   options.video = mode.video;
   options.video_fps = mode.video_fps;
   options.export_ply = mode.export_ply;
+  options.ply_sh_degree = mode.ply_sh_degree;
   for (float c : shared.background)
     handscs::require(c >= 0 && c <= 1, "--background: values must be in [0, 1]");
   options.background = {shared.background[0], shared.background[1], shared.background[2]};
@@ -161,6 +167,7 @@ void check_mode_options(const PlyMode& ply, const AvatarMode& avatar) {
   if (!avatar.video.empty()) misplaced.push_back("--video");
   if (avatar.video_fps != defaults.video_fps) misplaced.push_back("--fps");
   if (avatar.export_ply) misplaced.push_back("--export-ply");
+  if (avatar.ply_sh_degree != defaults.ply_sh_degree) misplaced.push_back("--ply-sh-degree");
   handscs::require(misplaced.empty(), handscs::join(misplaced, ", ") +
                                           ": avatar-mode option(s), used only with --checkpoint");
 }

@@ -19,6 +19,7 @@
 #include "hand/lbs.h"
 #include "synth/fit_error.h"
 #include "synth/gestures.h"
+#include "synth/mirror.h"
 #include "synth/regions.h"
 #include "synth/shadows.h"
 
@@ -246,6 +247,7 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
   const fs::path annotations_dir = root / "annotations" / c.split;
   const fs::path regions_dir = root / "regions" / c.split;
   const bool regions = c.effects.region_masks;
+  const bool left = c.hand == "left";  // written as the mirror image of the right hand (mirror.h)
   ensure_directory(annotations_dir.string());
   for (const auto& frame : scene.frames)
     for (const auto& camera : scene.cameras) {
@@ -267,7 +269,11 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
   for (int64_t i = 0; i < num_images; ++i) {
     const int frame = static_cast<int>(i / num_cameras), camera = static_cast<int>(i % num_cameras);
     try {
-      const SynthView view = render_synth_frame(scene, frame, camera);
+      SynthView view = render_synth_frame(scene, frame, camera);
+      if (left) {  // the mirrored world's camera sees the image flipped left to right
+        cv::flip(view.bgr, view.bgr, 1);
+        if (regions) cv::flip(view.regions, view.regions, 1);
+      }
       std::vector<uint8_t> jpeg;
       cv::imencode(".jpg", view.bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, c.jpeg_quality});
       const SynthFrame& f = scene.frames[frame];
@@ -297,6 +303,7 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
       y0 = std::clamp(y0, 0.0, double(cam.camera.height));
       y1 = std::clamp(y1, 0.0, double(cam.camera.height));
       boxes[i] = {x0, y0, x1 - x0, y1 - y0};
+      if (left) boxes[i] = mirror_box(boxes[i], cam.camera.width);
     } catch (const std::exception& e) {
       std::lock_guard<std::mutex> lock(error_mutex);
       if (first_error.empty()) first_error = e.what();
@@ -310,7 +317,8 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
   // data.json (COCO style), camera.json, joint_3d.json, MANO_NeuralAnnot.json.
   json images = json::array(), annotations = json::array();
   json joint_valid = json::array();
-  for (int j = 0; j < 42; ++j) joint_valid.push_back(json::array({j < 21 ? 1 : 0}));
+  for (int j = 0; j < 42; ++j)  // InterHand order: right hand's 21 joints, then the left's
+    joint_valid.push_back(json::array({(j < 21) != left ? 1 : 0}));
   for (int64_t i = 0; i < num_images; ++i) {
     const SynthFrame& f = scene.frames[i / num_cameras];
     const SynthCamera& cam = scene.cameras[i % num_cameras];
@@ -327,7 +335,7 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
                            {"image_id", i},
                            {"bbox", numbers(boxes[i].data(), 4)},
                            {"joint_valid", joint_valid},
-                           {"hand_type", "right"},
+                           {"hand_type", c.hand},
                            {"hand_type_valid", 1}});
   }
   const json data = {{"images", images}, {"annotations", annotations}};
@@ -335,11 +343,13 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
   json campos = json::object(), camrot = json::object(), focal = json::object(),
        princpt = json::object();
   for (const auto& cam : scene.cameras) {
-    campos[cam.id] = numbers(cam.raw.campos_mm.data(), 3);
-    camrot[cam.id] = json::array({numbers(&cam.raw.camrot[0], 3), numbers(&cam.raw.camrot[3], 3),
-                                  numbers(&cam.raw.camrot[6], 3)});
-    focal[cam.id] = numbers(cam.raw.focal.data(), 2);
-    princpt[cam.id] = numbers(cam.raw.princpt.data(), 2);
+    const InterHandCamera raw =
+        left ? mirror_interhand_camera(cam.raw, cam.camera.width) : cam.raw;
+    campos[cam.id] = numbers(raw.campos_mm.data(), 3);
+    camrot[cam.id] = json::array(
+        {numbers(&raw.camrot[0], 3), numbers(&raw.camrot[3], 3), numbers(&raw.camrot[6], 3)});
+    focal[cam.id] = numbers(raw.focal.data(), 2);
+    princpt[cam.id] = numbers(raw.princpt.data(), 2);
   }
   const std::string capture_key = std::to_string(c.capture);
   const json cameras = {
@@ -348,27 +358,33 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
 
   json joint_frames = json::object(), mano_frames = json::object();
   for (const auto& f : scene.frames) {
+    // InterHand's 42 joints: the right hand's 21, then the left's; the other hand is absent.
     json coords = json::array(), valid = json::array();
+    const int first = left ? 21 : 0;
     for (int ih = 0; ih < 42; ++ih) {
-      if (ih < 21) {
-        const int m = kInterHandFromMano21[ih];
-        coords.push_back(
-            {f.joints[m * 3] * 1000.0, f.joints[m * 3 + 1] * 1000.0, f.joints[m * 3 + 2] * 1000.0});
+      const bool present = ih >= first && ih < first + 21;
+      if (present) {
+        const int m = kInterHandFromMano21[ih - first];
+        std::array<double, 3> joint = {f.joints[m * 3], f.joints[m * 3 + 1], f.joints[m * 3 + 2]};
+        if (left) joint = mirror_point(joint);
+        coords.push_back({joint[0] * 1000.0, joint[1] * 1000.0, joint[2] * 1000.0});
       } else {
-        coords.push_back({0.0, 0.0, 0.0});  // the left hand is not in the scene
+        coords.push_back({0.0, 0.0, 0.0});
       }
-      valid.push_back(json::array({ih < 21}));
+      valid.push_back(json::array({present}));
     }
     const std::string key = std::to_string(f.frame_idx);
     joint_frames[key] = {{"world_coord", coords},
                          {"joint_valid", valid},
-                         {"hand_type", "right"},
+                         {"hand_type", c.hand},
                          {"hand_type_valid", true}};
-    mano_frames[key] = {{"right",
-                         {{"pose", numbers(f.annotated.data(), 48)},
-                          {"shape", numbers(f.annotated_shape.data(), 10)},
-                          {"trans", numbers(f.annotated_trans.data(), 3)}}},
-                        {"left", nullptr}};
+    const std::array<double, 48> pose = left ? mirror_mano_pose(f.annotated) : f.annotated;
+    const std::array<double, 3> trans = left ? mirror_point(f.annotated_trans) : f.annotated_trans;
+    const json params = {{"pose", numbers(pose.data(), 48)},
+                         {"shape", numbers(f.annotated_shape.data(), 10)},
+                         {"trans", numbers(trans.data(), 3)}};
+    mano_frames[key] = {{"right", left ? json(nullptr) : params},
+                        {"left", left ? params : json(nullptr)}};
   }
   const std::string prefix = (annotations_dir / ("InterHand2.6M_" + c.split + "_")).string();
   int64_t bytes = 0;

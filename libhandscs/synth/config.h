@@ -27,6 +27,9 @@ struct SynthConfig {
   int capture = 0;             // Capture{c}
   int frame_step = 6;          // frame_idx step (the 5 fps release keeps every 6th 30 fps frame)
   int held_out_frames = 50;    // the novel-pose test tail (data.held_out_poses): gestures only
+  // "left": the right-hand capture mirrored through the world's x = 0 plane (synth/mirror.h), so a
+  // left-hand capture is the exact mirror image of the right one with the same settings.
+  std::string hand = "right";
   SynthEffects effects;
 
   template <class V>
@@ -48,6 +51,8 @@ struct SynthConfig {
     v.field("capture", capture, "capture number", 0, 1000000);
     v.field("frame_step", frame_step, "frame_idx step between frames", 1, 1000);
     v.field("held_out_frames", held_out_frames, "frames of the held-out tail", 0, 1000000);
+    v.choice("hand", hand, {"right", "left"},
+             "hand in the capture (left: the right-hand capture mirrored through x = 0)");
     v.section("effects", effects, "how the ground truth differs from the rig");
   }
 };

@@ -18,6 +18,7 @@
 #include "data/mesh_mask.h"
 #include "io/ply.h"
 #include "metrics/image_tensor.h"
+#include "render/camera_export.h"
 #include "render/camera_json.h"
 #include "train/avatar_state_io.h"
 #include "train/evaluate.h"
@@ -36,7 +37,7 @@ void write_png(const std::string& path, const cv::Mat& image) {
 }
 
 // Posed Gaussians as 3DGS PLY: scales and rotation from the eigen-decomposition of each covariance.
-void write_posed_ply(const std::string& path, const PosedGaussians& p) {
+void write_posed_ply(const std::string& path, const PosedGaussians& p, int sh_degree) {
   const auto c = p.covariances;
   const auto cov = torch::stack({c.select(1, 0), c.select(1, 1), c.select(1, 2), c.select(1, 1),
                                  c.select(1, 3), c.select(1, 4), c.select(1, 2), c.select(1, 4),
@@ -58,9 +59,13 @@ void write_posed_ply(const std::string& path, const PosedGaussians& p) {
   z = torch::copysign(z, r.select(1, 1).select(1, 0) - r.select(1, 0).select(1, 1));
   const auto quats = torch::stack({w, x, y, z}, 1).to(torch::kFloat32);
   const auto scales = eigenvalues.clamp_min(1e-20).sqrt().to(torch::kFloat32);
-  write_gaussian_ply(path, make_gaussian_ply(p.means.to(torch::kFloat32),
-                                             p.colors.clamp(0, 1).to(torch::kFloat32),
-                                             p.opacities.to(torch::kFloat32), scales, quats));
+  GaussianPly ply = make_gaussian_ply(p.means.to(torch::kFloat32),
+                                      p.colors.clamp(0, 1).to(torch::kFloat32),
+                                      p.opacities.to(torch::kFloat32), scales, quats);
+  if (sh_degree > 0)
+    ply.f_rest = torch::zeros({ply.size(), 3 * ((sh_degree + 1) * (sh_degree + 1) - 1)},
+                              torch::kFloat32);
+  write_gaussian_ply(path, ply);
 }
 
 // Frames whose hand is out of view are logged by name up to this many times (then counted).
@@ -84,12 +89,15 @@ std::string frame_name(int64_t k) {
 
 AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
   require(!options.out_dir.empty(), "--out DIR is required");
+  require(options.ply_sh_degree >= 0 && options.ply_sh_degree <= kMaxPlyShDegree,
+          "--ply-sh-degree " + std::to_string(options.ply_sh_degree) + ": must be 0.." +
+              std::to_string(kMaxPlyShDegree));
   const OpenedCheckpoint opened = open_checkpoint(options.checkpoint);
   const std::string& ckpt_path = opened.path;
   const Checkpoint& ckpt = opened.checkpoint;
   RunConfig config;
   config_from_json(ckpt.meta.at("config"), ckpt_path + " (stored config)", config);
-  Avatar avatar = restore_avatar(ckpt, config.model, load_rig_source(config.model.rig), ckpt_path);
+  Avatar avatar = restore_avatar(ckpt, config.model, load_rig_source(avatar_rig_source(config)), ckpt_path);
   const std::vector<PoseFrame> poses = read_pose_source(options.poses);
 
   std::vector<Camera> cameras;
@@ -127,6 +135,7 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
   settings.background = options.background;
   std::vector<double> forward_ms;
   int64_t out_of_view = 0;
+  std::vector<CameraFrame> frame_cameras;  // every frame's camera, for transforms.json
   ProgressBar bar("render", count);
   c10::InferenceMode guard;
   for (int64_t k = 0; k < count; ++k) {
@@ -154,7 +163,9 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
     const std::string base = options.out_dir + "/" + frame_name(k);
     write_png(base + ".png", rgb);
     write_png(base + "_alpha.png", alpha);
-    if (options.export_ply) write_posed_ply(base + ".ply", out.state.posed);
+    if (options.export_ply) write_posed_ply(base + ".ply", out.state.posed, options.ply_sh_degree);
+    write_camera_json(base + "_camera.json", camera);
+    frame_cameras.push_back({frame_name(k) + ".png", camera});
     if (!options.video.empty()) {
       if (!video.isOpened()) {
         // Written beside the target and renamed at the end, so a failed run leaves no torn MP4.
@@ -191,6 +202,8 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
     video.release();
     std::filesystem::rename(video_temp, options.video);
   }
+  write_file_atomic(options.out_dir + "/transforms.json",
+                    nerfstudio_transforms(frame_cameras).dump(2));
   result.frames = count;
   result.gaussians = avatar.gaussians().size();
   double total = 0;

@@ -114,6 +114,10 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, const ModelEvalOptio
                  join(differences, "; "));
   config.model = stored.model;
   config.data.rig = stored.model.rig;
+  if (config.data.hand != stored.data.hand)
+    spdlog::warn("data.hand = {} but the checkpoint's avatar is a {} hand: evaluating the {} hand",
+                 config.data.hand, stored.data.hand, stored.data.hand);
+  config.data.hand = stored.data.hand;
   config.data.flat_hand_mean = stored.model.flat_hand_mean;
 
   ensure_directory(options.out_dir);
@@ -124,7 +128,7 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, const ModelEvalOptio
                                 : options.out_dir + "/cache";
   Capture capture = Capture::open(config.data, cache);
   refuse_damaged_images(capture);
-  Avatar avatar = restore_avatar(ckpt, config.model, load_rig_source(config.model.rig), ckpt_path);
+  Avatar avatar = restore_avatar(ckpt, config.model, load_rig_source(avatar_rig_source(config)), ckpt_path);
   ImageScorer scorer(config.eval);
   RegionLegend legend;
   std::string regions_dir;

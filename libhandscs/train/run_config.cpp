@@ -1,8 +1,15 @@
 #include "train/run_config.h"
 
 #include "core/error.h"
+#include "data/capture.h"
 
 namespace handscs {
+
+std::string avatar_rig_source(const RunConfig& config) {
+  CaptureConfig data = config.data;
+  data.rig = config.model.rig;
+  return capture_rig_source(data);
+}
 
 void validate_run_config(const RunConfig& config, const std::string& source) {
   require(config.data.rig == config.model.rig,

@@ -25,6 +25,10 @@ struct RunConfig {
   }
 };
 
+// The rig the avatar is built on: model.rig, with "builtin" meaning the built-in left hand when
+// data.hand is left (the same rig the capture poses its masks with, capture_rig_source).
+std::string avatar_rig_source(const RunConfig& config);
+
 // Cross-section checks that single fields cannot express (e.g. data.rig and model.rig must agree).
 // `source` names the config in errors.
 void validate_run_config(const RunConfig& config, const std::string& source);

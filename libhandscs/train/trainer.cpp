@@ -108,7 +108,7 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir)
                capture_->train().size(), capture_->test().size(), capture_->num_poses(),
                capture_->cameras().size());
 
-  avatar_ = std::make_unique<Avatar>(config_.model, load_rig_source(config_.model.rig));
+  avatar_ = std::make_unique<Avatar>(config_.model, load_rig_source(avatar_rig_source(config_)));
   build_optimizer();
   if (config_.train.pose_refine.enabled)
     pose_corrections_ =
@@ -462,7 +462,7 @@ void Trainer::load_from(const Checkpoint& ckpt, const std::string& source) {
                 differences + "\nresume with the checkpoint's model settings");
   }
   avatar_ = std::make_unique<Avatar>(
-      restore_avatar(ckpt, config_.model, load_rig_source(config_.model.rig), source));
+      restore_avatar(ckpt, config_.model, load_rig_source(avatar_rig_source(config_)), source));
   build_optimizer();
   for (auto& group : optimizer_->groups())
     for (size_t i = 0; i < group.params.size(); ++i) {
