@@ -20,8 +20,11 @@ std::string format_duration(double seconds) {
 }
 }  // namespace
 
-ProgressBar::ProgressBar(std::string label, int64_t total)
-    : label_(std::move(label)), total_(total > 0 ? total : 1), is_tty_(isatty(fileno(stderr))) {
+ProgressBar::ProgressBar(std::string label, int64_t total, std::string unit)
+    : label_(std::move(label)),
+      total_(total > 0 ? total : 1),
+      unit_(std::move(unit)),
+      is_tty_(isatty(fileno(stderr))) {
   start_ = last_draw_ = std::chrono::steady_clock::now();
 }
 
@@ -68,8 +71,8 @@ void ProgressBar::draw(bool final) {
   std::string bar(filled, '#');
   bar += std::string(width - filled, '.');
   char line[512];
-  std::snprintf(line, sizeof(line), "%s [%s] %lld/%lld %.1f it/s %s %s %s", label_.c_str(),
-                bar.c_str(), (long long)done_, (long long)total_, rate,
+  std::snprintf(line, sizeof(line), "%s [%s] %lld/%lld %.1f %s/s %s %s %s", label_.c_str(),
+                bar.c_str(), (long long)done_, (long long)total_, rate, unit_.c_str(),
                 final ? "elapsed" : "ETA",
                 format_duration(final ? elapsed : eta).c_str(), status_.c_str());
   if (is_tty_)

@@ -10,7 +10,8 @@ namespace handscs {
 
 class ProgressBar {
  public:
-  ProgressBar(std::string label, int64_t total);
+  // `unit` names what is counted in the rate ("it/s", "MB/s").
+  ProgressBar(std::string label, int64_t total, std::string unit = "it");
   ~ProgressBar();
   // Marks `done` items finished and shows `status` (e.g. "loss 0.031 psnr 28.4").
   void update(int64_t done, const std::string& status = "");
@@ -20,6 +21,7 @@ class ProgressBar {
   void draw(bool final);
   std::string label_;
   int64_t total_;
+  std::string unit_;
   int64_t done_ = 0;
   int64_t start_done_ = -1;
   std::string status_;

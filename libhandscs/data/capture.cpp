@@ -13,7 +13,9 @@
 
 #include "core/camera_checks.h"
 #include "core/error.h"
+#include "core/hash.h"
 #include "core/text.h"
+#include "data/annotation_cache.h"
 #include "data/capture_impl.h"
 #include "data/image_checks.h"
 #include "data/interhand_annotations.h"
@@ -64,16 +66,6 @@ std::string make_summary(const std::string& source, const std::vector<SkippedIma
                      "): " + join(paths, ", ");
   if (skipped.size() > kSummaryPaths) line += ", ...";
   return line;
-}
-
-// FNV-1a 64-bit hash: names the on-disk mask folder after the settings the masks depend on.
-uint64_t fnv1a(const std::string& text) {
-  uint64_t hash = 1469598103934665603ull;
-  for (unsigned char c : text) {
-    hash ^= c;
-    hash *= 1099511628211ull;
-  }
-  return hash;
 }
 
 void check_cameras_exist(const std::vector<std::string>& wanted, const std::set<std::string>& have,
@@ -138,7 +130,7 @@ std::string mask_folder(const CaptureConfig& c, const CaptureLayout& layout,
            << c.mask_refine.largest_component;
   char name[32];
   std::snprintf(name, sizeof(name), "masks-%016llx",
-                static_cast<unsigned long long>(fnv1a(settings.str())));
+                static_cast<unsigned long long>(fnv1a64(settings.str())));
   return (fs::path(cache_dir) / name).string();
 }
 
@@ -202,13 +194,15 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   impl->layout = resolve_capture_layout(c.root, c.split, key("root"));
   const CaptureLayout& layout = impl->layout;
 
-  // Annotations, filtered to the capture (and sequences) while streaming.
-  ImageFilter filter;
-  filter.capture = c.capture;
-  filter.sequences.insert(c.sequences.begin(), c.sequences.end());
-  ImageCatalogue catalogue;
-  const std::vector<InterHandImage> images =
-      read_interhand_images(layout.data_json, filter, &catalogue);
+  // Annotations of the capture: streamed from the JSON on the first open, from the annotation
+  // cache on later ones; then filtered to the sequences.
+  const AnnotationCache annotation_cache(c.annotation_cache);
+  CaptureImages capture_images = annotation_cache.images(layout.data_json, c.capture);
+  const ImageCatalogue& catalogue = capture_images.catalogue;
+  std::vector<InterHandImage> images;
+  const std::set<std::string> sequences(c.sequences.begin(), c.sequences.end());
+  for (auto& image : capture_images.images)
+    if (sequences.empty() || sequences.count(image.seq_name)) images.push_back(std::move(image));
   if (!catalogue.captures.count(c.capture)) {
     std::vector<std::string> present;
     for (int capture : catalogue.captures) present.push_back(std::to_string(capture));
@@ -222,8 +216,8 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
                   std::to_string(c.capture) + " of " + layout.data_json + "; it has " +
                   list_text({catalogue.sequences.begin(), catalogue.sequences.end()}));
   const auto cameras = read_interhand_cameras(layout.camera_json, c.capture);
-  const auto joints = read_interhand_joints(layout.joint_3d_json, c.capture);
-  const auto mano = read_interhand_mano(layout.mano_json, c.capture);
+  const auto joints = annotation_cache.joints(layout.joint_3d_json, c.capture);
+  const auto mano = annotation_cache.mano(layout.mano_json, c.capture);
 
   // Camera selection: every camera named in data.json must exist in camera.json.
   std::set<std::string> data_cameras;

@@ -48,6 +48,10 @@ struct CaptureConfig {
   std::string rig = "builtin";             // rig source for the masks: "builtin" or a rig file
   bool flat_hand_mean = false;  // false: annotated poses are relative to hands_mean (InterHand)
   int roi_margin = 16;          // pixels added around the mask's bounding box
+  // Where the capture's extract of the annotation files is kept so that later opens skip the
+  // multi-GB JSON (data/annotation_cache.h): "auto" (beside the annotations if writable, else
+  // ~/.cache/handscs/annotations), "off", or a folder.
+  std::string annotation_cache = "auto";
   MaskRefineConfig mask_refine;
   CropCacheConfig cache;
 
@@ -78,6 +82,9 @@ struct CaptureConfig {
     v.field("flat_hand_mean", flat_hand_mean,
             "poses are absolute (true) or relative to hands_mean");
     v.field("roi_margin", roi_margin, "pixels around the mask's bounding box", 0, 4096);
+    v.field("annotation_cache", annotation_cache,
+            "cache of the capture's annotations for fast reopening: auto (a .handscs-cache folder "
+            "beside them if writable, else ~/.cache/handscs), off, or a folder");
     v.section("mask_refine", mask_refine, "mask refinement against the image");
     v.section("cache", cache, "image cache and prefetching");
   }

@@ -67,8 +67,15 @@ std::vector<InterHandImage> read_interhand_images(const std::string& path,
                                                   ImageCatalogue* catalogue) {
   std::vector<InterHandImage> images;
   std::unordered_map<int64_t, ImageAnnotation> annotations;
-  std::unordered_set<int64_t> image_ids;
-  auto keep_top = [](const std::string& key) { return key == "images" || key == "annotations"; };
+  std::unordered_set<int64_t> image_ids;  // of the kept images
+  // When "images" precedes "annotations" (as in the release), annotations of images not kept are
+  // skipped unread: at 1.4M records, holding them all until the images are known takes ~200 MB.
+  bool images_seen = false, images_complete = false;
+  auto keep_top = [&](const std::string& key) {
+    if (key == "images") images_seen = true;
+    if (key == "annotations" && images_seen) images_complete = true;
+    return key == "images" || key == "annotations";
+  };
   auto visit = [&](const JsonElement& element) {
     if (!element.in_array) throw Error(path + ": " + element.top + ": expected array, got object");
     JsonView item(element.value, path, element.top + "[" + element.second + "]");
@@ -99,8 +106,9 @@ std::vector<InterHandImage> read_interhand_images(const std::string& path,
       image.frame_idx = item.at("frame_idx").integer();
       images.push_back(std::move(image));
     } else {
-      ImageAnnotation annotation;
       const int64_t image_id = item.at("image_id").integer();
+      if (images_complete && !image_ids.count(image_id)) return;
+      ImageAnnotation annotation;
       if (annotations.count(image_id))
         item.at("image_id").fail("second annotation for image_id " + std::to_string(image_id));
       item.at("bbox").numbers(annotation.bbox.data(), 4);

@@ -7,21 +7,13 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/hash.h"
 
 namespace handscs {
 
 namespace {
 constexpr char kMagic[8] = {'H', 'S', 'C', 'S', 'C', 'K', 'P', '1'};
 constexpr size_t kTrailer = 24;  // magic (8) + payload length (8) + FNV-1a hash (8)
-
-uint64_t fnv1a(const char* data, size_t size) {
-  uint64_t hash = 1469598103934665603ull;  // FNV-1a 64-bit offset basis
-  for (size_t i = 0; i < size; ++i) {
-    hash ^= static_cast<unsigned char>(data[i]);
-    hash *= 1099511628211ull;  // FNV-1a 64-bit prime
-  }
-  return hash;
-}
 
 void put_u64(std::string& out, uint64_t value) {
   char bytes[8];
@@ -48,7 +40,7 @@ void save_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
   bytes += meta;
   bytes.append(pickled.data(), pickled.size());
   const uint64_t payload = bytes.size();
-  const uint64_t hash = fnv1a(bytes.data(), bytes.size());
+  const uint64_t hash = fnv1a64(bytes.data(), bytes.size());
   bytes.append(kMagic, 8);
   put_u64(bytes, payload);
   put_u64(bytes, hash);
@@ -64,7 +56,7 @@ Checkpoint load_checkpoint(const std::string& path) {
   const uint64_t hash = get_u64(bytes, bytes.size() - 8);
   if (payload != bytes.size() - kTrailer)
     throw Error(path + ": checkpoint length does not match its trailer (truncated or appended to)");
-  if (fnv1a(bytes.data(), payload) != hash)
+  if (fnv1a64(bytes.data(), payload) != hash)
     throw Error(path + ": checkpoint is corrupted (checksum mismatch)");
   const uint64_t meta_size = get_u64(bytes, 0);
   if (meta_size > payload - 8) throw Error(path + ": checkpoint metadata length is invalid");

@@ -1,0 +1,349 @@
+#include "data/annotation_cache.h"
+
+#include <spdlog/spdlog.h>
+#include <sys/stat.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+
+#include "core/atomic_file.h"
+#include "core/byte_stream.h"
+#include "core/error.h"
+#include "core/hash.h"
+
+namespace handscs {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr char kMagic[] = "HANDSCS-ANNOTATION-CACHE";
+// Bump whenever the readers or the encoding below change what a capture's extract holds: files of
+// another version are rebuilt, never read.
+constexpr uint32_t kFormatVersion = 1;
+// Bytes hashed at each end of a source file: catches a rewrite that kept the size and landed within
+// the file system's timestamp granularity, for the cost of two small reads.
+constexpr size_t kEdgeBytes = size_t{64} << 10;
+constexpr char kBesideFolder[] = ".handscs-cache";
+
+// What identifies one version of a source file.
+struct SourceStamp {
+  std::string name;  // file name only: a dataset folder that is moved keeps its caches
+  uint64_t size = 0;
+  int64_t mtime_ns = 0;
+  uint64_t edges_hash = 0;
+  bool operator==(const SourceStamp& o) const {
+    return name == o.name && size == o.size && mtime_ns == o.mtime_ns && edges_hash == o.edges_hash;
+  }
+};
+
+struct FileCloser {
+  void operator()(std::FILE* f) const {
+    if (f) std::fclose(f);
+  }
+};
+
+SourceStamp stamp_of(const std::string& source) {
+  struct stat info {};
+  if (::stat(source.c_str(), &info) != 0) throw Error(source + ": cannot open file");
+  SourceStamp stamp;
+  stamp.name = fs::path(source).filename().string();
+  stamp.size = static_cast<uint64_t>(info.st_size);
+  stamp.mtime_ns = static_cast<int64_t>(info.st_mtim.tv_sec) * 1000000000 + info.st_mtim.tv_nsec;
+  std::unique_ptr<std::FILE, FileCloser> file(std::fopen(source.c_str(), "rb"));
+  if (!file) throw Error(source + ": cannot open file");
+  std::string edges(2 * kEdgeBytes, '\0');
+  size_t got = std::fread(&edges[0], 1, kEdgeBytes, file.get());
+  if (stamp.size > kEdgeBytes &&
+      std::fseek(file.get(), -static_cast<long>(std::min<uint64_t>(kEdgeBytes, stamp.size - kEdgeBytes)),
+                 SEEK_END) == 0)
+    got += std::fread(&edges[got], 1, kEdgeBytes, file.get());
+  stamp.edges_hash = fnv1a64(edges.data(), got);
+  return stamp;
+}
+
+std::string hex16(uint64_t value) {
+  char text[17];
+  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(value));
+  return text;
+}
+
+// The user's cache folder for annotation caches, "" when neither variable is set.
+std::string user_cache_folder() {
+  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg)
+    return (fs::path(xdg) / "handscs" / "annotations").string();
+  if (const char* home = std::getenv("HOME"); home && *home)
+    return (fs::path(home) / ".cache" / "handscs" / "annotations").string();
+  return "";
+}
+
+// Why a cache file is not used. `damaged`: say so as a warning; otherwise (a changed source) the
+// rebuild is routine.
+struct Rejected {
+  std::string reason;
+  bool damaged;
+};
+
+void write_header(ByteWriter& out, const char* kind, int capture, const SourceStamp& stamp) {
+  out.put_array(kMagic, sizeof(kMagic));
+  out.put(kFormatVersion);
+  out.put_string(kind);
+  out.put<int32_t>(capture);
+  out.put_string(stamp.name);
+  out.put(stamp.size);
+  out.put(stamp.mtime_ns);
+  out.put(stamp.edges_hash);
+}
+
+// Checks the header against what is wanted; throws Rejected or ByteStreamError.
+void check_header(ByteReader& in, const char* kind, int capture, const SourceStamp& stamp) {
+  char magic[sizeof(kMagic)];
+  if (in.remaining() < sizeof(kMagic)) throw Rejected{"not a handscs annotation cache", true};
+  in.get_array(magic, sizeof(kMagic));
+  if (std::memcmp(magic, kMagic, sizeof(kMagic)) != 0)
+    throw Rejected{"not a handscs annotation cache", true};
+  const uint32_t version = in.get<uint32_t>();
+  if (version != kFormatVersion)
+    throw Rejected{"written by another version (format " + std::to_string(version) + ")", false};
+  if (in.get_string() != kind) throw Rejected{"holds another kind of annotation", true};
+  if (in.get<int32_t>() != capture) throw Rejected{"holds another capture", true};
+  SourceStamp cached;
+  cached.name = in.get_string();
+  cached.size = in.get<uint64_t>();
+  cached.mtime_ns = in.get<int64_t>();
+  cached.edges_hash = in.get<uint64_t>();
+  if (!(cached == stamp)) throw Rejected{stamp.name + " changed since it was cached", false};
+}
+
+// ---- encodings of the three extracts ----
+
+void encode_images(ByteWriter& out, const CaptureImages& value) {
+  out.put<uint64_t>(value.catalogue.captures.size());
+  for (int capture : value.catalogue.captures) out.put<int32_t>(capture);
+  out.put<uint64_t>(value.catalogue.sequences.size());
+  for (const auto& seq : value.catalogue.sequences) out.put_string(seq);
+  out.put<uint64_t>(value.images.size());
+  for (const auto& image : value.images) {
+    out.put(image.id);
+    out.put_string(image.file_name);
+    out.put<int32_t>(image.width);
+    out.put<int32_t>(image.height);
+    out.put<int32_t>(image.capture);
+    out.put<int32_t>(image.subject);
+    out.put_string(image.seq_name);
+    out.put_string(image.camera);
+    out.put(image.frame_idx);
+    out.put_array(image.bbox.data(), image.bbox.size());
+    out.put_array(image.joint_valid.data(), image.joint_valid.size());
+    out.put_string(image.hand_type);
+    out.put<uint8_t>(image.hand_type_valid);
+  }
+}
+
+CaptureImages decode_images(ByteReader& in) {
+  CaptureImages value;
+  for (uint64_t n = in.get_count(4); n > 0; --n) value.catalogue.captures.insert(in.get<int32_t>());
+  for (uint64_t n = in.get_count(8); n > 0; --n) value.catalogue.sequences.insert(in.get_string());
+  const uint64_t count = in.get_count(100);  // an image takes well over 100 bytes
+  value.images.resize(count);
+  for (auto& image : value.images) {
+    image.id = in.get<int64_t>();
+    image.file_name = in.get_string();
+    image.width = in.get<int32_t>();
+    image.height = in.get<int32_t>();
+    image.capture = in.get<int32_t>();
+    image.subject = in.get<int32_t>();
+    image.seq_name = in.get_string();
+    image.camera = in.get_string();
+    image.frame_idx = in.get<int64_t>();
+    in.get_array(image.bbox.data(), image.bbox.size());
+    in.get_array(image.joint_valid.data(), image.joint_valid.size());
+    image.hand_type = in.get_string();
+    image.hand_type_valid = in.get<uint8_t>() != 0;
+  }
+  return value;
+}
+
+void encode_joints(ByteWriter& out, const std::map<int64_t, InterHandJoints>& frames) {
+  out.put<uint64_t>(frames.size());
+  for (const auto& [frame, joints] : frames) {
+    out.put(frame);
+    out.put_array(joints.world_mm.data(), joints.world_mm.size());
+    out.put_array(joints.valid.data(), joints.valid.size());
+    out.put_string(joints.hand_type);
+    out.put<uint8_t>(joints.hand_type_valid);
+  }
+}
+
+std::map<int64_t, InterHandJoints> decode_joints(ByteReader& in) {
+  std::map<int64_t, InterHandJoints> frames;
+  for (uint64_t n = in.get_count(sizeof(double) * kInterHandJoints * 3); n > 0; --n) {
+    const int64_t frame = in.get<int64_t>();
+    InterHandJoints& joints = frames[frame];
+    in.get_array(joints.world_mm.data(), joints.world_mm.size());
+    in.get_array(joints.valid.data(), joints.valid.size());
+    joints.hand_type = in.get_string();
+    joints.hand_type_valid = in.get<uint8_t>() != 0;
+  }
+  return frames;
+}
+
+void encode_hand(ByteWriter& out, const std::optional<ManoParams>& hand) {
+  out.put<uint8_t>(hand.has_value());
+  if (!hand) return;
+  out.put_array(hand->pose.data(), hand->pose.size());
+  out.put_array(hand->shape.data(), hand->shape.size());
+  out.put_array(hand->trans.data(), hand->trans.size());
+}
+
+std::optional<ManoParams> decode_hand(ByteReader& in) {
+  if (in.get<uint8_t>() == 0) return std::nullopt;
+  ManoParams hand;
+  in.get_array(hand.pose.data(), hand.pose.size());
+  in.get_array(hand.shape.data(), hand.shape.size());
+  in.get_array(hand.trans.data(), hand.trans.size());
+  return hand;
+}
+
+void encode_mano(ByteWriter& out, const std::map<int64_t, InterHandMano>& frames) {
+  out.put<uint64_t>(frames.size());
+  for (const auto& [frame, mano] : frames) {
+    out.put(frame);
+    encode_hand(out, mano.right);
+    encode_hand(out, mano.left);
+  }
+}
+
+std::map<int64_t, InterHandMano> decode_mano(ByteReader& in) {
+  std::map<int64_t, InterHandMano> frames;
+  for (uint64_t n = in.get_count(sizeof(int64_t) + 2); n > 0; --n) {
+    const int64_t frame = in.get<int64_t>();
+    InterHandMano& mano = frames[frame];
+    mano.right = decode_hand(in);
+    mano.left = decode_hand(in);
+  }
+  return frames;
+}
+
+// The cached extract of `source` for `capture` from the first usable file of `files`, or `read()`
+// stored in the first writable one.
+template <class T>
+T cached(const std::vector<std::string>& files, const std::string& source, int capture,
+         const char* kind, const std::function<T()>& read,
+         const std::function<void(ByteWriter&, const T&)>& encode,
+         const std::function<T(ByteReader&)>& decode) {
+  if (files.empty()) return read();
+  const SourceStamp stamp = stamp_of(source);
+  for (const auto& file : files) {
+    std::error_code ec;
+    if (!fs::is_regular_file(file, ec)) continue;
+    try {
+      const std::string bytes = read_file(file);
+      ByteReader in(bytes.data(), bytes.size());
+      check_header(in, kind, capture, stamp);
+      const uint64_t payload_size = in.get<uint64_t>();
+      const uint64_t payload_hash = in.get<uint64_t>();
+      if (payload_size != in.remaining())
+        throw Rejected{"truncated (" + std::to_string(in.remaining()) + " of " +
+                       std::to_string(payload_size) + " payload bytes)", true};
+      const char* payload = bytes.data() + (bytes.size() - payload_size);
+      if (fnv1a64(payload, payload_size) != payload_hash) throw Rejected{"checksum mismatch", true};
+      ByteReader body(payload, payload_size);
+      T value = decode(body);
+      if (body.remaining() != 0) throw Rejected{"bytes left after the data", true};
+      spdlog::debug("{}: capture {} read from {}", source, capture, file);
+      return value;
+    } catch (const Rejected& rejected) {
+      if (rejected.damaged)
+        spdlog::warn("{}: ignoring this annotation cache ({}); reading {} again", file,
+                     rejected.reason, source);
+      else
+        spdlog::info("{}: {}; reading it again", file, rejected.reason);
+    } catch (const ByteStreamError& e) {
+      spdlog::warn("{}: ignoring this annotation cache (damaged: {}); reading {} again", file,
+                   e.what(), source);
+    } catch (const Error& e) {
+      spdlog::warn("ignoring an unreadable annotation cache ({}); reading {} again", e.what(), source);
+    }
+  }
+
+  T value = read();
+  ByteWriter payload;
+  encode(payload, value);
+  ByteWriter out;
+  write_header(out, kind, capture, stamp);
+  out.put<uint64_t>(payload.bytes().size());
+  out.put<uint64_t>(fnv1a64(payload.bytes().data(), payload.bytes().size()));
+  const std::string bytes = out.bytes() + payload.bytes();
+  std::vector<std::string> problems;
+  for (const auto& file : files) {
+    try {
+      ensure_directory(fs::path(file).parent_path().string());
+      write_file_atomic(file, bytes);
+      spdlog::info("{}: capture {} cached in {} ({:.2f} MB); later opens read it from there",
+                   source, capture, file, bytes.size() / 1e6);
+      return value;
+    } catch (const Error& e) {
+      problems.push_back(e.what());
+    }
+  }
+  spdlog::warn("{}: could not write an annotation cache ({}); later opens read the file again",
+               source, problems.empty() ? std::string("no folder") : problems.back());
+  return value;
+}
+
+}  // namespace
+
+AnnotationCache::AnnotationCache(std::string setting) : setting_(std::move(setting)) {}
+
+std::vector<std::string> AnnotationCache::files_for(const std::string& source, int capture) const {
+  if (setting_ == "off") return {};
+  const fs::path path(source);
+  const std::string name = path.filename().string() + ".capture" + std::to_string(capture) + ".cache";
+  std::error_code ec;
+  fs::path canonical = fs::weakly_canonical(fs::absolute(path, ec), ec);
+  if (ec) canonical = path;
+  const std::string key = canonical.string();
+  // Shared folders hold many datasets' caches: the source's full path keeps them apart.
+  const std::string shared_name = hex16(fnv1a64(key.data(), key.size())) + "-" + name;
+  if (setting_ != "auto") return {(fs::path(setting_) / shared_name).string()};
+  std::vector<std::string> files{(canonical.parent_path() / kBesideFolder / name).string()};
+  const std::string user = user_cache_folder();
+  if (!user.empty()) files.push_back((fs::path(user) / shared_name).string());
+  return files;
+}
+
+CaptureImages AnnotationCache::images(const std::string& data_json, int capture) const {
+  const std::function<CaptureImages()> read = [&] {
+    ImageFilter filter;
+    filter.capture = capture;
+    CaptureImages value;
+    value.images = read_interhand_images(data_json, filter, &value.catalogue);
+    return value;
+  };
+  return cached<CaptureImages>(files_for(data_json, capture), data_json, capture, "images", read,
+                               encode_images, decode_images);
+}
+
+std::map<int64_t, InterHandJoints> AnnotationCache::joints(const std::string& joint_3d_json,
+                                                           int capture) const {
+  using Frames = std::map<int64_t, InterHandJoints>;
+  const std::function<Frames()> read = [&] { return read_interhand_joints(joint_3d_json, capture); };
+  return cached<Frames>(files_for(joint_3d_json, capture), joint_3d_json, capture, "joints", read,
+                        encode_joints, decode_joints);
+}
+
+std::map<int64_t, InterHandMano> AnnotationCache::mano(const std::string& mano_json,
+                                                       int capture) const {
+  using Frames = std::map<int64_t, InterHandMano>;
+  const std::function<Frames()> read = [&] { return read_interhand_mano(mano_json, capture); };
+  return cached<Frames>(files_for(mano_json, capture), mano_json, capture, "mano", read,
+                        encode_mano, decode_mano);
+}
+
+}  // namespace handscs
