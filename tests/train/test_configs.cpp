@@ -105,3 +105,24 @@ TEST_CASE("configs: cross-section mismatches are errors naming both keys") {
   CHECK_THROWS_WITH(handscs::validate_run_config(config, "x.json"),
                     Catch::StartsWith("x.json: data.rig (\"builtin\") and model.rig (\"builtin:left\")"));
 }
+
+TEST_CASE("configs: every point of every sweep file applies to its run config") {
+  // A sweep names its run config relative to itself and overrides keys per point; a misspelt key or
+  // a value out of range would only show when that row's training starts, hours into a sweep.
+  int points = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(kSource + "/configs/sweeps")) {
+    if (entry.path().extension() != ".json") continue;
+    const auto sweep = handscs::load_json_file(entry.path().string());
+    const std::string run_config =
+        (entry.path().parent_path() / sweep.at("run_config").get<std::string>()).string();
+    for (const auto& point : sweep.at("points")) {
+      const auto set = point.value("set", std::vector<std::string>{});
+      INFO(entry.path().filename().string() << ": " << point.at("name").get<std::string>());
+      handscs::RunConfig config;
+      CHECK_NOTHROW(config = handscs::load_config<handscs::RunConfig>(run_config, set));
+      CHECK_NOTHROW(handscs::validate_run_config(config, run_config));
+      ++points;
+    }
+  }
+  CHECK(points > 100);
+}
