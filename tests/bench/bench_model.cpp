@@ -1,6 +1,7 @@
 // handscs-bench-model: forward and backward ms of the full avatar step (no losses) for several
 // Gaussian counts, split by stage (LBS, SCS = descriptor + virtual-bone generator, decoders,
-// rasterizer). Prints one JSON object. Usage:
+// rasterizer), and render_fps: the inference path handscs-render takes for a new pose. Prints one
+// JSON object. Usage:
 //   handscs-bench-model [--gaussians 778,5000,10000,20000] [--width 512] [--height 334]
 //                       [--threads 2] [--repeats 10] [--decoder-hidden 256]
 //                       [--decoder-precision auto|float|bf16]
@@ -167,8 +168,24 @@ int main(int argc, char** argv) {
       t_raster_fwd.push_back(raster_ms);
       t_raster_bwd.push_back(raster_bwd_ms);
     }
+    // What handscs-render does for a new pose: the whole forward under inference mode (no autograd
+    // graph), a new random pose every frame so nothing pose-dependent can be reused.
+    std::vector<double> t_render;
+    {
+      c10::InferenceMode guard;
+      for (int r = 0; r < repeats + 2; ++r) {
+        const auto novel_pose = torch::randn({48}) * 0.2;
+        const auto t0 = Clock::now();
+        const auto out = avatar.forward(novel_pose, shape, trans, camera, {});
+        const double ms = ms_since(t0);
+        (void)out;
+        if (r >= 2) t_render.push_back(ms);
+      }
+    }
     nlohmann::json row;
     row["gaussians"] = n;
+    row["render_ms"] = median(t_render);
+    row["render_fps"] = 1000.0 / median(t_render);
     row["forward_ms"] = median(t_forward);
     row["backward_ms"] = median(t_backward);
     row["forward_backward_ms"] = median(t_forward) + median(t_backward);

@@ -213,7 +213,7 @@ TEST_CASE("annotation cache: a damaged or foreign cache file is ignored and rebu
   CHECK_THROWS(cache.joints(layout.joint_3d_json, 1));  // capture 1 is not in the file: the reader says so
 }
 
-TEST_CASE("annotation cache: off writes nothing; a folder setting and the user cache are used") {
+TEST_CASE("annotation cache: off writes nothing, a folder setting and the user cache are used") {
   const std::string root = fresh_copy("cache_where");
   const auto layout = handscs::resolve_capture_layout(root, "test");
   const auto reference = handscs::read_interhand_mano(layout.mano_json, 0);
