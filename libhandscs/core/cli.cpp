@@ -10,6 +10,7 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include "core/allocator.h"
 #include "core/logging.h"
 #include "core/threads.h"
 
@@ -35,6 +36,7 @@ std::string error_text(const std::exception& e) {
 }
 
 void start_up(const CommonOptions& options, const std::string& program) {
+  keep_freed_memory_for_reuse();
   set_log_level(options.log_level);
   const int threads = set_threads(options.threads);
   spdlog::info("{}: {} thread{}, BLAS {}", program, threads, threads == 1 ? "" : "s",

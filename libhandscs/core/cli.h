@@ -20,7 +20,8 @@ struct CommonOptions {
 // Adds --threads and --log-level (and --set when with_overrides) to `app`.
 void add_common_options(CLI::App& app, CommonOptions& options, bool with_overrides);
 
-// Applies logging and thread settings and logs the thread count and BLAS library in use.
+// Applies the allocator settings (core/allocator.h), logging and thread settings, and logs the
+// thread count and BLAS library in use.
 void start_up(const CommonOptions& options, const std::string& program);
 
 // The message a program prints for an exception that ends it: e.what(), but for LibTorch's

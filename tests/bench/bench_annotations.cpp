@@ -22,6 +22,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
+#include "core/allocator.h"
 #include "core/atomic_file.h"
 #include "core/cli.h"
 #include "core/logging.h"
@@ -30,25 +31,21 @@
 #include "data/json_view.h"
 #include "sweep/subprocess.h"
 #include "synth/capture.h"
+#include "bench_timing.h"
 
 namespace {
 
+using bench::Clock;
+using bench::median;
+using bench::ms_since;
+using bench::seconds_since;
+
 namespace fs = std::filesystem;
 using json = nlohmann::json;
-using Clock = std::chrono::steady_clock;
 
 constexpr int kCameras = 80;          // cameras per capture in the release (varies 60-140)
 constexpr int kFillerCaptures = 9;    // the measured set: the tiny capture and nine more
 constexpr int64_t kFillerIdBase = 100000000;  // filler image ids start above any synthetic id
-
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-double median(std::vector<double> values) {
-  std::sort(values.begin(), values.end());
-  return values[values.size() / 2];
-}
 
 struct FileCloser {
   void operator()(std::FILE* f) const {
@@ -285,6 +282,7 @@ double file_mb(const std::string& path) { return fs::file_size(path) / 1e6; }
 
 int main(int argc, char** argv) {
   handscs::log_to_stderr();  // stdout carries the JSON only
+  handscs::keep_freed_memory_for_reuse();  // as the tools run (core/allocator.h)
   CLI::App app{
       "handscs-bench-annotations: opening a capture inside release-size InterHand2.6M annotation\n"
       "files (generated at run time), without and with the annotation cache. One JSON object per\n"

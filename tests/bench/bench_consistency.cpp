@@ -19,6 +19,7 @@
 #include <random>
 #include <sstream>
 
+#include "core/allocator.h"
 #include "core/config.h"
 #include "core/logging.h"
 #include "core/threads.h"
@@ -29,13 +30,14 @@
 #include "train/descriptor_tree.h"
 #include "train/evaluate.h"
 #include "train/run_config.h"
+#include "bench_timing.h"
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
+using bench::Clock;
+using bench::median;
+using bench::ms_since;
+using bench::seconds_since;
 
 torch::Tensor descriptor_of(handscs::Avatar& avatar, const handscs::FrameInfo& f) {
   auto tensor = [](const float* p, int64_t n) {
@@ -82,16 +84,11 @@ double mean(const std::vector<double>& v) {
   return v.empty() ? 0.0 : s / v.size();
 }
 
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
   handscs::log_to_stderr();  // stdout carries the JSON only
+  handscs::keep_freed_memory_for_reuse();  // as the tools run (core/allocator.h)
   CLI::App app{"Inter-pose correspondence: candidate search against the exact argmin (JSON)"};
   std::string checkpoint, capture_root, ks = "8,16,32,64,128", counts;
   int pairs = 20, threads = 2;

@@ -23,13 +23,14 @@
 #include "core/logging.h"
 #include "data/capture.h"
 #include "synth/capture.h"
+#include "bench_timing.h"
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+using bench::Clock;
+using bench::median;
+using bench::ms_since;
+using bench::seconds_since;
 
 // A field of /proc/self/status in MiB ("VmHWM", "VmRSS").
 double status_mb(const std::string& field) {
@@ -38,11 +39,6 @@ double status_mb(const std::string& field) {
   while (std::getline(in, line))
     if (line.rfind(field + ":", 0) == 0) return std::stod(line.substr(field.size() + 1)) / 1024.0;
   return -1;
-}
-
-double median(std::vector<double> values) {
-  std::sort(values.begin(), values.end());
-  return values[values.size() / 2];
 }
 
 }  // namespace

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <torch/csrc/autograd/autograd.h>
 
+#include "core/allocator.h"
 #include "core/logging.h"
 #include "core/threads.h"
 #include "metrics/image_scorer.h"
@@ -78,6 +79,7 @@ handscs::Lpips make_lpips(const std::string& path) {
 
 int main(int argc, char** argv) {
   handscs::log_to_stderr();  // stdout carries the JSON only
+  handscs::keep_freed_memory_for_reuse();  // as the tools run (core/allocator.h)
   CLI::App app{"handscs-bench-metrics"};
   std::string weights;
   int repeats = 9;

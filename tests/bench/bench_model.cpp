@@ -15,21 +15,19 @@
 #include <torch/torch.h>
 
 #include "avatar/avatar.h"
+#include "core/allocator.h"
 #include "core/logging.h"
 #include "core/threads.h"
 #include "hand/lbs.h"
 #include "scs/descriptor.h"
+#include "bench_timing.h"
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
-}
+using bench::Clock;
+using bench::median;
+using bench::ms_since;
+using bench::seconds_since;
 
 // Grows the avatar to n Gaussians by duplicating random ones with a small jitter (as clones would).
 void grow(handscs::Avatar& avatar, int64_t n) {
@@ -60,6 +58,7 @@ handscs::Camera capture_camera(int width, int height) {
 
 int main(int argc, char** argv) {
   handscs::log_to_stderr();  // stdout carries the JSON only
+  handscs::keep_freed_memory_for_reuse();  // as the tools run (core/allocator.h)
   CLI::App app{"Avatar forward/backward benchmark (prints JSON)"};
   std::string counts = "778,5000,10000,20000";
   int width = 512, height = 334, threads = 2, repeats = 10;

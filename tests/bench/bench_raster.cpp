@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 #include <torch/torch.h>
 
+#include "core/allocator.h"
 #include "core/logging.h"
 #include "core/threads.h"
 #include "hand/lbs.h"
@@ -25,8 +26,14 @@
 #include "render/raster_work.h"
 #include "render/rasterize.h"
 #include "render/simd_level.h"
+#include "bench_timing.h"
 
 namespace {
+
+using bench::Clock;
+using bench::median;
+using bench::ms_since;
+using bench::seconds_since;
 
 using handscs::Camera;
 
@@ -160,16 +167,11 @@ Scene hand_scene(int n, int width, int height, uint64_t seed) {
   return s;
 }
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const size_t k = v.size() / 2;
-  return v.size() % 2 ? v[k] : 0.5 * (v[k - 1] + v[k]);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
   handscs::log_to_stderr();  // stdout carries the JSON only
+  handscs::keep_freed_memory_for_reuse();  // as the tools run (core/allocator.h)
   CLI::App app{"handscs-bench-raster: rasterizer forward/backward timing"};
   int gaussians = 10000, width = 512, height = 334, threads = 2, repeats = 20, warmup = 3;
   uint64_t seed = 1;

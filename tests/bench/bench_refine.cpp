@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "core/allocator.h"
 #include "core/config.h"
 #include "core/logging.h"
 #include "data/capture.h"
@@ -61,6 +62,7 @@ std::vector<double> joint_angles(const torch::Tensor& a, const torch::Tensor& b)
 
 int main(int argc, char** argv) {
   handscs::log_to_stderr();  // stdout carries the JSON only
+  handscs::keep_freed_memory_for_reuse();  // as the tools run (core/allocator.h)
   CLI::App app{"Training-pose refinement against the rendered poses of a synthetic capture (JSON)"};
   std::string run, preset = "real_demo";
   app.add_option("--run", run, "run folder trained with train.pose_refine.enabled")->required();
