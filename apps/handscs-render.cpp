@@ -11,7 +11,6 @@
 
 #include <CLI/CLI.hpp>
 #include <c10/core/InferenceMode.h>
-#include <opencv2/imgcodecs.hpp>
 #include <spdlog/spdlog.h>
 #include <torch/torch.h>
 
@@ -20,6 +19,7 @@
 #include "core/error.h"
 #include "core/text.h"
 #include "io/ply.h"
+#include "io/png.h"
 #include "io/ply_check.h"
 #include "render/camera_json.h"
 #include "render/rasterize.h"
@@ -45,7 +45,7 @@ void add_ply_mode(CLI::App& app, PlyMode& mode) {
       ->expected(3);
 }
 
-// [H, W] or [H, W, 3] float in [0, 1] -> 8-bit PNG bytes (RGB written as OpenCV's BGR order).
+// [H, W] or [H, W, 3] float in [0, 1] -> 8-bit PNG (RGB written as OpenCV's BGR order).
 void write_png(const std::string& path, const torch::Tensor& image) {
   auto bytes = (image.clamp(0, 1) * 255).round().to(torch::kUInt8).contiguous();
   const int h = int(image.size(0)), w = int(image.size(1));
@@ -56,11 +56,7 @@ void write_png(const std::string& path, const torch::Tensor& image) {
   } else {
     mat = cv::Mat(h, w, CV_8UC1, bytes.data_ptr<uint8_t>());
   }
-  std::vector<uchar> encoded;
-  if (!cv::imencode(".png", mat, encoded)) throw handscs::Error(path + ": PNG encoding failed");
-  const auto parent = std::filesystem::path(path).parent_path();
-  if (!parent.empty()) handscs::ensure_directory(parent.string());
-  handscs::write_file_atomic(path, std::string(encoded.begin(), encoded.end()));
+  handscs::write_png(path, mat);
 }
 
 // The PLY mode writes PNG: another extension would hold PNG bytes under a misleading name.

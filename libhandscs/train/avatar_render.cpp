@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <filesystem>
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 #include <spdlog/spdlog.h>
 #include <torch/torch.h>
@@ -18,6 +17,7 @@
 #include "core/progress.h"
 #include "data/mesh_mask.h"
 #include "io/ply.h"
+#include "io/png.h"
 #include "metrics/image_tensor.h"
 #include "render/camera_export.h"
 #include "render/camera_json.h"
@@ -30,12 +30,6 @@
 namespace handscs {
 
 namespace {
-
-void write_png(const std::string& path, const cv::Mat& image) {
-  std::vector<uchar> bytes;
-  if (!cv::imencode(".png", image, bytes)) throw Error(path + ": PNG encoding failed");
-  write_file_atomic(path, std::string(bytes.begin(), bytes.end()));
-}
 
 // Posed Gaussians as 3DGS PLY: scales and rotation from the eigen-decomposition of each covariance.
 void write_posed_ply(const std::string& path, const PosedGaussians& p, int sh_degree) {

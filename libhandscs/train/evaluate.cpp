@@ -5,7 +5,6 @@
 #include <cmath>
 #include <filesystem>
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
 #include <torch/torch.h>
@@ -18,6 +17,7 @@
 #include "core/progress.h"
 #include "core/text.h"
 #include "data/capture.h"
+#include "io/png.h"
 #include "metrics/image_scorer.h"
 #include "metrics/image_tensor.h"
 #include "metrics/region_masks.h"
@@ -222,7 +222,7 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, const ModelEvalOptio
         std::string name = frame.file_name;
         std::replace(name.begin(), name.end(), '/', '_');
         name = name.substr(0, name.rfind('.')) + ".png";
-        cv::imwrite(options.out_dir + "/side_by_side/" + name, side_by_side(pred, gt));
+        write_png(options.out_dir + "/side_by_side/" + name, side_by_side(pred, gt));
       }
     } catch (const Error& e) {
       entry.ok = false;

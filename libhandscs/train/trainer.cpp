@@ -9,7 +9,6 @@
 #include <fstream>
 #include <random>
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
 #include <torch/torch.h>
@@ -18,6 +17,7 @@
 #include "core/config.h"
 #include "core/error.h"
 #include "core/progress.h"
+#include "io/png.h"
 #include "metrics/image_tensor.h"
 #include "train/avatar_state_io.h"
 #include "train/consistency.h"
@@ -558,7 +558,7 @@ void Trainer::validate() {
   ensure_directory(run_dir_ + "/validation");
   char name[64];
   std::snprintf(name, sizeof(name), "/validation/step_%08lld.png", static_cast<long long>(iteration_));
-  cv::imwrite(run_dir_ + name, rgb_tensor_to_mat(side_by_side));
+  write_png(run_dir_ + name, rgb_tensor_to_mat(side_by_side));
 }
 
 void Trainer::log_step(const StepResult& r) {
