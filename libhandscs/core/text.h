@@ -1,6 +1,9 @@
 // Small text helpers shared by messages and tables.
 #pragma once
 
+#include <c10/util/ArrayRef.h>
+
+#include <cstdint>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -20,6 +23,13 @@ inline std::string list_text(const std::vector<std::string>& items, size_t max_i
   if (items.size() <= max_items) return join(items, ", ");
   const std::vector<std::string> head(items.begin(), items.begin() + max_items);
   return join(head, ", ") + ", ... (" + std::to_string(items.size()) + " in all)";
+}
+
+// A tensor or array shape for messages: "[778, 3, 10]" (a std::vector<int64_t> converts implicitly).
+inline std::string shape_text(c10::IntArrayRef shape) {
+  std::string text = "[";
+  for (size_t i = 0; i < shape.size(); ++i) text += (i ? ", " : "") + std::to_string(shape[i]);
+  return text + "]";
 }
 
 // A number for messages: up to 6 significant digits, exponent form when large or small

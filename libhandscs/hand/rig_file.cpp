@@ -12,6 +12,7 @@
 #include "core/atomic_file.h"
 #include "core/config.h"
 #include "core/error.h"
+#include "core/text.h"
 #include "hand/joint_order.h"
 #include "hand/procedural_hand.h"
 #include "hand/rig.h"
@@ -33,12 +34,6 @@ std::string type_name(const json& value) {
   if (value.is_string()) return "string";
   if (value.is_array()) return "array";
   return "object";
-}
-
-std::string shape_text(const std::vector<int64_t>& shape) {
-  std::string text = "[";
-  for (size_t i = 0; i < shape.size(); ++i) text += (i ? ", " : "") + std::to_string(shape[i]);
-  return text + "]";
 }
 
 class RigReader {

@@ -4,22 +4,14 @@
 #include <ATen/ATen.h>
 
 #include <cmath>
-#include <sstream>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "hand/joint_order.h"
 
 namespace handscs {
 
 namespace {
-
-std::string shape_text(at::IntArrayRef sizes) {
-  std::ostringstream out;
-  out << "[";
-  for (size_t i = 0; i < sizes.size(); ++i) out << (i ? ", " : "") << sizes[i];
-  out << "]";
-  return out.str();
-}
 
 std::string index_text(const std::vector<int64_t>& index) {
   std::string text;

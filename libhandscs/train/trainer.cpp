@@ -19,6 +19,7 @@
 #include "core/progress.h"
 #include "io/png.h"
 #include "metrics/image_tensor.h"
+#include "metrics/psnr.h"
 #include "train/avatar_state_io.h"
 #include "train/consistency.h"
 #include "train/descriptor_tree.h"
@@ -346,7 +347,9 @@ StepResult Trainer::step() {
   {
     torch::NoGradGuard no_grad;
     const double mse = (out.render.rgb.detach() - target).pow(2).mean().item<double>();
-    result.psnr = mse > 0 ? -10.0 * std::log10(mse) : 99.0;
+    // Capped: a crop rendered exactly (mse 0, +inf dB) would make the running average infinite.
+    constexpr double kMaxStepPsnr = 99.0;
+    result.psnr = std::min(psnr_from_mse(mse), kMaxStepPsnr);
   }
   if (!finite) {
     optimizer_->zero_grad();

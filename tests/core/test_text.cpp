@@ -19,3 +19,9 @@ TEST_CASE("text: numbers in the form a user types them") {
   CHECK(number_text(0.066) == "0.066");
   CHECK(number_text(30) == "30");
 }
+
+TEST_CASE("text: shapes print as messages show them") {
+  CHECK(handscs::shape_text(std::vector<int64_t>{}) == "[]");
+  CHECK(handscs::shape_text(std::vector<int64_t>{778, 3, 10}) == "[778, 3, 10]");
+  CHECK(handscs::shape_text({23340}) == "[23340]");
+}
