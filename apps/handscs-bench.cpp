@@ -10,6 +10,7 @@
 #include "sweep/subprocess.h"
 #include "sweep/sweep_config.h"
 #include "sweep/sweep_runner.h"
+#include "sweep/sweep_shard.h"
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -17,7 +18,9 @@ int main(int argc, char** argv) {
       "each training budget (handscs-train, handscs-eval as child processes: wall time, ms/step,\n"
       "peak memory, Gaussians, novel-pose PSNR/SSIM/LPIPS), times the rasterizer over N, and\n"
       "writes OUT/results.csv, OUT/raster.csv, OUT/summary.md and OUT/*.png. Rerunning with the\n"
-      "same OUT resumes: finished rows are kept."};
+      "same OUT resumes: finished rows are kept. On several machines: --shard i/n (or a Slurm job\n"
+      "array) on each, then --merge DIR1,DIR2,... --out OUT (docs/BENCHMARKS.md, \"Sweeps on a\n"
+      "cluster\")."};
   std::string sweep_path, lpips;
   handscs::SweepOptions options;
   bool plots_only = false;
@@ -33,6 +36,15 @@ int main(int argc, char** argv) {
   app.add_option("--points", options.only_points,
                  "run only these points of the sweep (e.g. to run two in parallel into two OUTs)")
       ->delimiter(',');
+  std::string shard;
+  app.add_option("--shard", shard,
+                 "run only shard i of n (i/n, counted from 0): run k of the sweep belongs to shard "
+                 "k mod n; without it, a Slurm job array's SLURM_ARRAY_TASK_* variables choose it");
+  std::vector<std::string> merge_dirs;
+  app.add_option("--merge", merge_dirs,
+                 "merge these shards' --out folders into OUT (results.csv, raster.csv, plots, "
+                 "summary.md) and stop")
+      ->delimiter(',');
   app.add_flag("--keep-runs", options.keep_runs, "keep each run's checkpoints after scoring");
   app.add_flag("--plots-only", plots_only, "redraw plots and summary.md from OUT's CSVs");
   CLI11_PARSE(app, argc, argv);
@@ -41,7 +53,13 @@ int main(int argc, char** argv) {
       handscs::draw_sweep_plots(options.out_dir);
       return 0;
     }
-    if (sweep_path.empty()) throw handscs::Error("--sweep is required (or --plots-only)");
+    if (!merge_dirs.empty()) {
+      handscs::merge_sweep_shards(options.out_dir, merge_dirs);
+      return 0;
+    }
+    if (sweep_path.empty()) throw handscs::Error("--sweep is required (or --plots-only, --merge)");
+    options.shard = shard.empty() ? handscs::sweep_shard_from_environment()
+                                  : handscs::parse_sweep_shard(shard);
     options.bin_dir = handscs::executable_dir();
     handscs::run_sweep(handscs::load_sweep_config(sweep_path), options);
     spdlog::info("handscs-bench: results in {}/results.csv, plots {}/*.png, table {}/summary.md",

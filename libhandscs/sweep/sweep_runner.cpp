@@ -222,27 +222,18 @@ void run_sweep(const SweepConfig& config, const SweepOptions& options) {
 
   const std::string results_path = options.out_dir + "/results.csv";
   CsvTable results = load_or_start(results_path, kResultColumns);
+  const auto runs = shard_runs(sweep_runs(config, options.only_points), options.shard);
+  if (options.shard.count > 1)
+    spdlog::info("sweep: shard {} of {} (counted from 0): {} of the sweep's runs", options.shard.index,
+                 options.shard.count, runs.size());
   std::vector<std::pair<const SweepPoint*, int>> todo;
-  int64_t total = 0;
-  for (const auto& name : options.only_points) {
-    bool known = false;
-    for (const auto& point : config.points) known |= point.name == name;
-    if (!known) throw Error(config.path + ": --points names \"" + name + "\", which is not a point");
-  }
-  for (const auto& point : config.points) {
-    if (!options.only_points.empty() &&
-        std::find(options.only_points.begin(), options.only_points.end(), point.name) ==
-            options.only_points.end())
-      continue;
-    for (int budget : point.budgets.empty() ? config.budgets : point.budgets) {
-      ++total;
-      bool have = false;
-      for (size_t r = 0; r < results.rows.size(); ++r)
-        have |= results.at(r, "point") == point.name &&
-                results.at(r, "budget") == std::to_string(budget) &&
-                results.at(r, "status") == "ok";
-      if (!have) todo.push_back({&point, budget});
-    }
+  const int64_t total = static_cast<int64_t>(runs.size());
+  for (const auto& [point, budget] : runs) {
+    bool have = false;
+    for (size_t r = 0; r < results.rows.size(); ++r)
+      have |= results.at(r, "point") == point->name &&
+              results.at(r, "budget") == std::to_string(budget) && results.at(r, "status") == "ok";
+    if (!have) todo.push_back({point, budget});
   }
   spdlog::info("sweep: {} runs, {} already in {}, {} to go", total, total - todo.size(),
                results_path, todo.size());
@@ -263,7 +254,8 @@ void run_sweep(const SweepConfig& config, const SweepOptions& options) {
     bar.update(++done, point->name + "@" + std::to_string(budget) + " psnr " + row[13]);
   }
   bar.finish();
-  run_raster_grid(config, options);
+  // The rasterizer timings are a property of the machine, not of a run: shard 0 takes them.
+  if (options.shard.index == 0) run_raster_grid(config, options);
   draw_sweep_plots(options.out_dir);
 }
 

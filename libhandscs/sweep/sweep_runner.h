@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "sweep/sweep_config.h"
+#include "sweep/sweep_shard.h"
 
 namespace handscs {
 
@@ -18,6 +19,7 @@ struct SweepOptions {
   std::string lpips_weights;  // LPIPS weights for the loss and the metric (empty = none)
   bool keep_runs = false;     // keep each run's checkpoints (they are deleted once scored)
   std::vector<std::string> only_points;  // run only these points (empty = all)
+  SweepShard shard;           // this machine's share of the runs (sweep/sweep_shard.h)
 };
 
 void run_sweep(const SweepConfig& config, const SweepOptions& options);
