@@ -176,110 +176,125 @@ void choose_novel_view_cameras(const std::set<std::string>& available, int train
   }
 }
 
-Capture::Capture(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
-Capture::Capture(Capture&&) noexcept = default;
-Capture& Capture::operator=(Capture&&) noexcept = default;
-Capture::~Capture() = default;
+namespace {
 
-Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache_dir,
-                      const std::string& config_key) {
-  // Messages name keys as the user wrote them: data.held_out_poses in a run config.
-  const auto key = [&config_key](const char* name) { return config_key + "." + name; };
-  auto impl = std::make_unique<Impl>(static_cast<size_t>(config.cache.budget_mb) << 20);
-  impl->config = config;
-  const CaptureConfig& c = impl->config;
-  require(c.split_rule != "novel_view" || !c.test_cameras.empty() || c.train_cameras.empty(),
-          key("test_cameras") + ": split_rule novel_view with train_cameras needs a list of test "
-          "cameras");
-  impl->layout = resolve_capture_layout(c.root, c.split, key("root"));
-  const CaptureLayout& layout = impl->layout;
+// Capture::open, step by step. Messages name keys as the user wrote them ("data.held_out_poses" in
+// a run config): `prefix` is the config section ("data").
+std::string key_name(const std::string& prefix, const char* name) { return prefix + "." + name; }
 
-  // Annotations of the capture: streamed from the JSON on the first open, from the annotation
-  // cache on later ones; then filtered to the sequences.
+// What the annotation files hold for the selected images.
+struct CaptureAnnotations {
+  std::vector<InterHandImage> images;  // of the capture's selected sequences, in file order
+  std::map<std::string, InterHandCamera> cameras;
+  std::map<int64_t, InterHandJoints> joints;
+  std::map<int64_t, InterHandMano> mano;
+};
+
+// Step 1: the capture's annotations, streamed from the JSON on the first open and from the
+// annotation cache on later ones, filtered to the sequences. A capture or sequence the files do not
+// hold is an error listing what they do.
+CaptureAnnotations read_capture_annotations(const CaptureConfig& c, const CaptureLayout& layout,
+                                            const std::string& prefix) {
   const AnnotationCache annotation_cache(c.annotation_cache);
   CaptureImages capture_images = annotation_cache.images(layout.data_json, c.capture);
   const ImageCatalogue& catalogue = capture_images.catalogue;
-  std::vector<InterHandImage> images;
-  const std::set<std::string> sequences(c.sequences.begin(), c.sequences.end());
-  for (auto& image : capture_images.images)
-    if (sequences.empty() || sequences.count(image.seq_name)) images.push_back(std::move(image));
   if (!catalogue.captures.count(c.capture)) {
     std::vector<std::string> present;
     for (int capture : catalogue.captures) present.push_back(std::to_string(capture));
     throw Error(layout.data_json + ": no images of capture " + std::to_string(c.capture) + " (" +
-                key("capture") + "); the file holds " +
+                key_name(prefix, "capture") + "); the file holds " +
                 (present.empty() ? std::string("no images") : "captures " + list_text(present)));
   }
   for (const auto& seq : c.sequences)
     if (!catalogue.sequences.count(seq))
-      throw Error(key("sequences") + ": sequence \"" + seq + "\" has no images in capture " +
-                  std::to_string(c.capture) + " of " + layout.data_json + "; it has " +
+      throw Error(key_name(prefix, "sequences") + ": sequence \"" + seq +
+                  "\" has no images in capture " + std::to_string(c.capture) + " of " +
+                  layout.data_json + "; it has " +
                   list_text({catalogue.sequences.begin(), catalogue.sequences.end()}));
-  const auto cameras = read_interhand_cameras(layout.camera_json, c.capture);
-  const auto joints = annotation_cache.joints(layout.joint_3d_json, c.capture);
-  const auto mano = annotation_cache.mano(layout.mano_json, c.capture);
+  CaptureAnnotations a;
+  const std::set<std::string> sequences(c.sequences.begin(), c.sequences.end());
+  for (auto& image : capture_images.images)
+    if (sequences.empty() || sequences.count(image.seq_name)) a.images.push_back(std::move(image));
+  a.cameras = read_interhand_cameras(layout.camera_json, c.capture);
+  a.joints = annotation_cache.joints(layout.joint_3d_json, c.capture);
+  a.mano = annotation_cache.mano(layout.mano_json, c.capture);
+  return a;
+}
 
-  // Camera selection: every camera named in data.json must exist in camera.json.
+// Training and test cameras; empty = every camera.
+struct CameraSplit {
+  std::set<std::string> train, test;
+  bool uses(const std::string& id) const {
+    return train.empty() || train.count(id) || test.empty() || test.count(id);
+  }
+};
+
+// Step 2: the cameras of each side of the split. Every camera data.json names must be in
+// camera.json, and every listed camera must have images.
+CameraSplit choose_cameras(const CaptureConfig& c, const CaptureAnnotations& a,
+                           const CaptureLayout& layout, const std::string& prefix) {
   std::set<std::string> data_cameras;
-  for (const auto& image : images) {
-    if (!cameras.count(image.camera))
+  for (const auto& image : a.images) {
+    if (!a.cameras.count(image.camera))
       throw Error(layout.camera_json + ": " + std::to_string(c.capture) +
                   ".campos: missing key \"" + image.camera + "\" (camera of " + image.file_name +
                   " in " + layout.data_json + ")");
     data_cameras.insert(image.camera);
   }
-  check_cameras_exist(c.train_cameras, data_cameras, key("train_cameras"), layout.data_json, c.capture);
-  check_cameras_exist(c.test_cameras, data_cameras, key("test_cameras"), layout.data_json, c.capture);
-  std::set<std::string> train_cams(c.train_cameras.begin(), c.train_cameras.end());
-  std::set<std::string> test_cams(c.test_cameras.begin(), c.test_cameras.end());
+  check_cameras_exist(c.train_cameras, data_cameras, key_name(prefix, "train_cameras"),
+                      layout.data_json, c.capture);
+  check_cameras_exist(c.test_cameras, data_cameras, key_name(prefix, "test_cameras"),
+                      layout.data_json, c.capture);
+  CameraSplit cams;
+  cams.train.insert(c.train_cameras.begin(), c.train_cameras.end());
+  cams.test.insert(c.test_cameras.begin(), c.test_cameras.end());
   if (c.split_rule == "novel_view") {
-    if (train_cams.empty() && test_cams.empty()) {
+    if (cams.train.empty() && cams.test.empty()) {
       choose_novel_view_cameras(data_cameras, c.novel_view_train_views, c.novel_view_test_views,
-                                train_cams, test_cams);
-      if (train_cams.size() != static_cast<size_t>(c.novel_view_train_views) ||
-          test_cams.size() != static_cast<size_t>(c.novel_view_test_views))
+                                cams.train, cams.test);
+      if (cams.train.size() != static_cast<size_t>(c.novel_view_train_views) ||
+          cams.test.size() != static_cast<size_t>(c.novel_view_test_views))
         spdlog::warn("{} = {} and {} = {} ask for {} cameras; capture {} has {}: using {} training "
-                     "and {} test cameras", key("novel_view_train_views"), c.novel_view_train_views,
-                     key("novel_view_test_views"), c.novel_view_test_views,
-                     c.novel_view_train_views + c.novel_view_test_views, c.capture,
-                     data_cameras.size(), train_cams.size(), test_cams.size());
+                     "and {} test cameras", key_name(prefix, "novel_view_train_views"),
+                     c.novel_view_train_views, key_name(prefix, "novel_view_test_views"),
+                     c.novel_view_test_views, c.novel_view_train_views + c.novel_view_test_views,
+                     c.capture, data_cameras.size(), cams.train.size(), cams.test.size());
     }
-    if (train_cams.empty())
+    if (cams.train.empty())
       for (const auto& id : data_cameras)
-        if (!test_cams.count(id)) train_cams.insert(id);
-    for (const auto& id : test_cams)
-      if (train_cams.count(id))
-        throw Error(key("test_cameras") + ": camera \"" + id +
+        if (!cams.test.count(id)) cams.train.insert(id);
+    for (const auto& id : cams.test)
+      if (cams.train.count(id))
+        throw Error(key_name(prefix, "test_cameras") + ": camera \"" + id +
                     "\" is also a training camera (novel_view needs disjoint lists)");
-  } else if (test_cams.empty()) {
-    test_cams = train_cams;  // novel_pose tests the held-out poses from the training views
+  } else if (cams.test.empty()) {
+    cams.test = cams.train;  // novel_pose tests the held-out poses from the training views
   }
-  auto camera_used = [&](const std::string& id) {
-    const bool in_train = train_cams.empty() || train_cams.count(id);
-    const bool in_test = test_cams.empty() || test_cams.count(id);
-    return in_train || in_test;
-  };
+  return cams;
+}
 
-  // Annotation checks (cheap): MANO, joints, hand type, image present.
+// Step 3: the images of the used cameras that have MANO parameters for the hand, joints, the
+// right hand type and a file (cheap checks; the others are added to `skipped`).
+std::vector<Candidate> annotated_candidates(const CaptureConfig& c, const CaptureAnnotations& a,
+                                            const CameraSplit& cams, const CaptureLayout& layout,
+                                            std::vector<SkippedImage>& skipped, size_t& considered) {
   const bool right = c.hand == "right";
   const std::string other_hand = right ? "left" : "right";
-  std::vector<SkippedImage> skipped;
   std::vector<Candidate> candidates;
-  size_t considered = 0;
-  for (const auto& image : images) {
-    if (!camera_used(image.camera)) continue;
+  for (const auto& image : a.images) {
+    if (!cams.uses(image.camera)) continue;
     ++considered;
     const std::string path = (fs::path(layout.images_dir) / image.file_name).string();
-    auto m = mano.find(image.frame_idx);
+    auto m = a.mano.find(image.frame_idx);
     const ManoParams* params = nullptr;
-    if (m != mano.end())
+    if (m != a.mano.end())
       params = right ? (m->second.right ? &*m->second.right : nullptr)
                      : (m->second.left ? &*m->second.left : nullptr);
-    auto j = joints.find(image.frame_idx);
+    auto j = a.joints.find(image.frame_idx);
     std::string reason;
     if (!params) {
       reason = "null MANO";
-    } else if (j == joints.end()) {
+    } else if (j == a.joints.end()) {
       reason = "no joint_3d entry";
     } else if (image.hand_type == other_hand) {
       reason = "other hand";
@@ -293,7 +308,7 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
       continue;
     }
     const Camera camera =
-        camera_from_interhand(cameras.at(image.camera), image.width, image.height);
+        camera_from_interhand(a.cameras.at(image.camera), image.width, image.height);
     const std::string implausible = camera_intrinsics_problem(camera);
     if (!implausible.empty())
       throw Error(layout.camera_json + ": " + std::to_string(c.capture) + ": camera " + image.camera +
@@ -301,53 +316,49 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
                   " image size of " + path + "): " + implausible);
     candidates.push_back({&image, params, &j->second, path, camera});
   }
+  return candidates;
+}
 
-  // Frame stride over the distinct frame indices (poses), then pose the rig once per pose.
+// Step 4: every frame_stride-th distinct frame index (pose) is kept; returns frame_idx -> index
+// among the kept poses, and drops the candidates of the others.
+std::map<int64_t, int> apply_frame_stride(int stride, std::vector<Candidate>& candidates) {
   std::vector<int64_t> frame_ids;
   for (const auto& cand : candidates) frame_ids.push_back(cand.image->frame_idx);
   std::sort(frame_ids.begin(), frame_ids.end());
   frame_ids.erase(std::unique(frame_ids.begin(), frame_ids.end()), frame_ids.end());
-  std::map<int64_t, int> strided_pose;  // frame_idx -> index among strided poses
-  for (size_t k = 0; k < frame_ids.size(); k += c.frame_stride)
+  std::map<int64_t, int> strided_pose;
+  for (size_t k = 0; k < frame_ids.size(); k += static_cast<size_t>(stride))
     strided_pose.emplace(frame_ids[k], static_cast<int>(strided_pose.size()));
-  {
-    std::vector<Candidate> kept;
-    for (auto& cand : candidates)
-      if (strided_pose.count(cand.image->frame_idx)) kept.push_back(std::move(cand));
-    candidates = std::move(kept);
-  }
-  std::vector<const ManoParams*> pose_params(strided_pose.size(), nullptr);
-  for (const auto& cand : candidates)
-    pose_params[strided_pose.at(cand.image->frame_idx)] = cand.mano;
+  std::vector<Candidate> kept;
+  for (auto& cand : candidates)
+    if (strided_pose.count(cand.image->frame_idx)) kept.push_back(std::move(cand));
+  candidates = std::move(kept);
+  return strided_pose;
+}
 
-  const Rig rig = load_rig_source(capture_rig_source(c));
-  if ((rig.handedness == Handedness::right) != right)
-    throw Error(key("rig") + ": rig \"" + c.rig + "\" is a " +
-                (rig.handedness == Handedness::right ? "right" : "left") +
-                " hand but " + key("hand") + " is " + c.hand);
-  const std::vector<std::vector<float>> posed = pose_rig(rig, pose_params, c.flat_hand_mean);
-  impl->num_vertices = rig.num_vertices();
-  {
-    torch::Tensor faces = rig.faces.to(torch::kInt64).contiguous();
-    impl->faces.assign(faces.data_ptr<int64_t>(), faces.data_ptr<int64_t>() + faces.numel());
-  }
+struct ImageSelection {
+  std::vector<size_t> usable;               // candidate indices
+  std::vector<std::string> monochrome;      // cameras whose readable images are mostly grey
+  size_t dropped_monochrome = 0;
+};
 
-  // Image checks (decode at 1/8 scale) and hand-in-view checks, in parallel. Nothing here throws.
+// Step 5: image checks (decoded at 1/8 scale) and hand-in-view checks in parallel, then the
+// monochrome cameras; failures are added to `skipped`, damaged JPEGs also logged.
+ImageSelection select_usable_images(const CaptureConfig& c, const std::vector<Candidate>& candidates,
+                                    const std::vector<int>& candidate_pose,
+                                    const std::vector<std::vector<float>>& posed, int64_t num_vertices,
+                                    std::vector<SkippedImage>& skipped) {
   const int64_t num_candidates = static_cast<int64_t>(candidates.size());
   std::vector<ImageScan> scans(candidates.size());
   std::vector<uint8_t> in_view(candidates.size(), 0);
-  std::vector<int> candidate_pose(candidates.size());
-  for (int64_t i = 0; i < num_candidates; ++i)
-    candidate_pose[i] = strided_pose.at(candidates[i].image->frame_idx);
 #pragma omp parallel for schedule(dynamic, 4)
-  for (int64_t i = 0; i < num_candidates; ++i) {
+  for (int64_t i = 0; i < num_candidates; ++i) {  // nothing here throws
     const Candidate& cand = candidates[i];
     scans[i] = scan_image(cand.path);
     const std::vector<float>& vertices = posed[candidate_pose[i]];
-    in_view[i] = !projected_bounds(vertices.data(), impl->num_vertices, cand.camera).empty();
+    in_view[i] = !projected_bounds(vertices.data(), num_vertices, cand.camera).empty();
   }
 
-  // Monochrome cameras: most of their readable images are grey.
   std::map<std::string, std::pair<int, int>> mono_votes;  // camera -> (grey, readable)
   for (int64_t i = 0; i < num_candidates; ++i) {
     if (!scans[i].readable || scans[i].black) continue;
@@ -358,10 +369,10 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   std::set<std::string> mono;
   for (const auto& [id, votes] : mono_votes)
     if (2 * votes.first > votes.second) mono.insert(id);
-  impl->monochrome_cameras.assign(mono.begin(), mono.end());
 
-  std::vector<size_t> usable;
-  size_t dropped_mono = 0, damaged = 0;
+  ImageSelection selection;
+  selection.monochrome.assign(mono.begin(), mono.end());
+  size_t damaged = 0;
   for (int64_t i = 0; i < num_candidates; ++i) {
     const Candidate& cand = candidates[i];
     std::string reason;
@@ -383,18 +394,100 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
       continue;
     }
     if (c.drop_monochrome && mono.count(cand.image->camera)) {
-      ++dropped_mono;
+      ++selection.dropped_monochrome;
       continue;
     }
-    usable.push_back(static_cast<size_t>(i));
+    selection.usable.push_back(static_cast<size_t>(i));
   }
   if (damaged > kDamageLines) spdlog::warn("... and {} more damaged JPEGs", damaged - kDamageLines);
+  return selection;
+}
+
+// Step 6: one usable image as a frame (units: metres; joints in MANO's 21-joint order).
+FrameInfo make_frame(const Candidate& cand, int64_t index, int pose_index, bool held_out, bool right) {
+  const InterHandImage& image = *cand.image;
+  FrameInfo f;
+  f.index = index;
+  f.image_id = image.id;
+  f.image_path = cand.path;
+  f.file_name = image.file_name;
+  f.camera_id = image.camera;
+  f.seq_name = image.seq_name;
+  f.capture = image.capture;
+  f.frame_idx = image.frame_idx;
+  f.pose_index = pose_index;
+  f.held_out = held_out;
+  f.camera = cand.camera;
+  for (int k = 0; k < 4; ++k) f.bbox[k] = static_cast<float>(image.bbox[k]);
+  for (int k = 0; k < 48; ++k) f.pose[k] = static_cast<float>(cand.mano->pose[k]);
+  for (int k = 0; k < 10; ++k) f.shape[k] = static_cast<float>(cand.mano->shape[k]);
+  for (int k = 0; k < 3; ++k) f.trans[k] = static_cast<float>(cand.mano->trans[k]);
+  const int row0 = right ? 0 : 21;  // joint_3d rows: right hand 0-20, left 21-41
+  for (int ih = 0; ih < 21; ++ih) {
+    const int m = kInterHandFromMano21[ih];
+    for (int d = 0; d < 3; ++d)
+      f.joints[m * 3 + d] = static_cast<float>(cand.joints->world_mm[(row0 + ih) * 3 + d] * 1e-3);
+    f.joint_valid[m] = cand.joints->valid[row0 + ih];
+  }
+  return f;
+}
+
+}  // namespace
+
+Capture::Capture(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Capture::Capture(Capture&&) noexcept = default;
+Capture& Capture::operator=(Capture&&) noexcept = default;
+Capture::~Capture() = default;
+
+Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache_dir,
+                      const std::string& config_key) {
+  auto impl = std::make_unique<Impl>(static_cast<size_t>(config.cache.budget_mb) << 20);
+  impl->config = config;
+  const CaptureConfig& c = impl->config;
+  require(c.split_rule != "novel_view" || !c.test_cameras.empty() || c.train_cameras.empty(),
+          key_name(config_key, "test_cameras") + ": split_rule novel_view with train_cameras needs "
+          "a list of test cameras");
+  impl->layout = resolve_capture_layout(c.root, c.split, key_name(config_key, "root"));
+  const CaptureLayout& layout = impl->layout;
+
+  const CaptureAnnotations annotations = read_capture_annotations(c, layout, config_key);
+  const CameraSplit cams = choose_cameras(c, annotations, layout, config_key);
+  std::vector<SkippedImage> skipped;
+  size_t considered = 0;
+  std::vector<Candidate> candidates =
+      annotated_candidates(c, annotations, cams, layout, skipped, considered);
+  const std::map<int64_t, int> strided_pose = apply_frame_stride(c.frame_stride, candidates);
+
+  // The rig posed once per kept pose (masks and in-view checks).
+  std::vector<const ManoParams*> pose_params(strided_pose.size(), nullptr);
+  for (const auto& cand : candidates) pose_params[strided_pose.at(cand.image->frame_idx)] = cand.mano;
+  const bool right = c.hand == "right";
+  const Rig rig = load_rig_source(capture_rig_source(c));
+  if ((rig.handedness == Handedness::right) != right)
+    throw Error(key_name(config_key, "rig") + ": rig \"" + c.rig + "\" is a " +
+                (rig.handedness == Handedness::right ? "right" : "left") + " hand but " +
+                key_name(config_key, "hand") + " is " + c.hand);
+  const std::vector<std::vector<float>> posed = pose_rig(rig, pose_params, c.flat_hand_mean);
+  impl->num_vertices = rig.num_vertices();
+  {
+    torch::Tensor faces = rig.faces.to(torch::kInt64).contiguous();
+    impl->faces.assign(faces.data_ptr<int64_t>(), faces.data_ptr<int64_t>() + faces.numel());
+  }
+
+  std::vector<int> candidate_pose(candidates.size());
+  for (size_t i = 0; i < candidates.size(); ++i)
+    candidate_pose[i] = strided_pose.at(candidates[i].image->frame_idx);
+  ImageSelection selection =
+      select_usable_images(c, candidates, candidate_pose, posed, impl->num_vertices, skipped);
+  std::vector<size_t>& usable = selection.usable;
+  impl->monochrome_cameras = selection.monochrome;
   impl->skipped = skipped;
   impl->skip_summary = make_summary(layout.data_json, skipped, considered);
   if (!impl->skip_summary.empty()) spdlog::warn("{}", impl->skip_summary);
-  if (!mono.empty())
+  if (!impl->monochrome_cameras.empty())
     spdlog::info("monochrome cameras: {} ({})", join(impl->monochrome_cameras, ", "),
-                 c.drop_monochrome ? std::to_string(dropped_mono) + " images dropped" : "kept");
+                 c.drop_monochrome ? std::to_string(selection.dropped_monochrome) + " images dropped"
+                                   : "kept");
   if (usable.empty())
     throw Error(layout.data_json + ": no usable images in capture " + std::to_string(c.capture) +
                 " (" + std::to_string(considered) + " considered" +
@@ -407,7 +500,7 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   for (auto& [frame, index] : pose_of) index = next++;
   impl->num_poses = next;
   if (c.split_rule == "novel_pose" && c.held_out_poses >= impl->num_poses)
-    throw Error(key("held_out_poses") + ": " + std::to_string(c.held_out_poses) +
+    throw Error(key_name(config_key, "held_out_poses") + ": " + std::to_string(c.held_out_poses) +
                 " held-out poses leave nothing to train on (the selection has " +
                 std::to_string(impl->num_poses) + " poses)");
   const int first_held_out = impl->num_poses - c.held_out_poses;
@@ -415,6 +508,7 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   for (const auto& [frame, index] : pose_of)
     impl->posed_vertices[index] = posed[strided_pose.at(frame)];
 
+  // Frames sorted by frame index, then camera (evaluation walks them pose by pose).
   std::sort(usable.begin(), usable.end(), [&](size_t a, size_t b) {
     const auto& ia = *candidates[a].image;
     const auto& ib = *candidates[b].image;
@@ -422,37 +516,15 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   });
   std::set<std::string> kept_cameras;
   for (size_t i : usable) {
-    const Candidate& cand = candidates[i];
-    const InterHandImage& image = *cand.image;
-    FrameInfo f;
-    f.index = static_cast<int64_t>(impl->frames.size());
-    f.image_id = image.id;
-    f.image_path = cand.path;
-    f.file_name = image.file_name;
-    f.camera_id = image.camera;
-    f.seq_name = image.seq_name;
-    f.capture = image.capture;
-    f.frame_idx = image.frame_idx;
-    f.pose_index = pose_of.at(image.frame_idx);
-    f.held_out = c.split_rule == "novel_pose" && f.pose_index >= first_held_out;
-    f.camera = cand.camera;
-    for (int k = 0; k < 4; ++k) f.bbox[k] = static_cast<float>(image.bbox[k]);
-    for (int k = 0; k < 48; ++k) f.pose[k] = static_cast<float>(cand.mano->pose[k]);
-    for (int k = 0; k < 10; ++k) f.shape[k] = static_cast<float>(cand.mano->shape[k]);
-    for (int k = 0; k < 3; ++k) f.trans[k] = static_cast<float>(cand.mano->trans[k]);
-    const int row0 = right ? 0 : 21;  // joint_3d rows: right hand 0-20, left 21-41
-    for (int ih = 0; ih < 21; ++ih) {
-      const int m = kInterHandFromMano21[ih];
-      for (int d = 0; d < 3; ++d)
-        f.joints[m * 3 + d] = static_cast<float>(cand.joints->world_mm[(row0 + ih) * 3 + d] * 1e-3);
-      f.joint_valid[m] = cand.joints->valid[row0 + ih];
-    }
-    kept_cameras.insert(f.camera_id);
-    impl->frames.push_back(std::move(f));
+    const int pose_index = pose_of.at(candidates[i].image->frame_idx);
+    const bool held_out = c.split_rule == "novel_pose" && pose_index >= first_held_out;
+    impl->frames.push_back(make_frame(candidates[i], static_cast<int64_t>(impl->frames.size()),
+                                      pose_index, held_out, right));
+    kept_cameras.insert(impl->frames.back().camera_id);
   }
   impl->cameras.assign(kept_cameras.begin(), kept_cameras.end());
 
-  split_frames(impl->frames, c.split_rule, train_cams, test_cams, impl->train, impl->test);
+  split_frames(impl->frames, c.split_rule, cams.train, cams.test, impl->train, impl->test);
 
   if (!mask_cache_dir.empty() && c.cache.disk_masks)
     impl->mask_folder = mask_folder(c, layout, mask_cache_dir);
