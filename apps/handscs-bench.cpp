@@ -62,7 +62,7 @@ int main(int argc, char** argv) {
                                   : handscs::parse_sweep_shard(shard);
     options.bin_dir = handscs::executable_dir();
     handscs::run_sweep(handscs::load_sweep_config(sweep_path), options);
-    spdlog::info("handscs-bench: results in {}/results.csv, plots {}/*.png, table {}/summary.md",
+    spdlog::info("handscs-bench: results in {}/results.csv, charts {}/*.png and *.pdf, table {}/summary.md",
                  options.out_dir, options.out_dir, options.out_dir);
   } catch (const std::exception& e) {
     spdlog::error("{}", handscs::error_text(e));

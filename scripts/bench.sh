@@ -31,6 +31,6 @@ lpips_args=()
 start=$(date +%s)
 "$root/build/bin/handscs-bench" --sweep "$sweep" --out "$out" "${lpips_args[@]}"
 echo "bench.sh: finished in $(( $(date +%s) - start )) s; results in $out:"
-echo "  results.csv (one row per run), raster.csv, summary.md, psnr_vs_time.png, lpips_vs_time.png,"
-echo "  raster_ms_vs_n.png"
+echo "  results.csv (one row per run), raster.csv, pareto.csv, summary.md, psnr_vs_time, lpips_vs_time,"
+echo "  raster_ms_vs_n (.png and .pdf)"
 cat "$out/summary.md"

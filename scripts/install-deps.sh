@@ -7,12 +7,13 @@ packages=(
   build-essential cmake ccache pkg-config
   libtorch-dev            # LibTorch 1.13 (CPU): autograd for encoder, generator, decoders
   libopenblas0-openmp     # BLAS for LibTorch: 100 GFLOP/s/core instead of the 6 GFLOP/s reference BLAS
-  libopencv-dev           # image/video I/O, drawing for plots
+  libopencv-dev           # image and video I/O
   nlohmann-json3-dev      # configs, annotations
   libcli11-dev            # command lines
   libspdlog-dev           # logging
   catch2                  # tests (v2 API)
   python3 python3-numpy   # MANO converter and its test reference
+  python3-matplotlib      # handscs-bench charts (scripts/plot_sweep.py) and ablation_table.py
 )
 
 missing=()

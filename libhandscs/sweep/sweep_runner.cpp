@@ -16,7 +16,6 @@
 #include "core/progress.h"
 #include "sweep/csv_table.h"
 #include "sweep/pareto.h"
-#include "sweep/plot.h"
 #include "sweep/subprocess.h"
 
 namespace handscs {
@@ -33,6 +32,10 @@ const std::vector<std::string> kResultColumns = {
 // Step stages logged by the trainer (metrics.csv), reported as medians over the run's second half.
 const std::vector<std::string> kStageColumns = {"data_ms", "forward_ms", "losses_ms",
                                                 "backward_ms", "optimizer_ms"};
+// Debian's Python (with python3-matplotlib), not a PATH python that may lack it; the chart script
+// is read from the source tree this library was built from.
+const char kPython[] = "/usr/bin/python3";
+const char kPlotScript[] = HANDSCS_SOURCE_DIR "/scripts/plot_sweep.py";
 const std::vector<std::string> kRasterColumns = {"gaussians", "threads", "forward_ms",
                                                  "backward_ms", "total_ms", "load_average"};
 
@@ -262,58 +265,26 @@ void run_sweep(const SweepConfig& config, const SweepOptions& options) {
 void draw_sweep_plots(const std::string& out_dir) {
   const std::string results_path = out_dir + "/results.csv";
   std::ostringstream md;
+  CsvTable pareto{{"metric", "point", "budget"}, {}};
   if (fs::exists(results_path)) {
     const CsvTable results = read_csv(results_path);
-    // One curve per point: quality against training wall time over its budgets.
-    std::map<std::string, std::vector<size_t>> by_point;
-    std::vector<std::string> order;
     std::map<size_t, std::string> fronts;  // result row -> the fronts it is on, e.g. "PSNR, LPIPS"
-    for (size_t r = 0; r < results.rows.size(); ++r) {
-      if (results.at(r, "status") != "ok") continue;
-      const auto& name = results.at(r, "point");
-      if (!by_point.count(name)) order.push_back(name);
-      by_point[name].push_back(r);
-    }
     for (const auto& [metric, maximize] :
          std::vector<std::pair<std::string, bool>>{{"psnr", true}, {"lpips", false}}) {
-      std::vector<PlotSeries> series;
       std::vector<double> all_x, all_y;
       std::vector<size_t> all_rows;  // result row of each (all_x, all_y) point
-      for (const auto& name : order) {
-        auto rows = by_point[name];
-        std::sort(rows.begin(), rows.end(), [&](size_t a, size_t b) {
-          return number(results.at(a, "budget")) < number(results.at(b, "budget"));
-        });
-        PlotSeries s;
-        s.label = name;
-        for (size_t r : rows) {
-          s.x.push_back(number(results.at(r, "train_wall_s")) / 60.0);
-          s.y.push_back(number(results.at(r, metric)));
-          all_x.push_back(s.x.back());
-          all_y.push_back(s.y.back());
-          all_rows.push_back(r);
-        }
-        series.push_back(s);
+      for (size_t r = 0; r < results.rows.size(); ++r) {
+        if (results.at(r, "status") != "ok") continue;
+        all_x.push_back(number(results.at(r, "train_wall_s")));
+        all_y.push_back(number(results.at(r, metric)));
+        all_rows.push_back(r);
       }
-      PlotSeries front;
-      front.label = "Pareto front";
-      front.dashed = true;
-      front.markers = false;
-      front.color = cv::Scalar(150, 150, 150);  // neutral grey: a reference line, not a setting
       const std::string metric_name = maximize ? "PSNR" : "LPIPS";
       for (size_t i : pareto_front(all_x, all_y, maximize)) {
-        front.x.push_back(all_x[i]);
-        front.y.push_back(all_y[i]);
         auto& on = fronts[all_rows[i]];
         on += (on.empty() ? "" : ", ") + metric_name;
+        pareto.rows.push_back({metric, results.at(all_rows[i], "point"), results.at(all_rows[i], "budget")});
       }
-      if (!front.x.empty()) series.push_back(front);
-      PlotSpec spec;
-      spec.title = "Novel-pose " + metric_name + " against training wall time";
-      spec.x_label = "training wall time (min)";
-      spec.y_label = maximize ? "PSNR (dB), higher is better" : "LPIPS-alex, lower is better";
-      spec.log_x = true;
-      write_plot_png(out_dir + "/" + metric + "_vs_time.png", series, spec);
     }
     md << "| point | budget | threads | wall s | ms/step | peak MB | N | skipped | PSNR | SSIM | "
           "LPIPS | Pareto front | settings |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
@@ -332,38 +303,27 @@ void draw_sweep_plots(const std::string& out_dir) {
   const std::string raster_path = out_dir + "/raster.csv";
   if (fs::exists(raster_path)) {
     const CsvTable raster = read_csv(raster_path);
-    std::map<std::string, PlotSeries> by_threads;
-    for (size_t r = 0; r < raster.rows.size(); ++r) {
-      auto& s = by_threads[raster.at(r, "threads")];
-      s.label = raster.at(r, "threads") + (raster.at(r, "threads") == "1" ? " thread" : " threads");
-      s.x.push_back(number(raster.at(r, "gaussians")));
-      s.y.push_back(number(raster.at(r, "total_ms")));
-    }
-    std::vector<PlotSeries> series;
-    for (auto& [threads, s] : by_threads) {
-      std::vector<size_t> idx(s.x.size());
-      for (size_t i = 0; i < idx.size(); ++i) idx[i] = i;
-      std::sort(idx.begin(), idx.end(), [&](size_t a, size_t b) { return s.x[a] < s.x[b]; });
-      PlotSeries sorted = s;
-      for (size_t i = 0; i < idx.size(); ++i) {
-        sorted.x[i] = s.x[idx[i]];
-        sorted.y[i] = s.y[idx[i]];
-      }
-      series.push_back(sorted);
-    }
-    PlotSpec spec;
-    spec.title = "Rasterizer forward + backward, 512x334";
-    spec.x_label = "Gaussians N";
-    spec.y_label = "ms (median)";
-    spec.log_x = spec.log_y = true;
-    write_plot_png(out_dir + "/raster_ms_vs_n.png", series, spec);
     md << "\n| N | threads | forward ms | backward ms | total ms |\n|---|---|---|---|---|\n";
     for (size_t r = 0; r < raster.rows.size(); ++r)
       md << "| " << raster.at(r, "gaussians") << " | " << raster.at(r, "threads") << " | "
          << raster.at(r, "forward_ms") << " | " << raster.at(r, "backward_ms") << " | "
          << raster.at(r, "total_ms") << " |\n";
   }
+  write_csv_atomic(out_dir + "/pareto.csv", pareto);
   write_file_atomic(out_dir + "/summary.md", md.str());
+
+  // The charts: matplotlib draws them (PNG and vector PDF) from the CSVs. Without Python or
+  // matplotlib the tables above are complete and the sweep still succeeds.
+  ensure_directory(out_dir + "/logs");
+  const std::string log = out_dir + "/logs/plots.log";
+  try {
+    const ProcessResult drawn = run_process({kPython, kPlotScript, out_dir}, log);
+    if (drawn.exit_code != 0)
+      spdlog::warn("sweep: charts not drawn ({} exited with {}; see {})", kPlotScript,
+                   drawn.exit_code, log);
+  } catch (const Error& e) {
+    spdlog::warn("sweep: charts not drawn ({})", e.what());
+  }
 }
 
 }  // namespace handscs

@@ -1,7 +1,7 @@
 // Runs a speed-accuracy sweep: for every (point, budget) it trains with handscs-train, scores the
 // held-out poses with handscs-eval, and records wall time, ms per step, peak memory, Gaussian count
 // and PSNR/SSIM/LPIPS as one CSV row; then times the rasterizer alone over N and threads, and draws
-// the plots. Rows already in the CSV are kept, so a stopped sweep resumes where it stopped.
+// the charts. Rows already in the CSV are kept, so a stopped sweep resumes where it stopped.
 #pragma once
 
 #include <string>
@@ -24,7 +24,9 @@ struct SweepOptions {
 
 void run_sweep(const SweepConfig& config, const SweepOptions& options);
 
-// Redraws the plots and summary.md from the CSVs in out_dir (no training). summary.md marks each
+// Rewrites summary.md and pareto.csv from the CSVs in out_dir (no training) and has
+// scripts/plot_sweep.py (matplotlib) draw the charts as PNG and PDF; without Python or matplotlib
+// the charts are skipped with a warning. summary.md marks each
 // row on the PSNR or LPIPS Pareto front (against training wall time, over all points).
 void draw_sweep_plots(const std::string& out_dir);
 

@@ -1,12 +1,15 @@
-// draw_sweep_plots on a hand-written results.csv: summary.md marks the rows on each Pareto front
-// (worked out by hand below) and the three plots are written.
+// draw_sweep_plots on a hand-written results.csv: summary.md and pareto.csv mark the rows on each
+// Pareto front (worked out by hand below), and matplotlib (scripts/plot_sweep.py) draws the charts
+// as PNG and PDF.
 #include <catch2/catch.hpp>
 
 #include <filesystem>
+#include <set>
 #include <sstream>
 #include <string>
 
 #include "core/atomic_file.h"
+#include "sweep/csv_table.h"
 #include "sweep/sweep_runner.h"
 #include "test_support.h"
 
@@ -21,6 +24,12 @@ std::string summary_row(const std::string& summary, const std::string& point, co
   for (std::string line; std::getline(lines, line);)
     if (line.rfind(prefix, 0) == 0) return line;
   return "";
+}
+
+// True when the file exists and begins with `magic` (PNG and PDF signatures).
+bool starts_with_bytes(const std::string& path, const std::string& magic) {
+  if (!fs::exists(path)) return false;
+  return handscs::read_file(path).compare(0, magic.size(), magic) == 0;
 }
 
 }  // namespace
@@ -49,7 +58,25 @@ TEST_CASE("sweep summary: rows on the PSNR and LPIPS Pareto fronts are marked, f
         "| b | 100 | 2 | 90 | 80 | 600 | 1696 | 0 | 29.0 | 0.94 | 0.07 | LPIPS | x=1 |");
   CHECK(summary_row(summary, "c", "100") ==
         "| c | 100 | 2 | 0 | 0 | 0 | 0 | 0 | 99 | 1 | 0 |  | failed (exit 1) |");
-  CHECK(fs::file_size(dir + "/psnr_vs_time.png") > 0);
-  CHECK(fs::file_size(dir + "/lpips_vs_time.png") > 0);
-  CHECK_FALSE(fs::exists(dir + "/raster_ms_vs_n.png"));  // no raster.csv, no raster plot
+  const auto pareto = handscs::read_csv(dir + "/pareto.csv");
+  std::set<std::string> on_front;
+  for (size_t r = 0; r < pareto.rows.size(); ++r)
+    on_front.insert(pareto.at(r, "metric") + " " + pareto.at(r, "point") + "@" + pareto.at(r, "budget"));
+  CHECK(on_front == std::set<std::string>{"psnr a@100", "psnr a@200", "lpips a@100", "lpips b@100"});
+  for (const char* chart : {"psnr_vs_time", "lpips_vs_time"}) {
+    INFO(chart << " (see " << dir << "/logs/plots.log)");
+    CHECK(starts_with_bytes(dir + "/" + chart + ".png", "\x89PNG"));
+    CHECK(starts_with_bytes(dir + "/" + chart + ".pdf", "%PDF"));
+  }
+  CHECK_FALSE(fs::exists(dir + "/raster_ms_vs_n.png"));  // no raster.csv, no raster chart
+
+  handscs_test::scratch_file(folder, "raster.csv",
+                             "gaussians,threads,forward_ms,backward_ms,total_ms,load_average\n"
+                             "1000,1,1.0,2.0,3.0,0.1\n10000,1,5.0,9.0,14.0,0.1\n"
+                             "1000,2,0.6,1.1,1.7,0.1\n10000,2,3.0,5.0,8.0,0.1\n");
+  handscs::draw_sweep_plots(dir);
+  CHECK(starts_with_bytes(dir + "/raster_ms_vs_n.png", "\x89PNG"));
+  CHECK(starts_with_bytes(dir + "/raster_ms_vs_n.pdf", "%PDF"));
+  CHECK(handscs::read_file(dir + "/summary.md").find("| 10000 | 2 | 3.0 | 5.0 | 8.0 |") !=
+        std::string::npos);
 }
