@@ -8,7 +8,7 @@
 #include "core/cli.h"
 #include "core/error.h"
 #include "metrics/eval_cli.h"
-#include "train/eval_command.h"
+#include "infer/eval_command.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"handscs-eval: score predictions against ground truth (PSNR, SSIM, LPIPS)"};

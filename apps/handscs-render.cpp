@@ -2,191 +2,24 @@
 //   PLY scene:  --ply scene.ply --camera camera.json --out image.png [--alpha alpha.png] [--background R G B]
 //   Avatar:     --checkpoint CKPT|RUN_DIR --poses POSES (--camera camera.json | --orbit N) --out DIR
 //               [--video out.mp4] [--export-ply]   (--camera, --out and --background are shared)
-#include <algorithm>
-#include <array>
-#include <cctype>
-#include <filesystem>
-#include <string>
-#include <vector>
-
 #include <CLI/CLI.hpp>
-#include <c10/core/InferenceMode.h>
 #include <spdlog/spdlog.h>
-#include <torch/torch.h>
 
-#include "core/atomic_file.h"
 #include "core/cli.h"
-#include "core/error.h"
-#include "core/text.h"
-#include "io/ply.h"
-#include "io/png.h"
-#include "io/ply_check.h"
-#include "render/camera_json.h"
-#include "render/rasterize.h"
-#include "train/avatar_render.h"
-
-namespace {
-
-struct PlyMode {
-  std::string ply;     // 3DGS PLY file
-  std::string camera;  // camera JSON
-  std::string out;     // RGB PNG
-  std::string alpha;   // optional alpha PNG
-  std::vector<float> background{0, 0, 0};
-};
-
-void add_ply_mode(CLI::App& app, PlyMode& mode) {
-  auto* group = app.add_option_group("PLY scene", "render a 3D Gaussian Splatting PLY from one camera");
-  group->add_option("--ply", mode.ply, "3DGS PLY file (x y z, f_dc_*, opacity, scale_*, rot_*)");
-  group->add_option("--camera", mode.camera, "camera JSON: {\"K\": 3x3, \"R\": 3x3, \"t\": [3], \"width\", \"height\"}");
-  group->add_option("--out", mode.out, "output RGB PNG");
-  group->add_option("--alpha", mode.alpha, "also write the alpha channel as a grey PNG");
-  group->add_option("--background", mode.background, "background colour R G B in [0, 1] (default 0 0 0)")
-      ->expected(3);
-}
-
-// [H, W] or [H, W, 3] float in [0, 1] -> 8-bit PNG (RGB written as OpenCV's BGR order).
-void write_png(const std::string& path, const torch::Tensor& image) {
-  auto bytes = (image.clamp(0, 1) * 255).round().to(torch::kUInt8).contiguous();
-  const int h = int(image.size(0)), w = int(image.size(1));
-  cv::Mat mat;
-  if (image.dim() == 3) {
-    bytes = bytes.flip({2}).contiguous();  // RGB -> BGR
-    mat = cv::Mat(h, w, CV_8UC3, bytes.data_ptr<uint8_t>());
-  } else {
-    mat = cv::Mat(h, w, CV_8UC1, bytes.data_ptr<uint8_t>());
-  }
-  handscs::write_png(path, mat);
-}
-
-// The PLY mode writes PNG: another extension would hold PNG bytes under a misleading name.
-void require_png_name(const std::string& flag, const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  handscs::require(ext == ".png", flag + " " + path + ": the PLY mode writes PNG images; name the file .png");
-}
-
-void run_ply_mode(const PlyMode& mode) {
-  require_png_name("--out", mode.out);
-  if (!mode.alpha.empty()) require_png_name("--alpha", mode.alpha);
-  handscs::GaussianPly ply = handscs::read_gaussian_ply(mode.ply);
-  const handscs::PlyCheck check = handscs::check_gaussian_ply(ply);
-  handscs::require(check.total > 0, mode.ply + ": holds no Gaussians (0 vertices)");
-  handscs::require(check.num_drawable() > 0, mode.ply + ": none of its Gaussians can be drawn (" + check.summary() + ")");
-  if (check.num_drawable() < check.total) {
-    spdlog::warn("{}: {}; they are left out", mode.ply, check.summary());
-    ply = handscs::select_gaussians(ply, check.drawable);
-  }
-  const handscs::Camera camera = handscs::read_camera_json(mode.camera);
-  for (float c : mode.background)
-    handscs::require(c >= 0 && c <= 1, "--background: values must be in [0, 1]");
-  c10::InferenceMode guard;
-  handscs::RasterSettings settings;
-  settings.background = {mode.background[0], mode.background[1], mode.background[2]};
-  const auto covariances = handscs::covariance_from_scale_rotation(handscs::ply_scales(ply), ply.rotations);
-  const handscs::RasterOutput out =
-      handscs::rasterize_gaussians(ply.means, covariances, handscs::ply_colors(ply), handscs::ply_opacities(ply),
-                                   camera, settings);
-  write_png(mode.out, out.rgb);
-  if (!mode.alpha.empty()) write_png(mode.alpha, out.alpha);
-  spdlog::info("rendered {} Gaussians ({} visible) at {}x{} -> {}", ply.size(), (out.radii > 0).sum().item<int64_t>(),
-               camera.width, camera.height, mode.out);
-}
-
-}  // namespace
-
-struct AvatarMode {
-  std::string checkpoint;
-  std::string poses;
-  int orbit = 0;
-  std::string video;
-  double video_fps = 30;
-  bool export_ply = false;
-  int ply_sh_degree = 0;
-};
-
-void add_avatar_mode(CLI::App& app, AvatarMode& mode) {
-  auto* group = app.add_option_group(
-      "Avatar", "a trained avatar in new poses and views (uses --camera, --out DIR and --background)");
-  group->add_option("--checkpoint", mode.checkpoint, "checkpoint file or run folder (its newest checkpoint)");
-  group->add_option("--poses", mode.poses,
-                    "POSES JSON: {\"poses\": [{\"pose\": [48], \"shape\": [10], \"trans\": [3]}, ...]}, "
-                    "{\"interpolate\": {\"from\", \"to\", \"steps\"}} or {\"capture\": {...}, \"frames\": \"test\"}");
-  // At most 100,000 views (nearly an hour of 30 FPS video): a larger number is a typo that would
-  // run for days.
-  group->add_option("--orbit", mode.orbit, "N turntable views around the hand (instead of --camera)")
-      ->check(CLI::Range(1, 100000));
-  group->add_option("--video", mode.video, "also write the frames as an MP4 video");
-  group->add_option("--fps", mode.video_fps, "frame rate of the video (default 30)");
-  group->add_flag("--export-ply", mode.export_ply, "also write each frame's posed Gaussians as a 3DGS PLY");
-  group->add_option("--ply-sh-degree", mode.ply_sh_degree,
-                    "SH degree the PLY declares (default 0: f_dc only; 3 adds 45 zero f_rest, which "
-                    "the original 3DGS code's load_ply expects; the picture is the same)")
-      ->check(CLI::Range(0, handscs::kMaxPlyShDegree));
-}
-
-void run_avatar_mode(const AvatarMode& mode, const PlyMode& shared) {
-  handscs::AvatarRenderOptions options;
-  options.checkpoint = mode.checkpoint;
-  options.poses = mode.poses;
-  options.camera = shared.camera;
-  options.orbit = mode.orbit;
-  options.out_dir = shared.out;
-  options.video = mode.video;
-  options.video_fps = mode.video_fps;
-  options.export_ply = mode.export_ply;
-  options.ply_sh_degree = mode.ply_sh_degree;
-  for (float c : shared.background)
-    handscs::require(c >= 0 && c <= 1, "--background: values must be in [0, 1]");
-  options.background = {shared.background[0], shared.background[1], shared.background[2]};
-  handscs::require(!mode.poses.empty(), "avatar mode needs --poses POSES");
-  const auto result = handscs::render_avatar(options);
-  spdlog::info("rendered {} frames of {} Gaussians at {}x{}: {:.1f} FPS over the whole forward "
-               "(median {:.1f} ms) -> {}", result.frames, result.gaussians, result.width, result.height,
-               result.fps, result.forward_ms, shared.out);
-}
-
-// An option the chosen mode cannot use is an error, never silently ignored.
-void check_mode_options(const PlyMode& ply, const AvatarMode& avatar) {
-  std::vector<std::string> misplaced;
-  if (!avatar.checkpoint.empty()) {
-    if (!ply.ply.empty()) misplaced.push_back("--ply");
-    if (!ply.alpha.empty()) misplaced.push_back("--alpha");
-    handscs::require(misplaced.empty(), handscs::join(misplaced, ", ") +
-                                            ": PLY-scene option(s), not used with --checkpoint (avatar mode); "
-                                            "give one mode");
-    return;
-  }
-  const AvatarMode defaults;
-  if (!avatar.poses.empty()) misplaced.push_back("--poses");
-  if (avatar.orbit != defaults.orbit) misplaced.push_back("--orbit");
-  if (!avatar.video.empty()) misplaced.push_back("--video");
-  if (avatar.video_fps != defaults.video_fps) misplaced.push_back("--fps");
-  if (avatar.export_ply) misplaced.push_back("--export-ply");
-  if (avatar.ply_sh_degree != defaults.ply_sh_degree) misplaced.push_back("--ply-sh-degree");
-  handscs::require(misplaced.empty(), handscs::join(misplaced, ", ") +
-                                          ": avatar-mode option(s), used only with --checkpoint");
-}
+#include "infer/render_command.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"handscs-render: render Gaussians to images"};
   handscs::CommonOptions common;
   handscs::add_common_options(app, common, false);
-  PlyMode ply;
-  add_ply_mode(app, ply);
-  AvatarMode avatar;
-  add_avatar_mode(app, avatar);
+  handscs::PlyMode ply;
+  handscs::add_ply_mode(app, ply);
+  handscs::AvatarMode avatar;
+  handscs::add_avatar_mode(app, avatar);
   CLI11_PARSE(app, argc, argv);
   try {
     handscs::start_up(common, "handscs-render");
-    check_mode_options(ply, avatar);
-    if (!avatar.checkpoint.empty()) {
-      run_avatar_mode(avatar, ply);
-      return 0;
-    }
-    handscs::require(!ply.ply.empty() && !ply.camera.empty() && !ply.out.empty(),
-                     "nothing to render: give --ply, --camera and --out (see --help)");
-    run_ply_mode(ply);
+    handscs::run_render_command(ply, avatar);
   } catch (const std::exception& e) {
     spdlog::error("{}", handscs::error_text(e));
     return 1;

@@ -1,6 +1,6 @@
 // handscs-eval's command line: option groups, the EvalConfig they resolve to, and the folder-mode
 // run (score, write JSON/CSV atomically, print the table). Model mode adds its own option group
-// (train/eval_command.h) and shares the metric and region options.
+// (infer/eval_command.h) and shares the metric and region options.
 #pragma once
 
 #include <string>

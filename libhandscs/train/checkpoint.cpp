@@ -1,6 +1,11 @@
 #include "train/checkpoint.h"
 
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cstdio>
 #include <cstring>
+#include <filesystem>
 
 #include <ATen/core/Dict.h>
 #include <torch/serialize.h>
@@ -71,6 +76,50 @@ Checkpoint load_checkpoint(const std::string& path) {
     throw Error(path + ": checkpoint payload unreadable (" + std::string(e.what()) + ")");
   }
   return checkpoint;
+}
+
+std::string checkpoint_name(int64_t iteration) {
+  char name[64];
+  std::snprintf(name, sizeof(name), "step_%08lld.ckpt", static_cast<long long>(iteration));
+  return name;
+}
+
+std::vector<std::string> list_checkpoints(const std::string& run_dir) {
+  std::vector<std::string> files;
+  const auto dir = std::filesystem::path(run_dir) / "checkpoints";
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec)) return files;
+  for (const auto& entry : std::filesystem::directory_iterator(dir, ec)) {
+    const auto name = entry.path().filename().string();
+    if (name.rfind("step_", 0) == 0 && entry.path().extension() == ".ckpt")
+      files.push_back(entry.path().string());
+  }
+  std::sort(files.rbegin(), files.rend());  // newest first (zero-padded step numbers)
+  return files;
+}
+
+std::string latest_checkpoint(const std::string& run_dir) {
+  const auto files = list_checkpoints(run_dir);
+  return files.empty() ? "" : files.front();
+}
+
+std::string resolve_checkpoint_path(const std::string& path) {
+  if (std::filesystem::is_directory(path)) {
+    const auto latest = latest_checkpoint(path);
+    require(!latest.empty(), path + ": no checkpoints/step_*.ckpt in this run folder");
+    return latest;
+  }
+  require(std::filesystem::exists(path), path + ": checkpoint not found");
+  return path;
+}
+
+OpenedCheckpoint open_checkpoint(const std::string& path) {
+  OpenedCheckpoint out;
+  out.path = resolve_checkpoint_path(path);
+  out.checkpoint = load_checkpoint(out.path);
+  spdlog::info("checkpoint: {} (step {})", out.path,
+               out.checkpoint.meta.value("iteration", int64_t{-1}));
+  return out;
 }
 
 }  // namespace handscs

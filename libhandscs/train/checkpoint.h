@@ -5,6 +5,7 @@
 
 #include <map>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 #include <torch/types.h>
@@ -19,5 +20,23 @@ struct Checkpoint {
 void save_checkpoint(const std::string& path, const Checkpoint& checkpoint);
 // Throws Error naming the path if the file is missing, truncated, corrupted or of another format.
 Checkpoint load_checkpoint(const std::string& path);
+
+// A run folder keeps its checkpoints as <run_dir>/checkpoints/step_<8-digit step>.ckpt.
+std::string checkpoint_name(int64_t iteration);
+// The run folder's checkpoint files, newest first (none: empty).
+std::vector<std::string> list_checkpoints(const std::string& run_dir);
+// The newest of them, "" when there is none.
+std::string latest_checkpoint(const std::string& run_dir);
+
+// Resolves a checkpoint argument: a file as is, a run folder to its latest checkpoint.
+std::string resolve_checkpoint_path(const std::string& path);
+
+struct OpenedCheckpoint {
+  std::string path;  // the file used
+  Checkpoint checkpoint;
+};
+// resolve_checkpoint_path + load_checkpoint, logging the file used and its step (a run folder's
+// newest checkpoint is not always the one a user expects).
+OpenedCheckpoint open_checkpoint(const std::string& path);
 
 }  // namespace handscs

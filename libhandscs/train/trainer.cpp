@@ -73,26 +73,6 @@ torch::Tensor trans_tensor(const std::array<float, 3>& t) {
   return torch::from_blob(const_cast<float*>(t.data()), {3}, torch::kFloat32).clone();
 }
 
-std::string checkpoint_name(int64_t iteration) {
-  char name[64];
-  std::snprintf(name, sizeof(name), "step_%08lld.ckpt", static_cast<long long>(iteration));
-  return name;
-}
-
-std::vector<std::string> list_checkpoints(const std::string& run_dir) {
-  std::vector<std::string> files;
-  const auto dir = std::filesystem::path(run_dir) / "checkpoints";
-  std::error_code ec;
-  if (!std::filesystem::is_directory(dir, ec)) return files;
-  for (const auto& entry : std::filesystem::directory_iterator(dir, ec)) {
-    const auto name = entry.path().filename().string();
-    if (name.rfind("step_", 0) == 0 && entry.path().extension() == ".ckpt")
-      files.push_back(entry.path().string());
-  }
-  std::sort(files.rbegin(), files.rend());  // newest first (zero-padded step numbers)
-  return files;
-}
-
 }  // namespace
 
 Trainer::Trainer(const RunConfig& config, const std::string& run_dir)
@@ -519,11 +499,6 @@ std::string Trainer::save_checkpoint() {
   const auto files = list_checkpoints(run_dir_);
   for (size_t i = kCheckpointsKept; i < files.size(); ++i) std::filesystem::remove(files[i]);
   return path;
-}
-
-std::string Trainer::latest_checkpoint(const std::string& run_dir) {
-  const auto files = list_checkpoints(run_dir);
-  return files.empty() ? "" : files.front();
 }
 
 bool Trainer::resume() {

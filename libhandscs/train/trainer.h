@@ -72,8 +72,6 @@ class Trainer {
   Capture& capture() { return *capture_; }
   const RunConfig& config() const { return config_; }
 
-  // Latest checkpoint file of a run folder ("" if none).
-  static std::string latest_checkpoint(const std::string& run_dir);
 
  private:
   void build_optimizer();

@@ -29,7 +29,6 @@
 #include "train/checkpoint.h"
 #include "train/consistency.h"
 #include "train/descriptor_tree.h"
-#include "train/evaluate.h"
 #include "train/run_config.h"
 #include "bench_timing.h"
 

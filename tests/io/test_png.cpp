@@ -1,6 +1,6 @@
 // io/png.h: what is written reads back pixel for pixel through OpenCV's decoder (grey and colour),
 // the folder is created, and a path that cannot be written is an error naming it.
-#include <catch2/catch.hpp>
+#include "catch_torch.h"
 
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
@@ -42,4 +42,25 @@ TEST_CASE("png: a path that cannot be written names it") {
   } catch (const handscs::Error& e) {
     CHECK(std::string(e.what()).find(file) != std::string::npos);
   }
+}
+
+TEST_CASE("png: float tensors are written as 8-bit RGB or grey, clamped and rounded") {
+  const std::string dir = handscs_test::scratch_path("handscs_test_png", "tensors");
+  auto rgb = torch::zeros({2, 3, 3});
+  rgb[0][0][0] = 1.0;   // pure red
+  rgb[0][1][1] = 0.5;   // 127.5 rounds to 128
+  rgb[1][2][2] = 2.0;   // clamped to 255
+  rgb[1][0][0] = -1.0;  // clamped to 0
+  handscs::write_png(dir + "/rgb.png", rgb);
+  const cv::Mat back = cv::imread(dir + "/rgb.png", cv::IMREAD_UNCHANGED);  // BGR
+  REQUIRE(back.type() == CV_8UC3);
+  CHECK(back.at<cv::Vec3b>(0, 0) == cv::Vec3b(0, 0, 255));
+  CHECK(back.at<cv::Vec3b>(0, 1) == cv::Vec3b(0, 128, 0));
+  CHECK(back.at<cv::Vec3b>(1, 2) == cv::Vec3b(255, 0, 0));
+  CHECK(back.at<cv::Vec3b>(1, 0) == cv::Vec3b(0, 0, 0));
+  handscs::write_png(dir + "/grey.png", torch::full({4, 2}, 0.25));
+  const cv::Mat grey = cv::imread(dir + "/grey.png", cv::IMREAD_UNCHANGED);
+  REQUIRE(grey.type() == CV_8UC1);
+  CHECK(grey.at<uint8_t>(3, 1) == 64);  // 63.75 rounds to 64
+  CHECK_THROWS_AS(handscs::write_png(dir + "/bad.png", torch::zeros({2, 2, 4})), handscs::Error);
 }

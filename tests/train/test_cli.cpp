@@ -43,12 +43,12 @@ TEST_CASE("cli: train, resume, evaluate and render the tiny capture") {
   const std::string common = " --threads 2 --set data.root=" + tiny_capture_dir();
   REQUIRE(run(kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
               common + " train.iterations=40") == 0);
-  CHECK(handscs::Trainer::latest_checkpoint(run_dir).find("step_00000040.ckpt") != std::string::npos);
+  CHECK(handscs::latest_checkpoint(run_dir).find("step_00000040.ckpt") != std::string::npos);
   REQUIRE(run(kBin + "/handscs-train --resume --out " + run_dir +
               " --threads 2 --set train.iterations=50") == 0);
   INFO(log_text());
   CHECK(log_text().find("resumed from") != std::string::npos);
-  CHECK(handscs::Trainer::latest_checkpoint(run_dir).find("step_00000050.ckpt") != std::string::npos);
+  CHECK(handscs::latest_checkpoint(run_dir).find("step_00000050.ckpt") != std::string::npos);
   {
     // Every metrics.csv row has a cell per column; the decoder gates are logged on each row.
     std::ifstream csv(run_dir + "/metrics.csv");
@@ -131,13 +131,13 @@ TEST_CASE("cli: kill -9 during checkpoint writes leaves a loadable checkpoint") 
       _exit(127);
     }
     // Wait until the first checkpoint exists, then kill at an arbitrary moment.
-    for (int i = 0; i < 600 && handscs::Trainer::latest_checkpoint(run_dir).empty(); ++i)
+    for (int i = 0; i < 600 && handscs::latest_checkpoint(run_dir).empty(); ++i)
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
     kill(pid, SIGKILL);
     int status = 0;
     waitpid(pid, &status, 0);
-    const auto latest = handscs::Trainer::latest_checkpoint(run_dir);
+    const auto latest = handscs::latest_checkpoint(run_dir);
     REQUIRE_FALSE(latest.empty());
     INFO(latest);
     CHECK_NOTHROW(handscs::load_checkpoint(latest));

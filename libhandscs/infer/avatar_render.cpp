@@ -1,4 +1,4 @@
-#include "train/avatar_render.h"
+#include "infer/avatar_render.h"
 
 #include <algorithm>
 #include <chrono>
@@ -22,9 +22,9 @@
 #include "render/camera_export.h"
 #include "render/camera_json.h"
 #include "train/avatar_state_io.h"
-#include "train/evaluate.h"
-#include "train/orbit.h"
-#include "train/pose_source.h"
+#include "train/checkpoint.h"
+#include "render/orbit.h"
+#include "infer/pose_source.h"
 #include "train/run_config.h"
 
 namespace handscs {

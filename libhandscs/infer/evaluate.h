@@ -36,17 +36,6 @@ struct ModelEvalResult {
 // anything is rendered); an unreadable or wrong-size one fails that frame.
 ModelEvalResult evaluate_avatar(const RunConfig& config, const ModelEvalOptions& options);
 
-// Resolves a checkpoint argument: a file as is, a run folder to its latest checkpoint.
-std::string resolve_checkpoint_path(const std::string& path);
-
-struct OpenedCheckpoint {
-  std::string path;  // the file used
-  Checkpoint checkpoint;
-};
-// resolve_checkpoint_path + load_checkpoint, logging the file used and its step (a run folder's
-// newest checkpoint is not always the one a user expects).
-OpenedCheckpoint open_checkpoint(const std::string& path);
-
 // The paper-style Markdown table: the capture's column group, then one per region (summary.regions),
 // then FPS; with regions, a line under it gives each region's image count and pixel share.
 std::string paper_table(const std::string& label, const EvalSummary& summary, double fps);

@@ -1,4 +1,4 @@
-#include "train/evaluate.h"
+#include "infer/evaluate.h"
 
 #include <algorithm>
 #include <chrono>
@@ -22,7 +22,6 @@
 #include "metrics/image_tensor.h"
 #include "metrics/region_masks.h"
 #include "train/avatar_state_io.h"
-#include "train/trainer.h"
 
 namespace handscs {
 
@@ -56,25 +55,6 @@ void refuse_damaged_images(const Capture& capture) {
               "; the warnings above say what is wrong with each): repair or remove them before scoring");
 }
 }  // namespace
-
-std::string resolve_checkpoint_path(const std::string& path) {
-  if (std::filesystem::is_directory(path)) {
-    const auto latest = Trainer::latest_checkpoint(path);
-    require(!latest.empty(), path + ": no checkpoints/step_*.ckpt in this run folder");
-    return latest;
-  }
-  require(std::filesystem::exists(path), path + ": checkpoint not found");
-  return path;
-}
-
-OpenedCheckpoint open_checkpoint(const std::string& path) {
-  OpenedCheckpoint out;
-  out.path = resolve_checkpoint_path(path);
-  out.checkpoint = load_checkpoint(out.path);
-  spdlog::info("checkpoint: {} (step {})", out.path,
-               out.checkpoint.meta.value("iteration", int64_t{-1}));
-  return out;
-}
 
 std::string paper_table(const std::string& label, const EvalSummary& s, double fps) {
   std::string header = "| Method | " + label + " PSNR ↑ | SSIM ↑ | LPIPS ↓ |";

@@ -1,4 +1,4 @@
-#include "train/eval_command.h"
+#include "infer/eval_command.h"
 
 #include <cstdio>
 
@@ -9,7 +9,7 @@
 #include "core/error.h"
 #include "core/text.h"
 #include "train/checkpoint.h"
-#include "train/evaluate.h"
+#include "infer/evaluate.h"
 #include "train/run_config.h"
 
 namespace handscs {

@@ -6,8 +6,8 @@
 #include <fstream>
 
 #include "core/error.h"
-#include "tiny_capture.h"
-#include "train/pose_source.h"
+#include "train/tiny_capture.h"
+#include "infer/pose_source.h"
 
 namespace {
 std::string error_of(const std::string& path, const std::string& text) {

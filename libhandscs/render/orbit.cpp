@@ -1,4 +1,4 @@
-#include "train/orbit.h"
+#include "render/orbit.h"
 
 #include <cmath>
 

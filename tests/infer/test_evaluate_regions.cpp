@@ -13,8 +13,8 @@
 #include "core/error.h"
 #include "core/threads.h"
 #include "test_support.h"
-#include "tiny_capture.h"
-#include "train/evaluate.h"
+#include "train/tiny_capture.h"
+#include "infer/evaluate.h"
 #include "train/trainer.h"
 
 using Catch::Matchers::WithinAbs;

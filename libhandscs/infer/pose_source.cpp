@@ -1,4 +1,4 @@
-#include "train/pose_source.h"
+#include "infer/pose_source.h"
 
 #include <algorithm>
 #include <cmath>

@@ -12,9 +12,9 @@
 #include "io/ply.h"
 #include "render/camera_json.h"
 #include "render/camera_export.h"
-#include "tiny_capture.h"
-#include "train/avatar_render.h"
-#include "train/evaluate.h"
+#include "train/tiny_capture.h"
+#include "infer/avatar_render.h"
+#include "infer/evaluate.h"
 #include "train/trainer.h"
 
 using handscs_test::fresh_dir;

@@ -13,7 +13,7 @@ constexpr int kMaxPlyShDegree = 3;
 
 struct AvatarRenderOptions {
   std::string checkpoint;  // file, or run folder (latest checkpoint)
-  std::string poses;       // POSES file (train/pose_source.h)
+  std::string poses;       // POSES file (infer/pose_source.h)
   std::string camera;      // camera JSON (K, R, t, width, height); or
   int orbit = 0;           // N turntable views around the hand; or the capture frames' own cameras
   std::string out_dir;     // frame_XXXX.png, frame_XXXX_alpha.png, frame_XXXX_camera.json (the
