@@ -5,6 +5,7 @@
 #include "core/error.h"
 #include "core/threads.h"
 #include "scs/descriptor.h"
+#include "render/rotation.h"
 
 namespace handscs {
 

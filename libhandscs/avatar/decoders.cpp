@@ -3,6 +3,7 @@
 #include <torch/torch.h>
 
 #include "avatar/gaussians.h"
+#include "render/rotation.h"
 
 namespace handscs {
 

@@ -44,20 +44,6 @@ void GaussianState::append(const GaussianState& other) {
   }
 }
 
-torch::Tensor quaternion_to_matrix(const torch::Tensor& quats) {
-  // |q|^2 floored so a zero quaternion gives a finite (if arbitrary) matrix instead of NaN.
-  const auto q = quats / quats.pow(2).sum(-1, true).clamp_min(1e-12).sqrt();
-  const auto w = q.select(-1, 0), x = q.select(-1, 1), y = q.select(-1, 2), z = q.select(-1, 3);
-  auto m = torch::stack({1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
-                         2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-                         2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)},
-                        -1);
-  auto sizes = quats.sizes().vec();
-  sizes.back() = 3;
-  sizes.push_back(3);
-  return m.view(sizes);
-}
-
 GaussianState init_gaussians_from_rig(const Rig& rig, const AvatarConfig& config) {
   require(config.opacity_init_min <= config.opacity_init_max,
           "avatar.opacity_init_min must not exceed avatar.opacity_init_max");

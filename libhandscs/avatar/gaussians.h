@@ -42,7 +42,4 @@ struct GaussianState {
 // the 3 nearest vertices, identity rotations, random colour and opacity, N(0, std) embeddings.
 GaussianState init_gaussians_from_rig(const Rig& rig, const AvatarConfig& config);
 
-// Rotation matrices [N, 3, 3] of quaternions [N, 4] (w, x, y, z; normalised here, |q|^2 floored).
-torch::Tensor quaternion_to_matrix(const torch::Tensor& quats);
-
 }  // namespace handscs

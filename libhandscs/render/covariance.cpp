@@ -3,6 +3,7 @@
 #include <torch/torch.h>
 
 #include "render/rasterize.h"
+#include "render/rotation.h"
 
 namespace handscs {
 
@@ -14,14 +15,7 @@ torch::Tensor covariance_from_scale_rotation(const torch::Tensor& scales, const 
   TORCH_CHECK(scales.scalar_type() == quats.scalar_type(),
               "covariance_from_scale_rotation: scales and quats must share a dtype, got ", scales.scalar_type(),
               " and ", quats.scalar_type());
-  // |q|^2 floored at 1e-24 (|q| >= 1e-12): q = 0 gives the identity rotation instead of 0/0.
-  const auto q = quats / (quats * quats).sum(-1, true).clamp_min(1e-24).sqrt();
-  const auto w = q.select(1, 0), x = q.select(1, 1), y = q.select(1, 2), z = q.select(1, 3);
-  const auto rot = torch::stack({1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
-                                 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-                                 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)},
-                                1)
-                       .view({-1, 3, 3});
+  const auto rot = quaternion_to_matrix(quats);  // [N, 3, 3]
   const auto m = rot * scales.unsqueeze(1);  // R diag(s): column k scaled by s_k
   const auto sigma = torch::matmul(m, m.transpose(1, 2));
   return torch::stack({sigma.select(1, 0).select(1, 0), sigma.select(1, 0).select(1, 1),

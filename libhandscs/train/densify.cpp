@@ -1,4 +1,5 @@
 #include "train/densify.h"
+#include "render/rotation.h"
 
 #include <torch/torch.h>
 

@@ -12,6 +12,7 @@
 #include "hand/lbs.h"
 #include "scs/descriptor.h"
 #include "small_avatar.h"
+#include "render/rotation.h"
 
 namespace {
 
