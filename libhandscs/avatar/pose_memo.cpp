@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cstring>
 
+#include "core/float_vector.h"
+
 namespace handscs {
 
 const AvatarState& PoseMemo::pose(const float* pose, const float* shape, const float* trans) {
@@ -18,9 +20,8 @@ const AvatarState& PoseMemo::pose(const float* pose, const float* shape, const f
     return *state_;
   }
   const auto start = std::chrono::steady_clock::now();
-  state_ = avatar_.pose(torch::from_blob(key.data(), {48}).clone(),
-                        torch::from_blob(key.data() + 48, {10}).clone(),
-                        torch::from_blob(key.data() + 58, {3}).clone());
+  state_ = avatar_.pose(float_vector(key.data(), 48), float_vector(key.data() + 48, 10),
+                        float_vector(key.data() + 58, 3));
   pose_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   key_ = key;
   ++computed_;

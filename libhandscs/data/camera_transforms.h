@@ -16,18 +16,20 @@ inline Camera crop_camera(const Camera& camera, const PixelRect& rect) {
   return out;
 }
 
-// Camera of the same view at `scale` times the resolution: u' = scale u. With an odd integer scale
-// the centre sub-pixel of pixel (i, j) sits exactly at (i + 0.5, j + 0.5) of the original image.
-inline Camera scale_camera(const Camera& camera, int scale) {
+// Camera of the same view resampled to width x height at `scale` times the resolution: u' = scale u
+// (K's focal lengths and principal point scaled; pixel centres stay at i + 0.5).
+inline Camera resample_camera(const Camera& camera, double scale, int width, int height) {
   Camera out = camera;
-  out.K[0] *= scale;
-  out.K[1] *= scale;
-  out.K[2] *= scale;
-  out.K[4] *= scale;
-  out.K[5] *= scale;
-  out.width = camera.width * scale;
-  out.height = camera.height * scale;
+  for (int i : {0, 1, 2, 4, 5}) out.K[i] *= scale;
+  out.width = width;
+  out.height = height;
   return out;
+}
+
+// The same at an integer `scale`: with an odd one the centre sub-pixel of pixel (i, j) sits exactly
+// at (i + 0.5, j + 0.5) of the original image.
+inline Camera scale_camera(const Camera& camera, int scale) {
+  return resample_camera(camera, scale, camera.width * scale, camera.height * scale);
 }
 
 }  // namespace handscs

@@ -14,6 +14,7 @@
 #include "core/atomic_file.h"
 #include "core/config.h"
 #include "core/error.h"
+#include "core/float_vector.h"
 #include "core/progress.h"
 #include "data/mesh_mask.h"
 #include "io/ply.h"
@@ -102,9 +103,7 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
     // Orbit around the first pose: centre and long axis from its posed joints.
     c10::InferenceMode guard;
     const auto& f = poses.front();
-    const auto state = avatar.pose(torch::tensor(std::vector<float>(f.pose.begin(), f.pose.end())),
-                                   torch::tensor(std::vector<float>(f.shape.begin(), f.shape.end())),
-                                   torch::tensor(std::vector<float>(f.trans.begin(), f.trans.end())));
+    const auto state = avatar.pose(float_vector(f.pose), float_vector(f.shape), float_vector(f.trans));
     const auto joints = state.lbs.joints[0].to(torch::kFloat64);
     const auto means = state.posed.means.to(torch::kFloat64);
     const auto centre = means.mean(0);

@@ -16,7 +16,9 @@
 #include "core/atomic_file.h"
 #include "core/config.h"
 #include "core/error.h"
+#include "core/float_vector.h"
 #include "core/progress.h"
+#include "data/camera_transforms.h"
 #include "io/png.h"
 #include "metrics/image_tensor.h"
 #include "metrics/psnr.h"
@@ -54,24 +56,7 @@ const char* kDiagnosticColumns[] = {"gate_geometry", "gate_appearance", "gate_fu
                                     "offset_dx_f", "offset_dsigma_f", "offset_dc_f",
                                     "pose_refine_deg", "pose_refine_global_deg", "pose_refine_mm"};
 
-// Camera of the same view resampled by `scale` (u' = scale u; pixel centres stay at i + 0.5).
-Camera scaled_camera(const Camera& camera, double scale, int width, int height) {
-  Camera out = camera;
-  for (int i : {0, 1, 2, 4, 5}) out.K[i] *= scale;
-  out.width = width;
-  out.height = height;
-  return out;
-}
 
-torch::Tensor pose_tensor(const std::array<float, 48>& p) {
-  return torch::from_blob(const_cast<float*>(p.data()), {48}, torch::kFloat32).clone();
-}
-torch::Tensor shape_tensor(const std::array<float, 10>& s) {
-  return torch::from_blob(const_cast<float*>(s.data()), {10}, torch::kFloat32).clone();
-}
-torch::Tensor trans_tensor(const std::array<float, 3>& t) {
-  return torch::from_blob(const_cast<float*>(t.data()), {3}, torch::kFloat32).clone();
-}
 
 }  // namespace
 
@@ -252,7 +237,7 @@ StepResult Trainer::step() {
     cv::resize(msk, msk_small, cv::Size(w, h), 0, 0, cv::INTER_AREA);
     image = torch::from_blob(img_small.data, {h, w, 3}, torch::kFloat32).clone();
     mask = torch::from_blob(msk_small.data, {h, w}, torch::kFloat32).clone();
-    camera = scaled_camera(camera, double(w) / camera.width, w, h);
+    camera = resample_camera(camera, double(w) / camera.width, w, h);
   }
   const std::string too_small = scaled_crop_problem(current, static_cast<int>(image.size(1)),
                                                     static_cast<int>(image.size(0)), scale,
@@ -269,8 +254,8 @@ StepResult Trainer::step() {
   const bool consistency = config_.train.loss.consistency > 0;
   RasterSettings settings;
   settings.background = bg;
-  auto pose = pose_tensor(current.pose);
-  auto trans = trans_tensor(current.trans);
+  auto pose = float_vector(current.pose);
+  auto trans = float_vector(current.trans);
   CorrectedPose corrected;  // delta undefined without pose refinement
   if (pose_corrections_) {
     const bool learn = iteration_ >= config_.train.pose_refine.start;
@@ -279,7 +264,7 @@ StepResult Trainer::step() {
     trans = corrected.trans;
   }
   const bool learn_pose = corrected.delta.defined() && corrected.delta.requires_grad();
-  auto out = avatar_->forward(pose, shape_tensor(current.shape), trans, camera, settings, probe,
+  auto out = avatar_->forward(pose, float_vector(current.shape), trans, camera, settings, probe,
                               consistency);
   const auto t2 = Clock::now();
 
@@ -528,8 +513,8 @@ void Trainer::validate() {
   const FrameInfo& frame = frames.front();
   c10::InferenceMode guard;
   FrameSample sample = capture_->load(frame, /*full_image=*/true);
-  auto out = avatar_->forward(pose_tensor(frame.pose), shape_tensor(frame.shape),
-                              trans_tensor(frame.trans), sample.camera, RasterSettings{});
+  auto out = avatar_->forward(float_vector(frame.pose), float_vector(frame.shape),
+                              float_vector(frame.trans), sample.camera, RasterSettings{});
   const auto mask = sample.mask.to(torch::kFloat32).unsqueeze(2);
   const auto gt = sample.image.to(torch::kFloat32).div(255.0) * mask;
   const auto side_by_side = torch::cat({out.render.rgb.clamp(0, 1), gt}, 1);
