@@ -34,6 +34,9 @@ int set_threads(int threads) {
   return count;
 }
 
+SingleThreadScope::SingleThreadScope() : saved_(at::get_num_threads()) { set_threads(1); }
+SingleThreadScope::~SingleThreadScope() { set_threads(saved_); }
+
 std::string blas_in_use() {
   // Make sure the BLAS library is loaded and initialised before looking.
   auto a = torch::ones({8, 8});

@@ -9,11 +9,13 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 
 #include "core/atomic_file.h"
 #include "core/config.h"
 #include "core/error.h"
 #include "core/progress.h"
+#include "core/threads.h"
 #include "data/mesh_mask.h"
 #include "hand/joint_order.h"
 #include "hand/lbs.h"
@@ -92,6 +94,9 @@ SynthScene make_synth_scene(const SynthConfig& config) {
     const torch::Tensor faces = scene.rig.faces.to(torch::kInt64).contiguous();
     scene.faces.assign(faces.data_ptr<int64_t>(), faces.data_ptr<int64_t>() + faces.numel());
   }
+  // The poses, LBS and annotations on one thread: LibTorch's reductions split by its thread count,
+  // which changed the annotations' last bits between --threads 1 and 2 (2.2e-16 in MANO values).
+  std::optional<SingleThreadScope> one_thread(std::in_place);
   std::vector<std::string> gestures;
   const std::vector<SynthPose> poses =
       effects.gestures ? make_gesture_poses(scene.rig, config.num_frames, config.held_out_frames,
@@ -156,6 +161,7 @@ SynthScene make_synth_scene(const SynthConfig& config) {
     for (int i = 0; i < 21; ++i)
       for (int d = 0; d < 3; ++d) frame.joints[i * 3 + d] = j[i * 3 + d] + frame.trans[d];
   }
+  one_thread.reset();  // rendering below is per frame and exact on any thread count
   const TissueRig tissue = effects.tissue ? make_tissue_rig(scene.rig, scene.axes) : TissueRig{};
   std::vector<int64_t> all_faces = scene.faces;  // hand then forearm: the shadow casters
   for (int64_t id : scene.forearm.faces) all_faces.push_back(id + num_vertices);

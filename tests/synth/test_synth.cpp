@@ -8,6 +8,7 @@
 
 #include "core/atomic_file.h"
 #include "core/config.h"
+#include "core/threads.h"
 #include "synth/capture.h"
 #include "synth/math.h"
 #include "data/data_test_helpers.h"
@@ -54,11 +55,11 @@ TEST_CASE("synth: output is a function of the seed, not of the thread count") {
   const std::string one = data_test::fresh_dir("synth_threads_1"),
                     two = data_test::fresh_dir("synth_threads_2");
   const int threads = omp_get_max_threads();
-  omp_set_num_threads(1);
+  handscs::set_threads(1);  // LibTorch and OpenMP, as handscs-synth --threads
   write_synth_capture(make_synth_scene(config), one);
-  omp_set_num_threads(2);
+  handscs::set_threads(2);  // LibTorch and OpenMP, as handscs-synth --threads
   write_synth_capture(make_synth_scene(config), two);
-  omp_set_num_threads(threads);
+  handscs::set_threads(threads);  // LibTorch and OpenMP, as handscs-synth --threads
   int files = 0;
   for (const auto& entry : fs::recursive_directory_iterator(one)) {
     if (!entry.is_regular_file()) continue;

@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/atomic_file.h"
+#include "core/threads.h"
 #include "data/data_test_helpers.h"
 #include "hand/joint_order.h"
 #include "hand/lbs.h"
@@ -282,11 +283,11 @@ TEST_CASE("synth effects: the realistic capture is the same on any thread count"
   const std::string one = data_test::fresh_dir("synth_real_1"),
                     two = data_test::fresh_dir("synth_real_2");
   const int saved = omp_get_max_threads();
-  omp_set_num_threads(1);
+  handscs::set_threads(1);  // LibTorch and OpenMP, as handscs-synth --threads
   generate_synth_capture(synth_preset("real_tiny"), one);
-  omp_set_num_threads(2);
+  handscs::set_threads(2);  // LibTorch and OpenMP, as handscs-synth --threads
   generate_synth_capture(synth_preset("real_tiny"), two);
-  omp_set_num_threads(saved);
+  handscs::set_threads(saved);  // LibTorch and OpenMP, as handscs-synth --threads
   int files = 0, regions = 0;
   for (const auto& entry : fs::recursive_directory_iterator(one)) {
     if (!entry.is_regular_file()) continue;
