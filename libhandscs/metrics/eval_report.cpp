@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "core/atomic_file.h"
+#include "core/csv_table.h"
 #include "metrics/psnr.h"
 
 namespace handscs {
@@ -28,13 +29,6 @@ std::string csv_number(const std::optional<double>& x) {
   if (!x) return "";
   if (!std::isfinite(*x)) return *x > 0 ? "inf" : "-inf";
   return format("%.10g", *x);
-}
-
-std::string csv_field(const std::string& text) {
-  if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
-  std::string quoted = "\"";
-  for (char c : text) quoted += (c == '"') ? std::string("\"\"") : std::string(1, c);
-  return quoted + "\"";
 }
 
 std::string pad_right(const std::string& text, size_t width) {
@@ -192,11 +186,11 @@ std::string eval_report_to_csv(const EvalReport& report) {
   std::string text = "name,status,psnr,ssim,lpips,mse,";
   for (const auto& region : report.regions)
     for (const char* column : {"_psnr", "_ssim", "_lpips", "_fraction"})
-      text += csv_field(region.name + column) + ",";
+      text += csv_cell(region.name + column) + ",";
   text += "width,height,error\n";
   for (const auto& entry : report.entries) {
     const bool ok = entry.ok;
-    text += csv_field(entry.name) + "," + (ok ? "ok" : "failed") + ",";
+    text += csv_cell(entry.name) + "," + (ok ? "ok" : "failed") + ",";
     text += (ok ? csv_number(entry.scores.psnr) : "") + ",";
     text += (ok ? csv_number(entry.scores.ssim) : "") + ",";
     text += (ok ? csv_number(entry.scores.lpips) : "") + ",";
@@ -212,7 +206,7 @@ std::string eval_report_to_csv(const EvalReport& report) {
     }
     text += (entry.width > 0 ? std::to_string(entry.width) : "") + ",";
     text += (entry.height > 0 ? std::to_string(entry.height) : "") + ",";
-    text += csv_field(entry.error) + "\n";
+    text += csv_cell(entry.error) + "\n";
   }
   return text;
 }

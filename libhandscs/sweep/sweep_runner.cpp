@@ -14,7 +14,7 @@
 #include "core/error.h"
 #include "core/text.h"
 #include "core/progress.h"
-#include "sweep/csv_table.h"
+#include "core/csv_table.h"
 #include "sweep/pareto.h"
 #include "sweep/subprocess.h"
 

@@ -9,7 +9,7 @@
 
 #include "core/error.h"
 #include "core/text.h"
-#include "sweep/csv_table.h"
+#include "core/csv_table.h"
 #include "sweep/sweep_runner.h"
 
 namespace handscs {

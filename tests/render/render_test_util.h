@@ -129,14 +129,10 @@ inline double rel_err(const torch::Tensor& a, const torch::Tensor& b, double flo
 
 inline bool all_finite(const torch::Tensor& t) { return !t.defined() || torch::isfinite(t).all().item<bool>(); }
 
-// Runs a numerics test on one thread and restores the thread count afterwards. The dense reference makes many
-// small LibTorch calls, each of which may open an OpenMP region; on a loaded machine every region's barrier can
-// cost a scheduler time slice (the FD test went from 0.8 s to 23 s with 2 threads under load). Thread-count
-// independence of the kernel has its own test.
-struct SingleThreadScope {
-  int before = omp_get_max_threads();
-  SingleThreadScope() { set_threads(1); }
-  ~SingleThreadScope() { set_threads(before); }
-};
+// Numerics tests run on one thread (core/threads.h SingleThreadScope): the dense reference makes many
+// small LibTorch calls, each of which may open an OpenMP region; on a loaded machine every region's
+// barrier can cost a scheduler time slice (the FD test went from 0.8 s to 23 s with 2 threads under
+// load). Thread-count independence of the kernel has its own test.
+using handscs::SingleThreadScope;
 
 }  // namespace handscs::test

@@ -7,7 +7,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "sweep/csv_table.h"
+#include "core/csv_table.h"
 #include "sweep/subprocess.h"
 #include "sweep/sweep_config.h"
 #include "test_support.h"

@@ -11,7 +11,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "sweep/csv_table.h"
+#include "core/csv_table.h"
 #include "sweep/sweep_shard.h"
 #include "test_support.h"
 

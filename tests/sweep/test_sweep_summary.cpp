@@ -9,7 +9,7 @@
 #include <string>
 
 #include "core/atomic_file.h"
-#include "sweep/csv_table.h"
+#include "core/csv_table.h"
 #include "sweep/sweep_runner.h"
 #include "test_support.h"
 

@@ -1,6 +1,7 @@
-// A small CSV table (header + rows of text cells) for sweep results: read back to resume a sweep,
-// written atomically so an interrupted sweep never leaves a half-written file. Cells holding a
-// comma, quote or newline are quoted (RFC 4180).
+// A small CSV table (header + rows of text cells): sweep results read back to resume a sweep, and
+// the one CSV quoting rule (csv_cell) the evaluation reports share. Written atomically, so an
+// interrupted sweep never leaves a half-written file. Cells holding a comma, quote or line break
+// are quoted (RFC 4180).
 #pragma once
 
 #include <string>
@@ -16,6 +17,9 @@ struct CsvTable {
   // Cell of `row` in column `name`; throws Error when the column does not exist.
   const std::string& at(size_t row, const std::string& name) const;
 };
+
+// One cell as CSV writes it: quoted (quotes doubled) when it holds a comma, quote or line break.
+std::string csv_cell(const std::string& cell);
 
 // Reads a CSV file; every row must have as many cells as the header (errors name file and line).
 CsvTable read_csv(const std::string& path);

@@ -1,4 +1,4 @@
-#include "sweep/csv_table.h"
+#include "core/csv_table.h"
 
 #include <fstream>
 #include <sstream>
@@ -37,14 +37,14 @@ std::vector<std::string> split_record(const std::string& line, const std::string
   return cells;
 }
 
-std::string quote(const std::string& cell) {
-  if (cell.find_first_of(",\"\n") == std::string::npos) return cell;
+}  // namespace
+
+std::string csv_cell(const std::string& cell) {
+  if (cell.find_first_of(",\"\n\r") == std::string::npos) return cell;
   std::string out = "\"";
   for (char ch : cell) out += ch == '"' ? std::string("\"\"") : std::string(1, ch);
   return out + "\"";
 }
-
-}  // namespace
 
 int CsvTable::column(const std::string& name) const {
   for (size_t i = 0; i < header.size(); ++i)
@@ -84,7 +84,7 @@ CsvTable read_csv(const std::string& path) {
 void write_csv_atomic(const std::string& path, const CsvTable& table) {
   std::ostringstream out;
   auto write_row = [&](const std::vector<std::string>& cells) {
-    for (size_t i = 0; i < cells.size(); ++i) out << (i ? "," : "") << quote(cells[i]);
+    for (size_t i = 0; i < cells.size(); ++i) out << (i ? "," : "") << csv_cell(cells[i]);
     out << "\n";
   };
   write_row(table.header);
