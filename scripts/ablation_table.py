@@ -28,18 +28,22 @@ PAPER = {
     "virtual_only": (32.64, 0.965, 0.0302),
     "static_only": (32.70, 0.965, 0.0311),
 }
+# ablation_real_2000_rest.json names row (d) for what it is: SCS without the inter-pose term.
+PAPER["scs_no_inter_pose"] = PAPER["scs"]
 LABELS = {
     "baseline": "(a) baseline",
     "embedding": "(b) + embeddings",
     "embedding_reg": "(b) + L_reg",
     "inter_pose": "(c) + inter-pose",
     "scs": "(d) + SCS",
+    "scs_no_inter_pose": "(d) + SCS, no inter-pose",
     "full": "full model",
     "static_only": "static bones only (M = 0)",
     "virtual_only": "virtual bones only",
     "m8": "M = 8",
     "m32": "M = 32",
     "con_1e-3": "lambda_con = 1e-3 (mean)",
+    "con_1e-2": "lambda_con = 1e-2 (mean)",
     "con_1e-1": "lambda_con = 1e-1 (mean)",
     "con_sum": "L_con summed (paper's formula)",
     "con_groups": "L_con per-group normalised",

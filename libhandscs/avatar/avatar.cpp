@@ -23,8 +23,9 @@ Avatar::Avatar(const AvatarConfig& config, Rig rig)
   if (config_.scs.enabled && config_.scs.virtual_bones > 0)
     generator_ = VirtualBoneGenerator(config_.scs, topology_);
   const int64_t embedding = config_.embeddings ? config_.embedding_dim : 0;
-  const bool bf16 = config_.decoder_precision == "bf16" ||
-                    (config_.decoder_precision == "auto" && has_native_bf16_matmul());
+  const bool bf16 = config_.decoder_precision == AvatarConfig::DecoderPrecision::bf16 ||
+                    (config_.decoder_precision == AvatarConfig::DecoderPrecision::automatic &&
+                     has_native_bf16_matmul());
   decoders_ = OffsetDecoders(config_.scs.enabled ? descriptor_dim() : 0, embedding,
                              config_.decoder_hidden, bf16);
 }
@@ -64,7 +65,7 @@ torch::Tensor Avatar::compute_descriptor(const torch::Tensor& pose, const LbsOut
     parts.push_back(static_descriptor(lbs_means, posed_joints, topology_, config_.scs.tau,
                                       config_.scs.norm_eps));
   if (generator_) {
-    const bool posed_space = config_.scs.virtual_space == "posed";
+    const bool posed_space = config_.scs.virtual_space == ScsConfig::VirtualSpace::posed;
     *bones = generator_->forward(pose, canonical_joints, posed_space ? posed_joints : canonical_joints);
     // Canonical space is the shaped rest hand, the space of rest_joints and so of the bones: the
     // Gaussians' template centres get their rig vertex's shape offset (not the pose offset).

@@ -20,7 +20,8 @@ struct AvatarConfig {
   // with float accumulation and float master weights (2.7x faster where the CPU has AVX512-BF16,
   // docs/BENCHMARKS.md), "float" keeps float; "auto" picks bf16 only where the CPU has it natively.
   // A double avatar (gradient checks) always stays in double.
-  std::string decoder_precision = "auto";
+  enum class DecoderPrecision { automatic, float32, bf16 };
+  DecoderPrecision decoder_precision = DecoderPrecision::automatic;
   double opacity_init_min = 0.5;  // random initial opacity U(min, max): opaque enough to cover skin
   double opacity_init_max = 0.95;
   double scale_init_factor = 1.0;  // initial isotropic scale = factor x mean 3-NN vertex distance
@@ -36,7 +37,9 @@ struct AvatarConfig {
     v.field("embedding_init_std", embedding_init_std, "std of the embeddings' initial values", 0.0,
             10.0);
     v.field("decoder_hidden", decoder_hidden, "hidden width of the decoder MLPs", 1, 4096);
-    v.choice("decoder_precision", decoder_precision, {"auto", "float", "bf16"},
+    v.choice("decoder_precision", decoder_precision,
+             {{"auto", DecoderPrecision::automatic}, {"float", DecoderPrecision::float32},
+              {"bf16", DecoderPrecision::bf16}},
              "decoder matmul arithmetic for a float avatar: auto = bf16 where the CPU has AVX512-BF16");
     v.field("opacity_init_min", opacity_init_min, "lower bound of random initial opacity", 1e-4,
             0.9999);

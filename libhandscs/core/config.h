@@ -10,13 +10,16 @@
 //   };
 // Supported field types: bool, int, int64_t, float, double, std::string, std::vector of int/float/
 // double/std::string, std::vector<std::array<int, 2>> (edge lists); nested structs via v.section().
-// Strings limited to a set of names use v.choice().
+// Strings limited to a set of names use v.choice(); a choice stored as an enum passes its names
+// (ChoiceNames), so code compares enums while files keep the names.
 #pragma once
 
 #include <array>
 #include <cstdint>
 #include <set>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -29,6 +32,32 @@ using json = nlohmann::json;
 
 // Name of a JSON value's type as users read it in error messages ("number", "string", ...).
 std::string json_type_name(const json& value);
+
+// The names of an enum choice as config files write them, in the order --help lists them.
+template <class E>
+using ChoiceNames = std::vector<std::pair<std::string, E>>;
+
+template <class E>
+std::string choice_name(E value, const ChoiceNames<E>& names) {
+  for (const auto& [name, option] : names)
+    if (option == value) return name;
+  throw Error("config: an enum value has no name (programming error)");
+}
+
+template <class E>
+std::vector<std::string> choice_options(const ChoiceNames<E>& names) {
+  std::vector<std::string> options;
+  for (const auto& entry : names) options.push_back(entry.first);
+  return options;
+}
+
+// The value of a name that choice() has already checked against the options.
+template <class E>
+E choice_value(const std::string& name, const ChoiceNames<E>& names) {
+  for (const auto& [option_name, option] : names)
+    if (option_name == name) return option;
+  throw Error("config: \"" + name + "\" is not an option (programming error)");
+}
 
 // Reads a JSON object into a config struct. Errors carry "<source>: <key.path>: <problem>".
 class ConfigReader {
@@ -48,6 +77,12 @@ class ConfigReader {
   }
   void choice(const char* key, std::string& value, const std::vector<std::string>& options,
               const char* doc);
+  template <class E, class = std::enable_if_t<std::is_enum<E>::value>>
+  void choice(const char* key, E& value, const ChoiceNames<E>& names, const char* doc) {
+    std::string name = choice_name(value, names);
+    choice(key, name, choice_options(names), doc);
+    value = choice_value(name, names);
+  }
   template <class S>
   void section(const char* key, S& sub, const char* doc) {
     if (const json* item = take(key)) {
@@ -105,6 +140,10 @@ class ConfigWriter {
               const char*) {
     out[key] = value;
   }
+  template <class E, class = std::enable_if_t<std::is_enum<E>::value>>
+  void choice(const char* key, const E& value, const ChoiceNames<E>& names, const char*) {
+    out[key] = choice_name(value, names);
+  }
   template <class S>
   void section(const char* key, S& sub, const char* doc) {
     ConfigWriter writer;
@@ -128,6 +167,10 @@ class ConfigDoc {
   }
   void choice(const char* key, const std::string& value, const std::vector<std::string>& options,
               const char* doc);
+  template <class E, class = std::enable_if_t<std::is_enum<E>::value>>
+  void choice(const char* key, const E& value, const ChoiceNames<E>& names, const char* doc) {
+    choice(key, choice_name(value, names), choice_options(names), doc);
+  }
   template <class S>
   void section(const char* key, S& sub, const char* doc) {
     rows.push_back("| **" + join(key) + "** | section | | | " + doc + " |");

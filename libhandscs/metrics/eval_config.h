@@ -13,14 +13,16 @@ namespace handscs {
 struct EvalConfig {
   SsimConfig ssim;                              // SSIM convention
   LpipsConfig lpips;                            // LPIPS net and weights (none = LPIPS reported null)
-  std::string mask_mode = "composite_gt";       // what a mask does (only when masks are given)
+  enum class MaskMode { composite_gt, composite_both };
+  MaskMode mask_mode = MaskMode::composite_gt;  // what a mask does (only when masks are given)
   std::array<double, 3> background = {0, 0, 0};  // RGB in [0,1] behind masked/alpha images
 
   template <class V>
   void visit(V& v) {
     v.section("ssim", ssim, "SSIM options");
     v.section("lpips", lpips, "LPIPS options");
-    v.choice("mask_mode", mask_mode, {"composite_gt", "composite_both"},
+    v.choice("mask_mode", mask_mode,
+             {{"composite_gt", MaskMode::composite_gt}, {"composite_both", MaskMode::composite_both}},
              "with masks: composite the ground truth (or both images) onto the background");
     v.field("background", background, "background RGB in [0,1] for masks and alpha channels");
   }

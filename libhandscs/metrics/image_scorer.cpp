@@ -78,7 +78,7 @@ ImageScores ImageScorer::score(const torch::Tensor& pred, const torch::Tensor& g
                                   torch::kDouble)
                         .view({1, 1, 3});
     g = g * m + bg * (1 - m);
-    if (config_.mask_mode == "composite_both") p = p * m + bg * (1 - m);
+    if (config_.mask_mode == EvalConfig::MaskMode::composite_both) p = p * m + bg * (1 - m);
   }
   if (regions.defined())
     require(regions.dim() == 3 && regions.scalar_type() == torch::kBool &&

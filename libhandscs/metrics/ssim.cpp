@@ -55,13 +55,16 @@ torch::Tensor rgb_to_gray_matlab(const torch::Tensor& rgb) {
 
 torch::Tensor ssim_map(const torch::Tensor& x, const torch::Tensor& y, const SsimConfig& config) {
   check_pair(x, y, "ssim");
-  if (config.variant == "3dgs") return ssim_map_padded(x, y, kSsimWindow / 2);
-  if (config.variant == "valid") return ssim_map_padded(x, y, 0);
-  if (config.variant == "matlab") {
-    // L = 255 on integer gray levels equals L = 1 on gray/255: C1, C2 scale with L^2.
-    return ssim_map_padded(rgb_to_gray_matlab(x), rgb_to_gray_matlab(y), 0).to(x.scalar_type());
+  switch (config.variant) {
+    case SsimConfig::Variant::three_dgs:
+      return ssim_map_padded(x, y, kSsimWindow / 2);
+    case SsimConfig::Variant::valid:
+      return ssim_map_padded(x, y, 0);
+    case SsimConfig::Variant::matlab:
+      // L = 255 on integer gray levels equals L = 1 on gray/255: C1, C2 scale with L^2.
+      return ssim_map_padded(rgb_to_gray_matlab(x), rgb_to_gray_matlab(y), 0).to(x.scalar_type());
   }
-  throw Error("ssim: unknown variant \"" + config.variant + "\" (known: 3dgs, valid, matlab)");
+  throw Error("ssim: unknown variant");
 }
 
 torch::Tensor ssim(const torch::Tensor& x, const torch::Tensor& y, const SsimConfig& config) {

@@ -18,11 +18,13 @@
 namespace handscs {
 
 struct SsimConfig {
-  std::string variant = "3dgs";  // "3dgs", "valid" or "matlab" (see above)
+  enum class Variant { three_dgs, valid, matlab };
+  Variant variant = Variant::three_dgs;  // 3dgs, valid or matlab (see above)
 
   template <class V>
   void visit(V& v) {
-    v.choice("variant", variant, {"3dgs", "valid", "matlab"},
+    v.choice("variant", variant,
+             {{"3dgs", Variant::three_dgs}, {"valid", Variant::valid}, {"matlab", Variant::matlab}},
              "SSIM convention: 3dgs (zero padding, training loss), valid (skimage), matlab (gray uint8)");
   }
 };

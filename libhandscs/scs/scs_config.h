@@ -12,7 +12,8 @@ struct ScsConfig {
   bool enabled = true;  // false: decoders see no structural coordinate ("no SCS" ablation)
   bool static_bones = true;   // include the static (posed skeleton) bones in P
   int virtual_bones = 16;     // M; 0 = no virtual bones
-  std::string virtual_space = "canonical";  // "canonical" (paper) or "posed" (ablation)
+  enum class VirtualSpace { canonical, posed };
+  VirtualSpace virtual_space = VirtualSpace::canonical;  // canonical (paper) or posed (ablation)
   bool interpolation = true;  // learn t in [0,1]; false: endpoints at bone midpoints (t = 0.5)
   bool endpoint_offsets = true;  // learn dp, dq; false: no offsets
   double tau = 0.08;  // m: radial decay of static bones; a finger segment is 2-5 cm long
@@ -28,7 +29,8 @@ struct ScsConfig {
     v.field("enabled", enabled, "use the structural coordinate P as decoder input");
     v.field("static_bones", static_bones, "include static bones (posed skeleton) in P");
     v.field("virtual_bones", virtual_bones, "number M of virtual bones (0 = none)", 0, 256);
-    v.choice("virtual_space", virtual_space, {"canonical", "posed"},
+    v.choice("virtual_space", virtual_space,
+             {{"canonical", VirtualSpace::canonical}, {"posed", VirtualSpace::posed}},
              "space in which virtual bones and their descriptor live");
     v.field("interpolation", interpolation, "learn interpolation factors t (else t = 0.5)");
     v.field("endpoint_offsets", endpoint_offsets, "learn endpoint offsets dp, dq");

@@ -114,14 +114,13 @@ torch::Tensor consistency_attributes(const torch::Tensor& means, const torch::Te
 }
 
 torch::Tensor consistency_distances(const torch::Tensor& attributes, const torch::Tensor& matched,
-                                    const torch::Tensor& covariances, const std::string& normalize) {
+                                    const torch::Tensor& covariances,
+                                    ConsistencyConfig::Normalize normalize) {
   TORCH_CHECK(attributes.sizes() == matched.sizes() && attributes.dim() == 2 && attributes.size(1) >= 15,
               "consistency_distances: attributes and matched must be equal [N, 15 + 2d], got ",
               attributes.sizes(), " and ", matched.sizes());
   const auto squared = (attributes - matched).pow(2);
-  if (normalize == "none") return squared.sum(1);
-  TORCH_CHECK(normalize == "groups", "consistency_distances: normalize must be none or groups, got ",
-              normalize);
+  if (normalize == ConsistencyConfig::Normalize::none) return squared.sum(1);
   // s_i^2 = tr(Sigma'_i) / 3: the Gaussian's mean squared extent, a constant of the loss.
   const auto extent2 = covariances.detach().diagonal(0, 1, 2).sum(1).div(3).clamp_min(kMinExtent2);
   const auto group = [&](int64_t first, int64_t count) { return squared.narrow(1, first, count).mean(1); };

@@ -7,6 +7,8 @@
 
 #include <torch/types.h>
 
+#include "train/train_config.h"
+
 namespace handscs {
 
 // pose [48] axis-angle (absolute finger rotations) -> [135] = (R_j - I) flattened, 15 finger joints.
@@ -38,6 +40,6 @@ torch::Tensor consistency_attributes(const torch::Tensor& means, const torch::Te
 // |dc'|^2/3 + |de|^2/(2d), with s_i^2 = tr(Sigma'_i)/3 of the current Gaussian (no gradient).
 torch::Tensor consistency_distances(const torch::Tensor& attributes, const torch::Tensor& matched,
                                     const torch::Tensor& covariances,  // [N, 3, 3] Sigma'
-                                    const std::string& normalize);
+                                    ConsistencyConfig::Normalize normalize);
 
 }  // namespace handscs

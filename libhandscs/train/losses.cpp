@@ -25,12 +25,10 @@ std::vector<std::pair<std::string, torch::Tensor>> offset_norms(const DecodedOff
           {"dsigma_f", smooth_norm(o.dsigma_f - eye, 1)}, {"dc_f", smooth_norm(o.dc_f, 1)}};
 }
 
-torch::Tensor offset_regularizer(const DecodedOffsets& o, const std::string& terms) {
-  TORCH_CHECK(terms == "paper" || terms == "all", "offset_regularizer: terms must be paper or all, got ",
-              terms);
+torch::Tensor offset_regularizer(const DecodedOffsets& o, LossWeights::RegTerms terms) {
   const auto norms = offset_norms(o);
   // The paper's terms are the first three (geometry and appearance offsets).
-  const size_t count = terms == "paper" ? 3 : norms.size();
+  const size_t count = terms == LossWeights::RegTerms::paper ? 3 : norms.size();
   auto per_gaussian = norms[0].second;
   for (size_t k = 1; k < count; ++k) per_gaussian = per_gaussian + norms[k].second;
   return per_gaussian.mean();
@@ -51,7 +49,7 @@ LossResult Objective::compute(const LossInputs& in) const {
   if (weights_.ssim > 0 || uses_lpips()) {
     const auto pred = hwc_to_bchw(in.rgb);
     const auto target = hwc_to_bchw(in.target);
-    if (weights_.ssim > 0) add("ssim", weights_.ssim, ssim_loss(pred, target, SsimConfig{"3dgs"}));
+    if (weights_.ssim > 0) add("ssim", weights_.ssim, ssim_loss(pred, target, SsimConfig{SsimConfig::Variant::three_dgs}));
     if (uses_lpips()) add("lpips", weights_.lpips, lpips_loss(*lpips_, pred, target));
   }
   if (weights_.reg > 0 && in.offsets) add("reg", weights_.reg, offset_regularizer(*in.offsets, weights_.reg_terms));

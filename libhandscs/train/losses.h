@@ -52,6 +52,6 @@ std::vector<std::pair<std::string, torch::Tensor>> offset_norms(const DecodedOff
 
 // L_reg of one set of decoded offsets (mean over Gaussians); terms "paper" (dx, dSigma, dc) or "all"
 // (the fusion offsets as well).
-torch::Tensor offset_regularizer(const DecodedOffsets& offsets, const std::string& terms);
+torch::Tensor offset_regularizer(const DecodedOffsets& offsets, LossWeights::RegTerms terms);
 
 }  // namespace handscs

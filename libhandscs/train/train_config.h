@@ -17,7 +17,8 @@ struct LossWeights {
   double reg = 0.1;           // lambda_reg, offset regularisation L_reg
   // L_reg's terms: "paper" = |dx| + |dSigma - I|_F + |dc| of the geometry and appearance decoders
   // (paper eq. for L_reg); "all" adds the fusion decoder's offsets (this code's choice before).
-  std::string reg_terms = "paper";
+  enum class RegTerms { paper, all };
+  RegTerms reg_terms = RegTerms::paper;
   // lambda_con, inter-pose consistency L_con (mean over Gaussians). 0.1 measured best of 1e-3,
   // 1e-2, 1e-1 and the paper's literal sum with 1e-2 (docs/BENCHMARKS.md, ablation on real_demo,
   // 400 steps, 3 seeds: +0.16 dB, SSIM +0.002, LPIPS -0.006 over 1e-2).
@@ -30,7 +31,7 @@ struct LossWeights {
     v.field("ssim", ssim, "weight of 1 - SSIM", 0.0, 1e6);
     v.field("lpips", lpips, "weight of LPIPS (0 = never computed)", 0.0, 1e6);
     v.field("reg", reg, "weight of the offset regulariser L_reg", 0.0, 1e6);
-    v.choice("reg_terms", reg_terms, {"paper", "all"},
+    v.choice("reg_terms", reg_terms, {{"paper", RegTerms::paper}, {"all", RegTerms::all}},
              "L_reg terms: paper = geometry and appearance offsets; all = fusion offsets too");
     v.field("consistency", consistency, "weight of the inter-pose loss L_con (0 = off)", 0.0, 1e6);
   }
@@ -91,7 +92,8 @@ struct ConsistencyConfig {
   // k-d tree search (train/descriptor_tree.h), far cheaper at 10k+; "auto": exact GEMM while
   // N <= exact_max_gaussians, the tree above; "candidates": argmin over the K nearest canonical
   // neighbours only, approximate (72.6% agreement at K = 32 on the demo avatar), kept to compare.
-  std::string search = "auto";
+  enum class Search { automatic, exact, tree, candidates };
+  Search search = Search::automatic;
   // auto: GEMM up to here, tree above. 0: the tree at every size, as it measured faster from 3k
   // Gaussians on (real_demo avatar, 2 threads: 15 / 142 / 645 ms at 3k / 10k / 20k against the
   // GEMM's 52 / 2304 / 9218 ms; docs/BENCHMARKS.md).
@@ -99,11 +101,13 @@ struct ConsistencyConfig {
   int candidates = 32;                 // K (DESIGN.md §4)
   int64_t refresh_every = 100;         // steps between recomputing the canonical K-NN candidates
   double delta = 1.3;                  // pose similarity bandwidth (paper)
-  std::string reduction = "mean";      // "sum" (paper's formula) or "mean" over Gaussians
+  enum class Reduction { sum, mean };
+  Reduction reduction = Reduction::mean;  // sum (paper's formula) or mean over Gaussians
   // "none": |M_i - M_pi(i)|^2 in raw units, where positions (m) and covariances (m^2) differ by
   // 1e-6 and less, so colours and embeddings dominate; "groups": each group scale-free and
   // averaged (train/consistency.h).
-  std::string normalize = "none";
+  enum class Normalize { none, groups };
+  Normalize normalize = Normalize::none;
   // Pose pairs less similar than this skip L_con (search and term): its weight
   // w = exp(-|f_t - f_t-1|^2 / 2 delta^2) would scale the term below min_weight, and dissimilar pairs
   // are those whose exact search is dearest (~10x the distance evaluations of similar pairs).
@@ -114,7 +118,9 @@ struct ConsistencyConfig {
 
   template <class V>
   void visit(V& v) {
-    v.choice("search", search, {"auto", "exact", "tree", "candidates"},
+    v.choice("search", search,
+             {{"auto", Search::automatic}, {"exact", Search::exact}, {"tree", Search::tree},
+              {"candidates", Search::candidates}},
              "correspondence search: exact (GEMM), tree (exact k-d tree), auto = exact up to "
              "exact_max_gaussians then tree, candidates = K canonical neighbours (approximate)");
     v.field("exact_max_gaussians", exact_max_gaussians,
@@ -122,8 +128,9 @@ struct ConsistencyConfig {
     v.field("candidates", candidates, "K nearest canonical neighbours searched", 1, 4096);
     v.field("refresh_every", refresh_every, "steps between candidate refreshes", 1, 1e9);
     v.field("delta", delta, "pose similarity bandwidth delta", 1e-6, 1e6);
-    v.choice("reduction", reduction, {"sum", "mean"}, "reduction over Gaussians");
-    v.choice("normalize", normalize, {"none", "groups"},
+    v.choice("reduction", reduction, {{"sum", Reduction::sum}, {"mean", Reduction::mean}},
+             "reduction over Gaussians");
+    v.choice("normalize", normalize, {{"none", Normalize::none}, {"groups", Normalize::groups}},
              "attribute groups: none = raw squared differences; groups = each group scale-free");
     v.field("min_weight", min_weight,
             "skip L_con for pose pairs whose similarity weight is below this (0 = never)", 0.0, 1.0);
@@ -158,7 +165,8 @@ struct PoseRefineConfig {
 struct TrainConfig {
   int64_t iterations = 3000;        // optimisation steps
   int64_t seed = 0;                 // frame order, backgrounds
-  std::string background = "black";  // "black", "white" or "random" (per step) in training
+  enum class Background { black, white, random };
+  Background background = Background::black;  // black, white or random (per step) in training
   double resolution_scale = 1.0;    // train on images scaled by this factor (0.5 = half size)
   int64_t checkpoint_every = 1000;  // steps between checkpoints (and one at the end)
   int64_t validate_every = 500;     // steps between validation renders (0 = never)
@@ -175,7 +183,9 @@ struct TrainConfig {
   void visit(V& v) {
     v.field("iterations", iterations, "optimisation steps", 1, 1e9);
     v.field("seed", seed, "seed of frame order and backgrounds", 0, 9.0e15);
-    v.choice("background", background, {"black", "white", "random"}, "training background");
+    v.choice("background", background,
+             {{"black", Background::black}, {"white", Background::white}, {"random", Background::random}},
+             "training background");
     v.field("resolution_scale", resolution_scale, "image scale in training", 0.05, 1.0);
     v.field("checkpoint_every", checkpoint_every, "steps between checkpoints", 1, 1e9);
     v.field("validate_every", validate_every, "steps between validation renders (0 = never)", 0, 1e9);

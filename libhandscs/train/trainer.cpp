@@ -158,8 +158,8 @@ const FrameInfo& Trainer::frame_for(int64_t iteration) {
 }
 
 std::array<float, 3> Trainer::background_for(int64_t iteration) const {
-  if (config_.train.background == "white") return {1, 1, 1};
-  if (config_.train.background == "black") return {0, 0, 0};
+  if (config_.train.background == TrainConfig::Background::white) return {1, 1, 1};
+  if (config_.train.background == TrainConfig::Background::black) return {0, 0, 0};
   std::mt19937_64 rng(static_cast<uint64_t>(config_.train.seed) * 7919ull + iteration);
   std::uniform_real_distribution<float> u(0.f, 1.f);
   return {u(rng), u(rng), u(rng)};
@@ -185,10 +185,11 @@ torch::Tensor Trainer::consistency_loss(const AvatarState& state, const torch::T
       weight >= cc.min_weight) {
     torch::Tensor match;
     const bool gemm =
-        cc.search == "exact" || (cc.search == "auto" && g.size() <= cc.exact_max_gaussians);
+        cc.search == ConsistencyConfig::Search::exact ||
+        (cc.search == ConsistencyConfig::Search::automatic && g.size() <= cc.exact_max_gaussians);
     if (gemm) {
       match = correspond_exact(state.descriptor, prev_descriptor_);
-    } else if (cc.search == "candidates") {
+    } else if (cc.search == ConsistencyConfig::Search::candidates) {
       if (!candidates_.defined() || candidates_.size(0) != g.size() ||
           iteration_ % cc.refresh_every == 0)
         candidates_ = nearest_neighbours(g.means, cc.candidates);
@@ -201,7 +202,7 @@ torch::Tensor Trainer::consistency_loss(const AvatarState& state, const torch::T
     }
     const auto diff = consistency_distances(attributes, prev_attributes_.index_select(0, match),
                                             state.canonical_covariances, cc.normalize);
-    loss = weight * (cc.reduction == "sum" ? diff.sum() : diff.mean());
+    loss = weight * (cc.reduction == ConsistencyConfig::Reduction::sum ? diff.sum() : diff.mean());
   }
   // Kept for the next step (M_0 = M_1 on the first step: no loss).
   next_descriptor_ = state.descriptor.detach();

@@ -178,7 +178,7 @@ TEST_CASE("avatar: every ablation switch builds and renders finite images") {
       {"no static bones", [](auto& c) { c.scs.static_bones = false; }},
       {"no virtual bones", [](auto& c) { c.scs.virtual_bones = 0; }},
       {"no embeddings", [](auto& c) { c.embeddings = false; }},
-      {"posed virtual bones", [](auto& c) { c.scs.virtual_space = "posed"; }},
+      {"posed virtual bones", [](auto& c) { c.scs.virtual_space = handscs::ScsConfig::VirtualSpace::posed; }},
       {"no t", [](auto& c) { c.scs.interpolation = false; }},
       {"no dp/dq", [](auto& c) { c.scs.endpoint_offsets = false; }},
   };
@@ -242,7 +242,7 @@ TEST_CASE("avatar: virtual bones and Gaussian centres share the shaped canonical
   handscs::AvatarConfig config;
   config.scs.static_bones = false;  // the descriptor is the virtual part alone
   config.scs.virtual_bones = 8;
-  config.scs.virtual_space = "canonical";
+  config.scs.virtual_space = handscs::ScsConfig::VirtualSpace::canonical;
   handscs::Avatar avatar(config, handscs::load_rig_source("builtin"));
   const auto& g = avatar.gaussians();
   const auto& rig = avatar.rig();

@@ -16,6 +16,7 @@
 
 #include "avatar/avatar.h"
 #include "core/allocator.h"
+#include "core/config.h"
 #include "core/logging.h"
 #include "core/threads.h"
 #include "hand/lbs.h"
@@ -94,7 +95,12 @@ int main(int argc, char** argv) {
     const int64_t n = std::stoll(item);
     handscs::AvatarConfig config;
     config.decoder_hidden = decoder_hidden;
-    config.decoder_precision = precision;
+    {
+      // The name as a config file gives it (auto, float, bf16), checked by the config reader.
+      auto json = handscs::config_to_json(config);
+      json["decoder_precision"] = precision;
+      handscs::config_from_json(json, "--decoder-precision", config);
+    }
     handscs::Avatar avatar(config, handscs::load_rig_source("builtin"));
     grow(avatar, n);
     {

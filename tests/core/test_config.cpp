@@ -150,3 +150,29 @@ TEST_CASE("config: markdown documentation lists every key") {
                           "train.lpips", "train.lr.means", "train.lr.colors"})
     CHECK(doc.find(std::string("`") + key + "`") != std::string::npos);
 }
+
+namespace {
+struct EnumChoiceConfig {
+  enum class Colour { red, green };
+  Colour colour = Colour::green;
+  template <class V>
+  void visit(V& v) {
+    v.choice("colour", colour, {{"red", Colour::red}, {"green", Colour::green}}, "a colour");
+  }
+};
+}  // namespace
+
+TEST_CASE("config: an enum choice reads, writes and documents its names") {
+  EnumChoiceConfig config;
+  CHECK(handscs::config_to_json(config) == handscs::json{{"colour", "green"}});
+  handscs::config_from_json(handscs::json{{"colour", "red"}}, "file.json", config);
+  CHECK(config.colour == EnumChoiceConfig::Colour::red);
+  CHECK(handscs::config_to_json(config) == handscs::json{{"colour", "red"}});
+  CHECK(handscs_test::error_of([&] {
+          handscs::config_from_json(handscs::json{{"colour", "blue"}}, "file.json", config);
+        }) == "file.json: colour: unknown value \"blue\" (known: red, green)");
+  CHECK(config.colour == EnumChoiceConfig::Colour::red);  // unchanged by the refused value
+  EnumChoiceConfig defaults;
+  CHECK(handscs::config_markdown(defaults).find("| `colour` |") != std::string::npos);
+  CHECK(handscs::config_markdown(defaults).find("red, green") != std::string::npos);
+}

@@ -28,7 +28,9 @@
 #include <catch2/catch.hpp>
 
 #include "core/atomic_file.h"
+#include "core/config.h"
 #include "metrics/image_tensor.h"
+#include "metrics/ssim.h"
 #include "test_support.h"
 
 namespace metrics_test {
@@ -46,6 +48,16 @@ inline RunResult run_eval(const std::string& args, const std::string& dir) {
   const std::string log = dir + "/log.txt";
   const int raw = std::system((binary + " --threads 2 " + args + " > " + log + " 2>&1").c_str());
   return {WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, handscs::read_file(log)};
+}
+
+// The SSIM config of the variant a config file names ("3dgs", "valid", "matlab"), read the way
+// config files are (an unknown name is an Error naming it).
+inline handscs::SsimConfig ssim_variant_config(const std::string& name) {
+  handscs::SsimConfig config;
+  auto json = handscs::config_to_json(config);
+  json["variant"] = name;
+  handscs::config_from_json(json, "ssim", config);
+  return config;
 }
 
 inline std::string shared_dir() { return HANDSCS_SHARED_DIR; }

@@ -64,11 +64,11 @@ TEST_CASE("folder eval reproduces the oracle values on the shared pairs", "[eval
 
 TEST_CASE("folder eval honours the ssim variant (valid and the MATLAB convention)", "[eval][oracle]") {
   handscs::EvalConfig config;
-  config.ssim.variant = "valid";
+  config.ssim.variant = handscs::SsimConfig::Variant::valid;
   auto report = handscs::run_folder_eval(shared_pairs(), config);
   CHECK_THAT(report.entries[0].scores.ssim, WithinAbs(0.67317, 1e-5));
   CHECK_THAT(report.entries[1].scores.ssim, WithinAbs(0.93252, 1e-5));
-  config.ssim.variant = "matlab";
+  config.ssim.variant = handscs::SsimConfig::Variant::matlab;
   report = handscs::run_folder_eval(shared_pairs(), config);
   CHECK_THAT(report.entries[0].scores.ssim, WithinAbs(0.6993, 1e-4));
   CHECK_THAT(report.entries[1].scores.ssim, WithinAbs(0.9978, 1e-4));
@@ -207,7 +207,7 @@ TEST_CASE("eval config resolves flags over --set overrides and rejects bad value
   cli.ssim_variant = "valid";
   cli.lpips_weights = "123";  // a path that looks like a number stays a string
   auto config = handscs::resolve_eval_config(cli, {"ssim.variant=matlab", "lpips.net=vgg"});
-  CHECK(config.ssim.variant == "valid");
+  CHECK(config.ssim.variant == handscs::SsimConfig::Variant::valid);
   CHECK(config.lpips.weights == "123");
   CHECK(config.lpips.net == "vgg");
   cli.ssim_variant = "gauss";

@@ -37,7 +37,7 @@ torch::Tensor hand_made_regions() {
 
 handscs::EvalConfig ssim_variant(const std::string& name) {
   handscs::EvalConfig config;
-  config.ssim.variant = name;
+  config.ssim = metrics_test::ssim_variant_config(name);
   return config;
 }
 

@@ -112,8 +112,8 @@ TEST_CASE("consistency: attribute distances, raw and per group normalised, match
   const auto a = torch::randn({n, 3, 3}, torch::kFloat64) * 2e-3;
   const auto covariances = a.matmul(a.transpose(1, 2)) + torch::eye(3, torch::kFloat64) * 1e-7;
 
-  const auto raw = handscs::consistency_distances(attributes, matched, covariances, "none");
-  const auto grouped = handscs::consistency_distances(attributes, matched, covariances, "groups");
+  const auto raw = handscs::consistency_distances(attributes, matched, covariances, handscs::ConsistencyConfig::Normalize::none);
+  const auto grouped = handscs::consistency_distances(attributes, matched, covariances, handscs::ConsistencyConfig::Normalize::groups);
   for (int64_t i = 0; i < n; ++i) {
     double sums[4] = {0, 0, 0, 0};
     double all = 0;
@@ -129,20 +129,19 @@ TEST_CASE("consistency: attribute distances, raw and per group normalised, match
     CHECK_THAT(raw[i].item<double>(), Catch::Matchers::WithinRel(all, 1e-12));
     CHECK_THAT(grouped[i].item<double>(), Catch::Matchers::WithinRel(expected, 1e-12));
   }
-  CHECK_THROWS(handscs::consistency_distances(attributes, matched, covariances, "other"));
 
   // The gradient in the attributes against central differences (the extent is a constant). Unit
   // extents keep every group of the same order, so the differences are not lost to rounding.
   const auto unit = torch::eye(3, torch::kFloat64).expand({n, 3, 3}).clone();
   const auto x = attributes.clone().requires_grad_(true);
-  handscs::consistency_distances(x, matched, unit, "groups").sum().backward();
+  handscs::consistency_distances(x, matched, unit, handscs::ConsistencyConfig::Normalize::groups).sum().backward();
   const double h = 1e-6;
   for (int64_t k : {0L, 5L, 13L, 20L}) {
     auto plus = attributes.clone(), minus = attributes.clone();
     plus[2][k] += h;
     minus[2][k] -= h;
-    const double fd = (handscs::consistency_distances(plus, matched, unit, "groups").sum() -
-                       handscs::consistency_distances(minus, matched, unit, "groups").sum())
+    const double fd = (handscs::consistency_distances(plus, matched, unit, handscs::ConsistencyConfig::Normalize::groups).sum() -
+                       handscs::consistency_distances(minus, matched, unit, handscs::ConsistencyConfig::Normalize::groups).sum())
                           .item<double>() / (2 * h);
     CHECK_THAT(x.grad()[2][k].item<double>(), Catch::Matchers::WithinRel(fd, 1e-6));
   }

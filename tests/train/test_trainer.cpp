@@ -69,7 +69,7 @@ TEST_CASE("trainer: resume continues to the same loss curve as an uninterrupted 
   config.train.densify.interval = 4;
   config.train.densify.grad_threshold = 0;  // densify something every time
   config.train.densify.max_gaussians = 1800;
-  config.train.background = "random";
+  config.train.background = handscs::TrainConfig::Background::random;
   const auto straight_dir = fresh_dir("straight");
   std::vector<double> straight;
   {
@@ -163,11 +163,12 @@ TEST_CASE("trainer: the k-d tree and the GEMM search give the same L_con") {
   // tiny; handscs-bench-consistency: the float GEMM is at the true minimum for ~99.98% of rows).
   handscs::set_threads(1);
   std::vector<std::vector<double>> terms;
-  for (const char* search : {"exact", "tree"}) {
+  using Search = handscs::ConsistencyConfig::Search;
+  for (const auto& [search, name] : {std::pair{Search::exact, "exact"}, std::pair{Search::tree, "tree"}}) {
     auto config = tiny_run_config();
     config.train.consistency.search = search;
     config.train.consistency.min_weight = 0;  // every pair searched
-    handscs::Trainer trainer(config, fresh_dir(std::string("search_") + search));
+    handscs::Trainer trainer(config, fresh_dir(std::string("search_") + name));
     terms.emplace_back();
     for (int i = 0; i < 6; ++i) {
       const auto r = trainer.step();
