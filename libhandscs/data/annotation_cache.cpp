@@ -3,12 +3,13 @@
 #include <spdlog/spdlog.h>
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <functional>
-#include <memory>
 #include <optional>
 
 #include "core/atomic_file.h"
@@ -42,12 +43,6 @@ struct SourceStamp {
   }
 };
 
-struct FileCloser {
-  void operator()(std::FILE* f) const {
-    if (f) std::fclose(f);
-  }
-};
-
 SourceStamp stamp_of(const std::string& source) {
   struct stat info {};
   if (::stat(source.c_str(), &info) != 0) throw Error(source + ": cannot open file");
@@ -55,14 +50,18 @@ SourceStamp stamp_of(const std::string& source) {
   stamp.name = fs::path(source).filename().string();
   stamp.size = static_cast<uint64_t>(info.st_size);
   stamp.mtime_ns = static_cast<int64_t>(info.st_mtim.tv_sec) * 1000000000 + info.st_mtim.tv_nsec;
-  std::unique_ptr<std::FILE, FileCloser> file(std::fopen(source.c_str(), "rb"));
+  std::ifstream file(source, std::ios::binary);
   if (!file) throw Error(source + ": cannot open file");
   std::string edges(2 * kEdgeBytes, '\0');
-  size_t got = std::fread(&edges[0], 1, kEdgeBytes, file.get());
-  if (stamp.size > kEdgeBytes &&
-      std::fseek(file.get(), -static_cast<long>(std::min<uint64_t>(kEdgeBytes, stamp.size - kEdgeBytes)),
-                 SEEK_END) == 0)
-    got += std::fread(&edges[got], 1, kEdgeBytes, file.get());
+  file.read(&edges[0], static_cast<std::streamsize>(kEdgeBytes));
+  size_t got = static_cast<size_t>(file.gcount());
+  if (stamp.size > kEdgeBytes) {
+    const uint64_t tail = std::min<uint64_t>(kEdgeBytes, stamp.size - kEdgeBytes);
+    file.clear();
+    file.seekg(-static_cast<std::streamoff>(tail), std::ios::end);
+    file.read(&edges[got], static_cast<std::streamsize>(tail));
+    got += static_cast<size_t>(file.gcount());
+  }
   stamp.edges_hash = fnv1a64(edges.data(), got);
   return stamp;
 }
