@@ -1,11 +1,14 @@
 // handscs-train: fits a HandSCS avatar to a capture (InterHand2.6M layout) and writes its run folder.
+#include <algorithm>
 #include <cstdio>
+#include <memory>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
 #include "core/cli.h"
 #include "core/config.h"
+#include "train/data_parallel.h"
 #include "train/run_config.h"
 #include "train/run_folder.h"
 #include "train/trainer.h"
@@ -16,7 +19,12 @@ int main(int argc, char** argv) {
       "Writes RUN_DIR/config.json (resolved config), metrics.csv, checkpoints/step_*.ckpt (the\n"
       "newest two), validation/*.png (prediction | ground truth). Ctrl-C saves a checkpoint;\n"
       "--resume continues from the newest valid one. A folder holding another run is refused\n"
-      "unless --overwrite. Keys: docs/CONFIG.md; what the tools promise: docs/SAFETY.md."};
+      "unless --overwrite. Keys: docs/CONFIG.md; what the tools promise: docs/SAFETY.md.\n"
+      "Several processes (one machine or many) train one avatar data-parallel: start each with\n"
+      "RANK, WORLD_SIZE, MASTER_ADDR, MASTER_PORT in the environment (as torchrun sets them) or\n"
+      "the --rank/--world-size/--master-* flags; rank 0 takes --config, writes RUN_DIR and\n"
+      "resumes; the others need only --out (their mask cache). README: \"Training on several\n"
+      "machines\"."};
   std::string config_path, run_dir;
   bool resume = false, overwrite = false, print_defaults = false, print_docs = false;
   handscs::CommonOptions common;
@@ -29,6 +37,15 @@ int main(int argc, char** argv) {
   app.add_flag("--print-defaults", print_defaults, "print the default config as JSON and exit");
   app.add_flag("--print-docs", print_docs, "print every config key as a Markdown table and exit");
   handscs::add_common_options(app, common, true);
+  auto parallel = handscs::data_parallel_from_environment();
+  app.add_option("--rank", parallel.rank, "this process's rank, 0 .. world size - 1 (env RANK)");
+  app.add_option("--world-size", parallel.world_size,
+                 "number of data-parallel processes (env WORLD_SIZE; 1 = no rendezvous)");
+  app.add_option("--master-addr", parallel.master_addr, "rank 0's host (env MASTER_ADDR)");
+  app.add_option("--master-port", parallel.master_port, "rank 0's rendezvous port (env MASTER_PORT)");
+  app.add_option("--dist-timeout", parallel.timeout_s,
+                 "seconds any rank waits for the others (rendezvous, each exchange) before failing")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {
     handscs::RunConfig defaults;
@@ -41,17 +58,49 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (run_dir.empty()) throw handscs::Error("--out RUN_DIR is required");
+    handscs::validate_data_parallel(parallel);
+    const bool root = parallel.rank == 0;
     if (config_path.empty() && resume) config_path = run_dir + "/config.json";
-    if (config_path.empty()) throw handscs::Error("--config is required (e.g. configs/demo.json)");
+    if (config_path.empty() && root)
+      throw handscs::Error("--config is required (e.g. configs/demo.json)");
     handscs::start_up(common, "handscs-train");
-    const auto config = handscs::load_config<handscs::RunConfig>(config_path, common.overrides);
-    handscs::validate_run_config(config, config_path);
-    if (!resume) handscs::prepare_fresh_run_folder(run_dir, overwrite);
-    handscs::Trainer trainer(config, run_dir);
-    if (resume && !trainer.resume()) spdlog::warn("{}: no checkpoint to resume; starting afresh", run_dir);
+    std::unique_ptr<handscs::ProcessGroup> group;
+    if (parallel.world_size > 1) {
+      group = std::make_unique<handscs::ProcessGroup>(parallel);
+      spdlog::info("data parallel: rank {} of {} (rendezvous at {}:{})", parallel.rank,
+                   parallel.world_size, parallel.master_addr, parallel.master_port);
+    }
+    handscs::RunConfig config;
+    std::string config_text;
+    if (root) {
+      config = handscs::load_config<handscs::RunConfig>(config_path, common.overrides);
+      handscs::validate_run_config(config, config_path);
+      config_text = handscs::config_to_json(config).dump();
+    }
+    if (group) {
+      // Every rank trains with rank 0's config: one source of truth for all settings.
+      group->broadcast_bytes(config_text);
+      if (!root)
+        handscs::config_from_json(nlohmann::json::parse(config_text), "rank 0's config", config);
+    }
+    if (root && !resume) handscs::prepare_fresh_run_folder(run_dir, overwrite);
+    handscs::Trainer trainer(config, run_dir, group.get());
+    if (root && resume && !trainer.resume())
+      spdlog::warn("{}: no checkpoint to resume; starting afresh", run_dir);
     const auto summary = trainer.run();
-    spdlog::info("{} steps in {:.1f} s, {} Gaussians, {} skipped steps, {} rollbacks", summary.iterations,
-                 summary.seconds, summary.gaussians, summary.skipped_steps, summary.rollbacks);
+    spdlog::info("{} steps in {:.1f} s ({:.2f} views/s), {} Gaussians, {} skipped steps, {} rollbacks",
+                 summary.iterations, summary.seconds,
+                 summary.seconds > 0 ? summary.views / summary.seconds : 0.0, summary.gaussians,
+                 summary.skipped_steps, summary.rollbacks);
+    if (group && summary.communication.calls > 0) {
+      const double steps = std::max<double>(1.0, static_cast<double>(summary.views) /
+                                                     (config.train.batch_size * parallel.world_size));
+      spdlog::info("data parallel: {:.2f} MB exchanged per step, {:.1f} ms per step in the "
+                   "collectives (waiting for the slowest rank included)",
+                   summary.communication.bytes / steps / 1e6,
+                   summary.communication.seconds / steps * 1e3);
+    }
+    if (!root) return summary.interrupted ? 130 : 0;
     spdlog::info("checkpoint: {}", summary.checkpoint);
     spdlog::info("evaluate:   handscs-eval --config {} --checkpoint {} --out {}",
                  handscs::shell_quote(config_path), handscs::shell_quote(run_dir),

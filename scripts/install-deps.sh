@@ -7,6 +7,7 @@ packages=(
   build-essential cmake ccache pkg-config
   libtorch-dev            # LibTorch 1.13 (CPU): autograd for encoder, generator, decoders
   libopenblas0-openmp     # BLAS for LibTorch: 100 GFLOP/s/core instead of the 6 GFLOP/s reference BLAS
+  libgloo-dev             # headers of the Gloo collectives LibTorch's c10d uses (data-parallel training)
   libopencv-dev           # image and video I/O
   nlohmann-json3-dev      # configs, annotations
   libcli11-dev            # command lines

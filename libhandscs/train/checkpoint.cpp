@@ -33,7 +33,7 @@ uint64_t get_u64(const std::string& in, size_t offset) {
 }
 }  // namespace
 
-void save_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
+std::string checkpoint_bytes(const Checkpoint& checkpoint) {
   c10::Dict<std::string, at::Tensor> dict;
   for (const auto& [name, tensor] : checkpoint.tensors)
     dict.insert(name, tensor.detach().contiguous());
@@ -49,11 +49,18 @@ void save_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
   bytes.append(kMagic, 8);
   put_u64(bytes, payload);
   put_u64(bytes, hash);
-  write_file_atomic(path, bytes);
+  return bytes;
+}
+
+void save_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
+  write_file_atomic(path, checkpoint_bytes(checkpoint));
 }
 
 Checkpoint load_checkpoint(const std::string& path) {
-  const std::string bytes = read_file(path);
+  return checkpoint_from_bytes(read_file(path), path);
+}
+
+Checkpoint checkpoint_from_bytes(const std::string& bytes, const std::string& path) {
   if (bytes.size() < kTrailer + 8 ||
       std::memcmp(bytes.data() + bytes.size() - kTrailer, kMagic, 8) != 0)
     throw Error(path + ": not a complete HandSCS checkpoint (truncated or another format)");

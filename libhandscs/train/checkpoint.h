@@ -20,6 +20,10 @@ struct Checkpoint {
 void save_checkpoint(const std::string& path, const Checkpoint& checkpoint);
 // Throws Error naming the path if the file is missing, truncated, corrupted or of another format.
 Checkpoint load_checkpoint(const std::string& path);
+// The file's bytes, and back (data-parallel ranks receive rank 0's state this way); `source` names
+// the bytes in errors.
+std::string checkpoint_bytes(const Checkpoint& checkpoint);
+Checkpoint checkpoint_from_bytes(const std::string& bytes, const std::string& source);
 
 // A run folder keeps its checkpoints as <run_dir>/checkpoints/step_<8-digit step>.ckpt.
 std::string checkpoint_name(int64_t iteration);

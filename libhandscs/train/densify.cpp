@@ -15,13 +15,19 @@ void Densifier::reset(int64_t n) {
   count_ = torch::zeros({n}, torch::kFloat32);
 }
 
-void Densifier::accumulate(const torch::Tensor& means2d_grad, const torch::Tensor& radii) {
-  const int64_t n = radii.size(0);
-  if (!grad_sum_.defined() || grad_sum_.size(0) != n) reset(n);
+Densifier::ViewStatistics Densifier::view_statistics(const torch::Tensor& means2d_grad,
+                                                     const torch::Tensor& radii) {
   torch::NoGradGuard no_grad;
   const auto visible = (radii > 0).to(torch::kFloat32);
-  grad_sum_ += means2d_grad.to(torch::kFloat32).norm(2, 1) * visible;
-  count_ += visible;
+  return {means2d_grad.to(torch::kFloat32).norm(2, 1) * visible, visible};
+}
+
+void Densifier::add(const ViewStatistics& statistics) {
+  const int64_t n = statistics.visible.size(0);
+  if (!grad_sum_.defined() || grad_sum_.size(0) != n) reset(n);
+  torch::NoGradGuard no_grad;
+  grad_sum_ += statistics.grad_norm;
+  count_ += statistics.visible;
 }
 
 int64_t Densifier::densify_and_prune(GaussianState& g, Adam& optimizer, uint64_t seed) {

@@ -18,9 +18,15 @@ class Densifier {
  public:
   explicit Densifier(const DensifyConfig& config) : config_(config) {}
 
-  // After a backward: accumulates |dL/d mean2d| of the Gaussians visible in this view.
-  void accumulate(const torch::Tensor& means2d_grad,  // [N, 2]
-                  const torch::Tensor& radii);        // [N] int32, 0 = culled
+  // One view's statistics after its backward: |dL/d mean2d| of the Gaussians it sees and which
+  // ones it sees (both [N] float). The views of a step, on every rank, are summed and then added.
+  struct ViewStatistics {
+    torch::Tensor grad_norm;  // |dL/d mean2d| where visible, else 0
+    torch::Tensor visible;    // 1 where the Gaussian's radius is positive, else 0
+  };
+  static ViewStatistics view_statistics(const torch::Tensor& means2d_grad,  // [N, 2]
+                                        const torch::Tensor& radii);        // [N] int32, 0 = culled
+  void add(const ViewStatistics& statistics);
   // Clones/splits/prunes; returns the number of Gaussians after the change.
   int64_t densify_and_prune(GaussianState& gaussians, Adam& optimizer, uint64_t seed);
 

@@ -165,6 +165,10 @@ struct PoseRefineConfig {
 struct TrainConfig {
   int64_t iterations = 3000;        // optimisation steps
   int64_t seed = 0;                 // frame order, backgrounds
+  // Views rendered per step by each process; their losses are averaged into one gradient. With N
+  // data-parallel processes a step sees N x batch_size views (one process with batch_size N gives
+  // the same steps). 1, as the paper: the step counts of every benchmark assume it.
+  int64_t batch_size = 1;
   enum class Background { black, white, random };
   Background background = Background::black;  // black, white or random (per step) in training
   double resolution_scale = 1.0;    // train on images scaled by this factor (0.5 = half size)
@@ -183,6 +187,8 @@ struct TrainConfig {
   void visit(V& v) {
     v.field("iterations", iterations, "optimisation steps", 1, 1e9);
     v.field("seed", seed, "seed of frame order and backgrounds", 0, 9.0e15);
+    v.field("batch_size", batch_size,
+            "views per step on each process (their losses averaged; N processes see N x this)", 1, 4096);
     v.choice("background", background,
              {{"black", Background::black}, {"white", Background::white}, {"random", Background::random}},
              "training background");

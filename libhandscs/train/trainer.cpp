@@ -58,19 +58,32 @@ const char* kDiagnosticColumns[] = {"gate_geometry", "gate_appearance", "gate_fu
 
 
 
+// Checkpoint names of the inter-pose chain of the step's view `view` (view 0 keeps the names of
+// the single-view format, so older checkpoints resume).
+std::string chain_prefix(int64_t view) {
+  return view == 0 ? "consistency/" : "consistency/view" + std::to_string(view) + "/";
+}
+
 }  // namespace
 
-Trainer::Trainer(const RunConfig& config, const std::string& run_dir)
-    : config_(config), run_dir_(run_dir) {
+Trainer::Trainer(const RunConfig& config, const std::string& run_dir, ProcessGroup* group)
+    : config_(config), run_dir_(run_dir), group_(group) {
   validate_run_config(config_, "config");
+  if (group_ && group_->world_size() == 1) group_ = nullptr;
+  require(!(group_ && config_.train.pose_refine.enabled),
+          "train.pose_refine.enabled: pose refinement needs a single process (each rank would "
+          "refine the poses of its own views only); train without it or with one rank");
   ensure_directory(run_dir_);
   ensure_directory(run_dir_ + "/checkpoints");
-  remove_stale_temporaries(run_dir_);
+  if (is_root()) remove_stale_temporaries(run_dir_);
+  prev_chains_.resize(config_.train.batch_size);
+  next_chains_.resize(config_.train.batch_size);
 
   capture_ = std::make_unique<Capture>(Capture::open(config_.data, run_dir_ + "/cache"));
   require(!capture_->train().empty(),
           "data: the capture has no training frames (check data.root, split, capture, cameras)");
-  spdlog::info("capture: {} training and {} test frames, {} poses, {} cameras",
+  if (is_root())
+    spdlog::info("capture: {} training and {} test frames, {} poses, {} cameras",
                capture_->train().size(), capture_->test().size(), capture_->num_poses(),
                capture_->cameras().size());
 
@@ -142,10 +155,20 @@ void Trainer::build_optimizer() {
   }
 }
 
-const FrameInfo& Trainer::frame_for(int64_t iteration) {
+int64_t Trainer::views_per_step() const {
+  return config_.train.batch_size * (group_ ? group_->world_size() : 1);
+}
+
+int64_t Trainer::first_view() const {
+  return config_.train.batch_size * (group_ ? group_->rank() : 0);
+}
+
+bool Trainer::stop_requested() const { return group_ ? stop_agreed_ : g_stop_requested.load(); }
+
+const FrameInfo& Trainer::frame_for(int64_t view_index) {
   const auto& frames = capture_->train();
   const int64_t n = static_cast<int64_t>(frames.size());
-  const int64_t epoch = iteration / n;
+  const int64_t epoch = view_index / n;
   if (epoch != order_epoch_) {
     order_.resize(n);
     for (int64_t i = 0; i < n; ++i) order_[i] = i;
@@ -154,19 +177,20 @@ const FrameInfo& Trainer::frame_for(int64_t iteration) {
     std::shuffle(order_.begin(), order_.end(), rng);
     order_epoch_ = epoch;
   }
-  return frames[order_[iteration % n]];
+  return frames[order_[view_index % n]];
 }
 
-std::array<float, 3> Trainer::background_for(int64_t iteration) const {
+std::array<float, 3> Trainer::background_for(int64_t view_index) const {
   if (config_.train.background == TrainConfig::Background::white) return {1, 1, 1};
   if (config_.train.background == TrainConfig::Background::black) return {0, 0, 0};
-  std::mt19937_64 rng(static_cast<uint64_t>(config_.train.seed) * 7919ull + iteration);
+  std::mt19937_64 rng(static_cast<uint64_t>(config_.train.seed) * 7919ull + view_index);
   std::uniform_real_distribution<float> u(0.f, 1.f);
   return {u(rng), u(rng), u(rng)};
 }
 
 torch::Tensor Trainer::consistency_loss(const AvatarState& state, const torch::Tensor& rendered_pose,
-                                        double* pair_weight) {
+                                        size_t chain, double* pair_weight) {
+  const ConsistencyChain& prev = prev_chains_[chain];
   auto& g = avatar_->gaussians();
   const auto& cc = config_.train.consistency;
   auto pose = rendered_pose.detach().to(torch::kFloat32).clone();
@@ -177,51 +201,53 @@ torch::Tensor Trainer::consistency_loss(const AvatarState& state, const torch::T
       consistency_attributes(state.canonical_means, state.canonical_covariances,
                              state.canonical_colors, g.embed_geometry, g.embed_appearance);
   torch::Tensor loss;
-  const double weight = prev_descriptor_.defined()
-                            ? pose_similarity(feature, prev_pose_feature_, cc.delta)
+  const double weight = prev.descriptor.defined()
+                            ? pose_similarity(feature, prev.pose_feature, cc.delta)
                             : 0.0;
-  if (prev_descriptor_.defined()) *pair_weight = weight;
-  if (prev_descriptor_.defined() && prev_descriptor_.size(0) == g.size() &&
+  if (prev.descriptor.defined()) *pair_weight = weight;
+  if (prev.descriptor.defined() && prev.descriptor.size(0) == g.size() &&
       weight >= cc.min_weight) {
     torch::Tensor match;
     const bool gemm =
         cc.search == ConsistencyConfig::Search::exact ||
         (cc.search == ConsistencyConfig::Search::automatic && g.size() <= cc.exact_max_gaussians);
     if (gemm) {
-      match = correspond_exact(state.descriptor, prev_descriptor_);
+      match = correspond_exact(state.descriptor, prev.descriptor);
     } else if (cc.search == ConsistencyConfig::Search::candidates) {
       if (!candidates_.defined() || candidates_.size(0) != g.size() ||
           iteration_ % cc.refresh_every == 0)
         candidates_ = nearest_neighbours(g.means, cc.candidates);
-      match = correspond_candidates(state.descriptor, prev_descriptor_, candidates_);
+      match = correspond_candidates(state.descriptor, prev.descriptor, candidates_);
     } else {
       // Rows persist between steps (the state is reset on densification): each Gaussian's own
       // previous row is the natural first guess.
-      match = DescriptorTree(prev_descriptor_).nearest(state.descriptor,
+      match = DescriptorTree(prev.descriptor).nearest(state.descriptor,
                                                        torch::arange(g.size(), torch::kInt64));
     }
-    const auto diff = consistency_distances(attributes, prev_attributes_.index_select(0, match),
+    const auto diff = consistency_distances(attributes, prev.attributes.index_select(0, match),
                                             state.canonical_covariances, cc.normalize);
     loss = weight * (cc.reduction == ConsistencyConfig::Reduction::sum ? diff.sum() : diff.mean());
   }
   // Kept for the next step (M_0 = M_1 on the first step: no loss).
-  next_descriptor_ = state.descriptor.detach();
-  next_attributes_ = attributes.detach();
-  next_pose_feature_ = feature;
+  next_chains_[chain] = {state.descriptor.detach(), attributes.detach(), feature};
   return loss;
 }
 
-StepResult Trainer::step() {
-  StepResult result;
+// What one view of a step leaves behind after its backward (its gradients are in the parameters).
+struct Trainer::ViewOutcome {
+  double loss = 0;  // unweighted by the view count
+  double psnr = 0;
+  Densifier::ViewStatistics densify;  // undefined tensors without densification
+  int64_t pose_index = -1;            // pose refinement: the pose whose correction was learned
+  torch::Tensor pose_delta;           // ... its correction (holds the gradient); else undefined
+};
+
+Trainer::ViewOutcome Trainer::train_view(int64_t view, bool diagnostics, StepResult& result) {
+  ViewOutcome outcome;
+  const int64_t views = config_.train.batch_size;
+  const int64_t view_index = iteration_ * views_per_step() + first_view() + view;
   const auto t0 = Clock::now();
-  const int64_t total = config_.train.iterations;
-  {
-    std::vector<int64_t> ahead;
-    for (int k = 1; k <= kPrefetchAhead; ++k) ahead.push_back(frame_for(iteration_ + k).index);
-    frame_for(iteration_);  // restore this epoch's order if the look-ahead crossed an epoch
-    capture_->prefetch(ahead);
-  }
-  const FrameInfo& current = frame_for(iteration_);
+  const FrameInfo& current = frame_for(view_index);
   FrameSample sample = capture_->load(current);
   empty_masks_->record(current, !sample.mask.any().item<bool>());
   Camera camera = sample.roi_camera();
@@ -244,7 +270,7 @@ StepResult Trainer::step() {
                                                     static_cast<int>(image.size(0)), scale,
                                                     min_loss_side_);
   if (!too_small.empty()) throw Error(too_small);
-  const auto bg = background_for(iteration_);
+  const auto bg = background_for(view_index);
   const auto bg_tensor = torch::tensor({bg[0], bg[1], bg[2]});
   const auto target = image * mask.unsqueeze(2) + bg_tensor * (1 - mask.unsqueeze(2));
   const auto t1 = Clock::now();
@@ -275,14 +301,19 @@ StepResult Trainer::step() {
   in.target = target;
   in.mask = mask;
   in.offsets = &out.state.offsets;
-  if (consistency) in.consistency = consistency_loss(out.state, pose, &result.consistency_weight);
+  double pair_weight = -1;
+  if (consistency) in.consistency = consistency_loss(out.state, pose, view, &pair_weight);
+  if (view == 0) result.consistency_weight = pair_weight;
   auto loss = objective_->compute(in);
   if (learn_pose) {
     const auto penalty = pose_corrections_->penalty(corrected.delta);
     loss.terms["pose_refine"] = penalty.item<double>();
     loss.total = loss.total + penalty;
+    outcome.pose_index = current.pose_index;
+    outcome.pose_delta = corrected.delta;
   }
-  if ((iteration_ + 1) % config_.train.log_every == 0) {
+  for (const auto& [name, value] : loss.terms) result.terms[name] += value / views;
+  if (diagnostics) {
     // Whether the decoders do anything: their gates and the mean size of each offset, on the
     // steps run() logs (each is a reduction and a sync; no need on every step).
     torch::NoGradGuard no_grad;
@@ -297,66 +328,188 @@ StepResult Trainer::step() {
   }
   const auto t3 = Clock::now();
 
-  loss.total.backward();
+  // The step's loss is the mean over its views: each view's gradients arrive scaled by 1/views.
+  (views == 1 ? loss.total : loss.total * (1.0 / views)).backward();
   const auto t4 = Clock::now();
 
-  bool finite = std::isfinite(loss.total.item<double>());
-  for (auto& group : optimizer_->groups())
-    for (auto* p : group.params)
-      if (finite && p->grad().defined() && !torch::isfinite(p->grad()).all().item<bool>())
-        finite = false;
-  if (finite && learn_pose && corrected.delta.grad().defined() &&
-      !torch::isfinite(corrected.delta.grad()).all().item<bool>())
-    finite = false;
-  result.loss = loss.total.item<double>();
-  result.terms = loss.terms;
+  outcome.loss = loss.total.item<double>();
   {
     torch::NoGradGuard no_grad;
     const double mse = (out.render.rgb.detach() - target).pow(2).mean().item<double>();
     // Capped: a crop rendered exactly (mse 0, +inf dB) would make the running average infinite.
     constexpr double kMaxStepPsnr = 99.0;
-    result.psnr = std::min(psnr_from_mse(mse), kMaxStepPsnr);
+    outcome.psnr = std::min(psnr_from_mse(mse), kMaxStepPsnr);
   }
+  if (densify) {
+    // The densification threshold is per view: undo the 1/views of the mean.
+    const auto grad = probe.grad().defined() ? probe.grad() : torch::zeros_like(probe);
+    outcome.densify =
+        Densifier::view_statistics(views == 1 ? grad : grad * double(views), out.render.radii);
+  }
+  result.times.data_ms += ms_between(t0, t1);
+  result.times.forward_ms += ms_between(t1, t2);
+  result.times.losses_ms += ms_between(t2, t3);
+  result.times.backward_ms += ms_between(t3, t4);
+  return outcome;
+}
+
+bool Trainer::reduce_across_ranks(ViewOutcome& sums, bool finite) {
+  // One buffer, one all-reduce: per parameter a flag (has a gradient here) and its gradient, the
+  // densification statistics, then loss, PSNR, "not finite here" and "stop requested here".
+  std::vector<torch::Tensor*> params;
+  for (auto& group : optimizer_->groups())
+    for (auto* p : group.params) params.push_back(p);
+  std::vector<torch::Tensor> parts;
+  std::vector<float> flags;
+  for (auto* p : params) {
+    const bool has = p->grad().defined();
+    flags.push_back(has ? 1.f : 0.f);
+    parts.push_back(has ? p->grad().reshape(-1) : torch::zeros({p->numel()}));
+  }
+  const bool densify = sums.densify.visible.defined();
+  if (densify) {
+    parts.push_back(sums.densify.grad_norm);
+    parts.push_back(sums.densify.visible);
+  }
+  parts.push_back(torch::tensor(flags, torch::kFloat32));
+  parts.push_back(torch::tensor({static_cast<float>(sums.loss), static_cast<float>(sums.psnr),
+                                 finite ? 0.f : 1.f, g_stop_requested ? 1.f : 0.f}));
+  auto buffer = torch::cat(parts).to(torch::kFloat32).contiguous();
+  group_->all_reduce_sum(buffer);
+
+  const int64_t tail = static_cast<int64_t>(flags.size()) + 4;
+  const auto summed_flags = buffer.slice(0, buffer.numel() - tail, buffer.numel() - 4);
+  const auto scalars = buffer.slice(0, buffer.numel() - 4);
+  sums.loss = scalars[0].item<double>();
+  sums.psnr = scalars[1].item<double>();
+  if (scalars[3].item<float>() > 0) stop_agreed_ = true;
+  const bool all_finite = scalars[2].item<float>() == 0 && torch::isfinite(buffer).all().item<bool>();
+  int64_t offset = 0;
+  const double inverse_world = 1.0 / group_->world_size();
+  for (size_t i = 0; i < params.size(); ++i) {
+    auto* p = params[i];
+    const int64_t n = p->numel();
+    if (summed_flags[static_cast<int64_t>(i)].item<float>() > 0)
+      p->mutable_grad() = (buffer.slice(0, offset, offset + n) * inverse_world).view(p->sizes()).clone();
+    else
+      p->mutable_grad() = torch::Tensor();
+    offset += n;
+  }
+  if (densify) {
+    const int64_t n = sums.densify.visible.numel();
+    sums.densify.grad_norm = buffer.slice(0, offset, offset + n).clone();
+    sums.densify.visible = buffer.slice(0, offset + n, offset + 2 * n).clone();
+  }
+  return all_finite;
+}
+
+StepResult Trainer::step() {
+  StepResult result;
+  const int64_t total = config_.train.iterations;
+  const int64_t views = config_.train.batch_size;
+  {
+    std::vector<int64_t> ahead;
+    for (int k = 1; k <= kPrefetchAhead; ++k)
+      for (int64_t v = 0; v < views; ++v)
+        ahead.push_back(frame_for((iteration_ + k) * views_per_step() + first_view() + v).index);
+    frame_for(iteration_ * views_per_step() + first_view());  // restore this epoch's order
+    capture_->prefetch(ahead);
+  }
+  const bool diagnostics = (iteration_ + 1) % config_.train.log_every == 0;
+  ViewOutcome sums;  // loss and PSNR summed over this rank's views, densification statistics
+  std::vector<ViewOutcome> outcomes;
+  bool finite = true;
+  for (int64_t v = 0; v < views; ++v) {
+    outcomes.push_back(train_view(v, diagnostics && v == 0, result));
+    const auto& o = outcomes.back();
+    finite = finite && std::isfinite(o.loss);
+    sums.loss += o.loss;
+    sums.psnr += o.psnr;
+    if (o.densify.visible.defined()) {
+      // Summed over the step's views first, then added: the same sums on every rank layout.
+      sums.densify.grad_norm = v == 0 ? o.densify.grad_norm : sums.densify.grad_norm + o.densify.grad_norm;
+      sums.densify.visible = v == 0 ? o.densify.visible : sums.densify.visible + o.densify.visible;
+    }
+  }
+  const auto t4 = Clock::now();
+
+  if (group_) {
+    const auto before = group_->stats().seconds;
+    finite = reduce_across_ranks(sums, finite);
+    result.times.communication_ms = (group_->stats().seconds - before) * 1000.0;
+  } else {
+    for (auto& group : optimizer_->groups())
+      for (auto* p : group.params)
+        if (finite && p->grad().defined() && !torch::isfinite(p->grad()).all().item<bool>())
+          finite = false;
+  }
+  for (const auto& o : outcomes)
+    if (finite && o.pose_delta.defined() && o.pose_delta.grad().defined() &&
+        !torch::isfinite(o.pose_delta.grad()).all().item<bool>())
+      finite = false;
+  result.loss = sums.loss / views_per_step();
+  result.psnr = sums.psnr / views_per_step();
+  auto& g = avatar_->gaussians();
   if (!finite) {
     optimizer_->zero_grad();
     ++skipped_total_;
     ++bad_in_a_row_;
     result.skipped = true;
-    spdlog::warn("step {}: non-finite loss or gradient, step skipped ({} in a row)", iteration_ + 1,
-                 bad_in_a_row_);
+    if (is_root())
+      spdlog::warn("step {}: non-finite loss or gradient, step skipped ({} in a row)", iteration_ + 1,
+                   bad_in_a_row_);
     ++iteration_;
-    if (bad_in_a_row_ >= config_.train.max_bad_steps) result.rolled_back = rollback();
+    if (bad_in_a_row_ >= config_.train.max_bad_steps) {
+      // Agreed on every rank (the finiteness is): rank 0 reloads, the others take its state.
+      result.rolled_back = is_root() ? rollback() : true;
+      if (group_) synchronize_state(/*keep_chains=*/false);
+    }
   } else {
     bad_in_a_row_ = 0;
     optimizer_->step(iteration_, total);
-    if (learn_pose && corrected.delta.grad().defined())
-      pose_corrections_->step(current.pose_index, corrected.delta.grad());
-    if (densify && probe.grad().defined())
-      densifier_->accumulate(probe.grad(), out.render.radii);
+    for (const auto& o : outcomes)
+      if (o.pose_delta.defined() && o.pose_delta.grad().defined())
+        pose_corrections_->step(o.pose_index, o.pose_delta.grad());
+    if (sums.densify.visible.defined()) densifier_->add(sums.densify);
     optimizer_->zero_grad();
-    if (consistency) {
-      prev_descriptor_ = next_descriptor_;
-      prev_attributes_ = next_attributes_;
-      prev_pose_feature_ = next_pose_feature_;
-    }
+    if (config_.train.loss.consistency > 0) prev_chains_ = next_chains_;
     ++iteration_;
     if (densifier_->due(iteration_)) {
       const int64_t before = g.size();
-      densifier_->densify_and_prune(g, *optimizer_,
-                                    static_cast<uint64_t>(config_.train.seed) + iteration_);
-      if (g.size() != before) {
+      // Decided once, by rank 0, from statistics every rank holds; the others take its result.
+      if (is_root())
+        densifier_->densify_and_prune(g, *optimizer_,
+                                      static_cast<uint64_t>(config_.train.seed) + iteration_);
+      if (group_) synchronize_state(/*keep_chains=*/true);
+      if (avatar_->gaussians().size() != before) {
         // Correspondences refer to rows: start the inter-pose state afresh.
-        prev_descriptor_ = prev_attributes_ = candidates_ = torch::Tensor();
-        spdlog::debug("densify at step {}: {} -> {} Gaussians", iteration_, before, g.size());
+        prev_chains_.assign(prev_chains_.size(), ConsistencyChain{});
+        candidates_ = torch::Tensor();
+        if (is_root())
+          spdlog::debug("densify at step {}: {} -> {} Gaussians", iteration_, before,
+                        avatar_->gaussians().size());
       }
     }
     running_psnr_ = running_psnr_ == 0 ? result.psnr : 0.95 * running_psnr_ + 0.05 * result.psnr;
   }
-  const auto t5 = Clock::now();
   result.iteration = iteration_;
-  result.times = {ms_between(t0, t1), ms_between(t1, t2), ms_between(t2, t3), ms_between(t3, t4),
-                  ms_between(t4, t5)};
+  result.times.optimizer_ms = ms_between(t4, Clock::now());
   return result;
+}
+
+void Trainer::synchronize_state(bool keep_chains) {
+  std::string bytes;
+  if (group_->is_root()) bytes = checkpoint_bytes(make_checkpoint());
+  group_->broadcast_bytes(bytes);
+  if (group_->is_root()) return;
+  const auto chains = prev_chains_;
+  const std::string source = "rank 0's state";
+  load_from(checkpoint_from_bytes(bytes, source), source);
+  if (keep_chains)
+    for (size_t i = 0; i < chains.size(); ++i)
+      if (chains[i].descriptor.defined() &&
+          chains[i].descriptor.size(0) == avatar_->gaussians().size())
+        prev_chains_[i] = chains[i];
 }
 
 bool Trainer::rollback() {
@@ -406,9 +559,12 @@ Checkpoint Trainer::make_checkpoint() {
   auto put = [&](const std::string& name, const torch::Tensor& t) {
     if (t.defined()) ckpt.tensors[name] = t.clone();
   };
-  put("consistency/descriptor", prev_descriptor_);
-  put("consistency/attributes", prev_attributes_);
-  put("consistency/pose_feature", prev_pose_feature_);
+  for (size_t i = 0; i < prev_chains_.size(); ++i) {
+    const std::string prefix = chain_prefix(first_view() + static_cast<int64_t>(i));
+    put(prefix + "descriptor", prev_chains_[i].descriptor);
+    put(prefix + "attributes", prev_chains_[i].attributes);
+    put(prefix + "pose_feature", prev_chains_[i].pose_feature);
+  }
   put("consistency/candidates", candidates_);
   if (pose_corrections_)
     for (const auto& [name, tensor] : pose_corrections_->state()) ckpt.tensors[name] = tensor;
@@ -456,9 +612,11 @@ void Trainer::load_from(const Checkpoint& ckpt, const std::string& source) {
     auto it = ckpt.tensors.find(name);
     return it == ckpt.tensors.end() ? torch::Tensor() : it->second.clone();
   };
-  prev_descriptor_ = get("consistency/descriptor");
-  prev_attributes_ = get("consistency/attributes");
-  prev_pose_feature_ = get("consistency/pose_feature");
+  for (size_t i = 0; i < prev_chains_.size(); ++i) {
+    const std::string prefix = chain_prefix(first_view() + static_cast<int64_t>(i));
+    prev_chains_[i] = {get(prefix + "descriptor"), get(prefix + "attributes"),
+                       get(prefix + "pose_feature")};
+  }
   candidates_ = get("consistency/candidates");
   if (pose_corrections_) {
     pose_corrections_ =
@@ -549,35 +707,45 @@ void Trainer::log_step(const StepResult& r) {
 
 TrainSummary Trainer::run() {
   g_stop_requested = false;
+  stop_agreed_ = false;
   auto previous_int = std::signal(SIGINT, request_stop);
   auto previous_term = std::signal(SIGTERM, request_stop);
-  write_run_files();
+  // Every rank starts from rank 0's state: its initialisation, or the checkpoint it resumed.
+  if (group_) synchronize_state(/*keep_chains=*/false);
+  const bool root = is_root();
+  if (root) write_run_files();
   const auto start = Clock::now();
   const double elapsed_before = elapsed_seconds_;
-  if (last_checkpoint_.empty()) save_checkpoint();  // the state a first rollback returns to
+  const int64_t first_iteration = iteration_;
+  const CommunicationStats communication_before = group_ ? group_->stats() : CommunicationStats{};
+  if (root && last_checkpoint_.empty()) save_checkpoint();  // the state a first rollback returns to
   const int64_t total = config_.train.iterations;
-  ProgressBar bar("train", total);
+  std::unique_ptr<ProgressBar> bar;  // rank 0 reports for all
+  if (root) bar = std::make_unique<ProgressBar>("train", total);
   char status[160] = "";
-  while (iteration_ < total && !g_stop_requested) {
+  while (iteration_ < total && !stop_requested()) {
     const StepResult r = step();
     elapsed_seconds_ = elapsed_before + ms_between(start, Clock::now()) / 1000.0;
+    if (!root) continue;
     std::snprintf(status, sizeof(status), "loss %.4f psnr %.2f (avg %.2f) N %lld%s", r.loss, r.psnr,
                   running_psnr_, static_cast<long long>(avatar_->gaussians().size()),
                   skipped_total_ ? (" skipped " + std::to_string(skipped_total_)).c_str() : "");
-    bar.update(iteration_, status);
+    bar->update(iteration_, status);
     if (iteration_ % config_.train.log_every == 0 || r.skipped) log_step(r);
     if (iteration_ % config_.train.checkpoint_every == 0) save_checkpoint();
     if (config_.train.validate_every > 0 && iteration_ % config_.train.validate_every == 0)
       validate();
   }
-  const bool interrupted = g_stop_requested && iteration_ < total;
-  if (last_checkpoint_.find(checkpoint_name(iteration_)) == std::string::npos) save_checkpoint();
-  if (pose_corrections_)
-    write_file_atomic(run_dir_ + "/pose_refine.csv", pose_corrections_->to_csv());
-  bar.finish(status);
+  const bool interrupted = stop_requested() && iteration_ < total;
+  if (root) {
+    if (last_checkpoint_.find(checkpoint_name(iteration_)) == std::string::npos) save_checkpoint();
+    if (pose_corrections_)
+      write_file_atomic(run_dir_ + "/pose_refine.csv", pose_corrections_->to_csv());
+    bar->finish(status);
+  }
   std::signal(SIGINT, previous_int);
   std::signal(SIGTERM, previous_term);
-  if (interrupted)
+  if (interrupted && root)
     spdlog::warn("interrupted at step {}: checkpoint {} saved; continue with --resume", iteration_,
                  last_checkpoint_);
   TrainSummary summary;
@@ -588,6 +756,13 @@ TrainSummary Trainer::run() {
   summary.gaussians = avatar_->gaussians().size();
   summary.interrupted = interrupted;
   summary.checkpoint = last_checkpoint_;
+  summary.views = (iteration_ - first_iteration) * views_per_step();
+  if (group_) {
+    const auto& now = group_->stats();
+    summary.communication = {now.calls - communication_before.calls,
+                             now.bytes - communication_before.bytes,
+                             now.seconds - communication_before.seconds};
+  }
   return summary;
 }
 

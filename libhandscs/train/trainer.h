@@ -1,6 +1,16 @@
-// The training loop (paper §3.2-3.3): one view per step, render the ROI crop, losses, backward,
-// Adam, optional densification; metrics log, validation renders, atomic checkpoints, exact resume,
-// SIGINT/SIGTERM handling, and NaN/Inf steps that never reach the parameters (skip, then rollback).
+// The training loop (paper §3.2-3.3): train.batch_size views per step (one, as the paper, by
+// default), each rendered as its ROI crop, losses, backward; Adam, optional densification; metrics
+// log, validation renders, atomic checkpoints, exact resume, SIGINT/SIGTERM handling, and NaN/Inf
+// steps that never reach the parameters (skip, then rollback).
+//
+// Data parallel (a ProcessGroup of N ranks): rank r renders views r*B .. r*B+B-1 of each step's
+// N*B (B = batch_size), gradients and densification statistics are summed across ranks in one
+// all-reduce, so N ranks equal one process with batch_size N*B. Rank 0 alone writes the run folder
+// (checkpoints, metrics, validation), decides densification and rollbacks and broadcasts its state
+// after them (and at the start, fresh or resumed), so the ranks never diverge; NaN skips and
+// Ctrl-C are agreed in the same all-reduce. Each view keeps its own inter-pose chain (L_con pairs
+// view b of a step with view b of the step before); a checkpoint holds rank 0's chains, so after
+// resuming with several ranks the others' first step has no L_con. Pose refinement needs one rank.
 #pragma once
 
 #include <cstdint>
@@ -12,6 +22,7 @@
 #include "data/capture.h"
 #include "train/adam.h"
 #include "train/checkpoint.h"
+#include "train/data_parallel.h"
 #include "train/densify.h"
 #include "train/losses.h"
 #include "train/pose_refine.h"
@@ -22,18 +33,20 @@ namespace handscs {
 
 struct StepTimes {
   double data_ms = 0, forward_ms = 0, losses_ms = 0, backward_ms = 0, optimizer_ms = 0;
+  double communication_ms = 0;  // the step's all-reduce (data parallel), part of optimizer_ms
 };
 
 struct StepResult {
   int64_t iteration = 0;     // the step just taken (1-based count of steps done)
   bool skipped = false;      // non-finite loss or gradient: parameters untouched
   bool rolled_back = false;  // too many skipped steps in a row: reloaded the last checkpoint
-  double loss = 0;
-  double psnr = 0;           // of this step's ROI crop
-  std::map<std::string, double> terms;        // unweighted loss terms (LossResult::terms)
+  double loss = 0;           // mean over the step's views (on every rank)
+  double psnr = 0;           // of this step's ROI crops, mean over the step's views
+  std::map<std::string, double> terms;        // unweighted loss terms (LossResult::terms), mean
+                                              // over this rank's views
   // L_con's pose-similarity weight of this step and the previous one (-1: no pair); the term is
   // absent when it is below train.consistency.min_weight.
-  double consistency_weight = -1;
+  double consistency_weight = -1;  // of the step's first view
   std::map<std::string, double> diagnostics;  // decoder gates, mean offset norms (metrics.csv),
                                               // on steps whose count is a multiple of log_every
   StepTimes times;
@@ -46,15 +59,18 @@ struct TrainSummary {
   int64_t rollbacks = 0;
   int64_t gaussians = 0;
   bool interrupted = false;
-  std::string checkpoint;  // path of the last checkpoint written
+  std::string checkpoint;  // path of the last checkpoint written (rank 0)
+  CommunicationStats communication;  // data parallel: this rank's collectives over the run
+  int64_t views = 0;                 // views rendered by all ranks over this run() call
 };
 
 class Trainer {
  public:
   // Opens the capture, builds the avatar and optimiser; removes temporaries of killed writes from
   // run_dir. config.json and the metrics.csv header are written with the first step logged,
-  // checkpoint saved or run() (write_run_files), not before.
-  Trainer(const RunConfig& config, const std::string& run_dir);
+  // checkpoint saved or run() (write_run_files), not before. group: the data-parallel ranks
+  // (null or one rank: a single process); the trainer keeps the pointer, the caller owns it.
+  Trainer(const RunConfig& config, const std::string& run_dir, ProcessGroup* group = nullptr);
   ~Trainer();
 
   // Loads the newest valid checkpoint of run_dir (an unreadable newest one is reported and the
@@ -67,6 +83,7 @@ class Trainer {
   TrainSummary run();
 
   std::string save_checkpoint();  // writes checkpoints/step_<iteration>.ckpt; returns the path
+  bool is_root() const { return !group_ || group_->is_root(); }  // writes the run folder
   int64_t iteration() const { return iteration_; }
   Avatar& avatar() { return *avatar_; }
   Capture& capture() { return *capture_; }
@@ -74,21 +91,41 @@ class Trainer {
 
 
  private:
+  // The inter-pose state one view leaves for the same view of the next step (detached).
+  struct ConsistencyChain {
+    torch::Tensor descriptor, attributes, pose_feature;
+  };
+  struct ViewOutcome;
+  ViewOutcome train_view(int64_t view, bool diagnostics, StepResult& result);
+  // Sums this rank's gradients, densification statistics, loss, PSNR and flags with the other
+  // ranks' and divides the gradients by the world size; returns whether the step is finite on
+  // every rank.
+  bool reduce_across_ranks(ViewOutcome& sums, bool finite);
+  // Data parallel: every rank takes rank 0's state (parameters, optimiser, counters). keep_chains:
+  // the other ranks keep their inter-pose chains where the Gaussian count is unchanged.
+  void synchronize_state(bool keep_chains);
+  bool stop_requested() const;
+  int64_t views_per_step() const;  // on all ranks
+  int64_t first_view() const;      // this rank's first view of a step
   void build_optimizer();
   void write_run_files();
   Checkpoint make_checkpoint();
   void load_from(const Checkpoint& checkpoint, const std::string& source);
   bool rollback();
-  const FrameInfo& frame_for(int64_t iteration);
-  std::array<float, 3> background_for(int64_t iteration) const;
-  // pose: the pose the step rendered (annotated, or corrected by pose refinement).
-  torch::Tensor consistency_loss(const AvatarState& state, const torch::Tensor& pose,
+  // view_index = iteration x views_per_step() + the view's place in the step.
+  const FrameInfo& frame_for(int64_t view_index);
+  std::array<float, 3> background_for(int64_t view_index) const;
+  // pose: the pose the view rendered (annotated, or corrected by pose refinement); chain: the
+  // view's place in the step.
+  torch::Tensor consistency_loss(const AvatarState& state, const torch::Tensor& pose, size_t chain,
                                  double* weight);
   void validate();
   void log_step(const StepResult& result);
 
   RunConfig config_;
   std::string run_dir_;
+  ProcessGroup* group_ = nullptr;  // null: a single process
+  bool stop_agreed_ = false;       // data parallel: a rank asked to stop (agreed in the all-reduce)
   std::unique_ptr<Capture> capture_;
   std::unique_ptr<Avatar> avatar_;
   std::unique_ptr<Adam> optimizer_;
@@ -103,9 +140,10 @@ class Trainer {
   int64_t rollbacks_ = 0;
   std::string last_checkpoint_;
   bool run_files_written_ = false;
-  // Inter-pose state of the previous step (detached) and the canonical K-NN candidate sets.
-  torch::Tensor prev_descriptor_, prev_attributes_, prev_pose_feature_, candidates_;
-  torch::Tensor next_descriptor_, next_attributes_, next_pose_feature_;  // this step's, pending
+  // Inter-pose state of the previous step, one chain per view of this rank, this step's (pending
+  // until the step is taken) and the canonical K-NN candidate sets.
+  std::vector<ConsistencyChain> prev_chains_, next_chains_;
+  torch::Tensor candidates_;
   std::vector<torch::Tensor> network_params_;  // the optimiser points into this vector
   double elapsed_seconds_ = 0;                 // training wall time, across resumes
   std::vector<int64_t> order_;  // frame permutation of the current epoch

@@ -1,0 +1,234 @@
+// Data-parallel training as users run it: handscs-train processes on loopback, rendezvous from the
+// environment (RANK, WORLD_SIZE, MASTER_ADDR, MASTER_PORT). Two ranks with one view each against
+// one process with batch_size 2 (densification inside the window), a killed rank, a rank alone,
+// and resuming a 2-rank run with 1 rank and a 1-rank run with 2. In process (two ranks as two
+// threads): a NaN on one rank is skipped and rolled back on both.
+#include "catch_torch.h"
+
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <set>
+#include <thread>
+
+#include "core/atomic_file.h"
+#include "tiny_capture.h"
+#include "train/checkpoint.h"
+#include "train/data_parallel.h"
+#include "train/trainer.h"
+
+using handscs_test::fresh_dir;
+using handscs_test::tiny_capture_dir;
+
+namespace {
+const std::string kBin = HANDSCS_BIN_DIR;
+const std::string kSource = HANDSCS_SOURCE_DIR;
+
+// A port free now (the kernel's pick for port 0), so parallel test processes never collide.
+int free_port() {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  address.sin_port = 0;
+  REQUIRE(bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) == 0);
+  socklen_t length = sizeof(address);
+  getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length);
+  close(fd);
+  return ntohs(address.sin_port);
+}
+
+int shell(const std::string& script) {
+  const int status = std::system(("bash -c '" + script + "'").c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// 12 steps of the tiny capture, densifying at steps 4, 8 and 12 (a threshold that picks some
+// Gaussians, not all: the decision depends on the summed statistics).
+std::string train_command(const std::string& out) {
+  return kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + out +
+         " --threads 1 --set data.root=" + tiny_capture_dir() +
+         " train.iterations=12 train.validate_every=0 train.densify.enabled=true"
+         " train.densify.start=4 train.densify.interval=4 train.densify.grad_threshold=1e-5";
+}
+
+std::string rank_env(int rank, int port) {
+  return "RANK=" + std::to_string(rank) + " WORLD_SIZE=2 MASTER_ADDR=127.0.0.1 MASTER_PORT=" +
+         std::to_string(port) + " ";
+}
+
+// Rank 0 runs `command`, rank 1 `rank1_command` (rank 0's config reaches it); returns the larger
+// exit code.
+int run_two_ranks(const std::string& command, const std::string& rank1_command,
+                  const std::string& log) {
+  const int port = free_port();
+  return shell(rank_env(0, port) + command + " > " + log + ".0 2>&1 & p0=$!; " +
+               rank_env(1, port) + rank1_command + " > " + log + ".1 2>&1; r1=$?; wait $p0; "
+               "r0=$?; exit $(( r0 > r1 ? r0 : r1 ))");
+}
+}  // namespace
+
+TEST_CASE("train: data parallel: 2 ranks x 1 view equal 1 process x batch_size 2, densifying") {
+  const auto dir = fresh_dir("dp_equal");
+  std::filesystem::create_directories(dir);
+  const auto single = dir + "/single", ranks = dir + "/ranks";
+  REQUIRE(shell(train_command(single) + " train.batch_size=2 > " + dir + "/single.log 2>&1") == 0);
+  const int rc = run_two_ranks(train_command(ranks),
+                               kBin + "/handscs-train --threads 1 --out " + ranks, dir + "/ranks.log");
+  INFO(handscs::read_file(dir + "/ranks.log.0") + handscs::read_file(dir + "/ranks.log.1"));
+  REQUIRE(rc == 0);
+
+  const auto a = handscs::load_checkpoint(handscs::latest_checkpoint(single));
+  const auto b = handscs::load_checkpoint(handscs::latest_checkpoint(ranks));
+  CHECK(a.meta["iteration"] == 12);
+  CHECK(b.meta["iteration"] == 12);
+  CHECK(a.meta["adam_steps"] == b.meta["adam_steps"]);
+  const int64_t gaussians = a.tensors.at("gaussians/means").size(0);
+  CHECK(gaussians > 1696);  // densification changed the set inside the window
+  // Every tensor of rank 0's checkpoint equals the single process's; the single process may also
+  // hold view 1's inter-pose chain (rank 1's, which rank 0 does not store).
+  for (const auto& [name, tensor] : a.tensors)
+    if (!b.tensors.count(name)) CHECK(name.rfind("consistency/view1/", 0) == 0);
+  double worst = 0;
+  std::string worst_name;
+  for (const auto& [name, tensor] : b.tensors) {
+    REQUIRE(a.tensors.count(name) == 1);
+    const auto& other = a.tensors.at(name);
+    REQUIRE(other.sizes() == tensor.sizes());
+    if (!tensor.is_floating_point()) {
+      CHECK(torch::equal(tensor, other));
+      continue;
+    }
+    const double scale = std::max(1.0, other.abs().max().item<double>());
+    const double diff = (tensor.to(torch::kFloat64) - other.to(torch::kFloat64)).abs().max().item<double>() / scale;
+    if (diff > worst) worst = diff, worst_name = name;
+  }
+  INFO("largest relative difference " << worst << " in " << worst_name);
+  CHECK(worst <= 1e-5);
+}
+
+TEST_CASE("train: data parallel: a killed rank ends the other with a clear error within the timeout") {
+  const auto dir = fresh_dir("dp_kill");
+  std::filesystem::create_directories(dir);
+  const int port = free_port();
+  // Rank 1 is killed (SIGKILL) once both are training (rank 0 writes its step-0 checkpoint after
+  // the rendezvous and the first exchange); rank 0 must exit non-zero on its own,
+  // well within the 30 s timeout (a dead peer closes its connection at once).
+  const std::string long_run = train_command(dir + "/run") + " train.iterations=100000 --dist-timeout 30";
+  const auto started = std::chrono::steady_clock::now();
+  const int rc = shell(rank_env(0, port) + long_run + " > " + dir + "/log0 2>&1 & p0=$!; " +
+                       rank_env(1, port) + kBin + "/handscs-train --threads 1 --out " + dir +
+                       "/run > " + dir + "/log1 2>&1 & p1=$!; "
+                       "for i in $(seq 150); do test -e " + dir +
+                       "/run/checkpoints/step_00000000.ckpt && break; sleep 0.2; done; "
+                       "sleep 1; kill -9 $p1; wait $p0");
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  const auto log = handscs::read_file(dir + "/log0");
+  INFO(log);
+  CHECK(rc == 1);
+  CHECK(seconds < 30);
+  CHECK(log.find("data parallel, rank 0 of 2") != std::string::npos);
+  CHECK(log.find("another rank died") != std::string::npos);
+}
+
+TEST_CASE("train: data parallel: a rank whose peers never come fails its rendezvous with a clear error") {
+  const auto dir = fresh_dir("dp_alone");
+  const auto started = std::chrono::steady_clock::now();
+  const int rc = shell(rank_env(1, free_port()) + kBin + "/handscs-train --threads 1 --out " + dir +
+                       " --dist-timeout 2 > " + dir + ".log 2>&1");
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  const auto log = handscs::read_file(dir + ".log");
+  INFO(log);
+  CHECK(rc == 1);
+  CHECK(seconds < 30);
+  CHECK(log.find("no rendezvous with the other ranks") != std::string::npos);
+}
+
+TEST_CASE("train: data parallel: a 2-rank run resumes with 1 rank, and a 1-rank run with 2") {
+  const auto dir = fresh_dir("dp_resume");
+  std::filesystem::create_directories(dir);
+  const auto run = dir + "/run";
+  REQUIRE(run_two_ranks(train_command(run), kBin + "/handscs-train --threads 1 --out " + run,
+                        dir + "/first.log") == 0);
+  CHECK(handscs::latest_checkpoint(run).find("step_00000012.ckpt") != std::string::npos);
+  const std::string resume = kBin + "/handscs-train --resume --out " + run + " --threads 1 --set ";
+  REQUIRE(shell(resume + "train.iterations=16 > " + dir + "/one.log 2>&1") == 0);
+  CHECK(handscs::read_file(dir + "/one.log").find("resumed from") != std::string::npos);
+  CHECK(handscs::latest_checkpoint(run).find("step_00000016.ckpt") != std::string::npos);
+  const int rc = run_two_ranks(resume + "train.iterations=20",
+                               kBin + "/handscs-train --threads 1 --out " + run, dir + "/two.log");
+  INFO(handscs::read_file(dir + "/two.log.0") + handscs::read_file(dir + "/two.log.1"));
+  REQUIRE(rc == 0);
+  CHECK(handscs::latest_checkpoint(run).find("step_00000020.ckpt") != std::string::npos);
+  // The run folder is rank 0's alone: one metrics row per logged step, no duplicates.
+  std::ifstream csv(run + "/metrics.csv");
+  std::string line;
+  std::set<std::string> steps;
+  int rows = 0;
+  std::getline(csv, line);
+  while (std::getline(csv, line)) {
+    ++rows;
+    steps.insert(line.substr(0, line.find(',')));
+  }
+  CHECK(rows == static_cast<int>(steps.size()));
+  CHECK(steps == std::set<std::string>{"10", "20"});
+}
+
+TEST_CASE("train: data parallel: a NaN on one rank is skipped by both, then both roll back") {
+  auto config = handscs_test::tiny_run_config();
+  config.train.max_bad_steps = 3;
+  handscs::DataParallelOptions options;
+  options.world_size = 2;
+  options.master_port = free_port();
+  options.timeout_s = 60;
+  struct RankRecord {
+    std::vector<handscs::StepResult> results;  // steps 5, 6, 7 (poisoned) and 8
+    torch::Tensor good_means, means_after_rollback;
+    std::string error;
+  };
+  RankRecord records[2];
+  auto rank_main = [&](int rank) {
+    try {
+      auto mine = options;
+      mine.rank = rank;
+      handscs::ProcessGroup group(mine);
+      handscs::Trainer trainer(config, fresh_dir("dp_nan_" + std::to_string(rank)), &group);
+      for (int i = 0; i < 4; ++i) trainer.step();
+      if (rank == 0) trainer.save_checkpoint();  // what the rollback returns to
+      records[rank].good_means = trainer.avatar().gaussians().means.detach().clone();
+      if (rank == 1) {
+        torch::NoGradGuard no_grad;
+        trainer.avatar().gaussians().means[0][0] = NAN;  // rank 1's gradients only
+      }
+      for (int i = 0; i < 3; ++i) records[rank].results.push_back(trainer.step());
+      records[rank].means_after_rollback = trainer.avatar().gaussians().means.detach().clone();
+      records[rank].results.push_back(trainer.step());
+    } catch (const std::exception& e) {
+      records[rank].error = e.what();
+    }
+  };
+  std::thread rank1(rank_main, 1);
+  rank_main(0);
+  rank1.join();
+  for (int rank = 0; rank < 2; ++rank) {
+    INFO("rank " << rank);
+    REQUIRE(records[rank].error.empty());
+    const auto& r = records[rank].results;
+    REQUIRE(r.size() == 4);
+    CHECK(r[0].skipped);  // rank 0's own gradients were finite: skipped because rank 1's were not
+    CHECK(r[1].skipped);
+    CHECK(r[2].skipped);
+    CHECK(r[2].rolled_back);
+    CHECK(r[2].iteration == 4);
+    CHECK_FALSE(r[3].skipped);
+    CHECK(std::isfinite(r[3].loss));
+    // Both ranks hold the checkpoint's parameters again, rank 1 by receiving rank 0's state.
+    CHECK(torch::equal(records[rank].means_after_rollback, records[0].good_means));
+  }
+}
