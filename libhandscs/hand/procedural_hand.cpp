@@ -347,13 +347,14 @@ std::vector<double> tube_stations(const Chain& chain, const Radii& radii, bool w
   return stations;
 }
 
-// Builds the skin: knuckle rings, palm, thumb hole, webs, forearm stub, finger and thumb tubes.
-void build_mesh(Builder& b) {
-  Design& design = b.design;
-  Mesh& mesh = b.mesh;
+// Vertex ids of each palm finger's knuckle ring, indexed by Finger (the thumb's stays empty).
+using KnuckleRings = std::array<std::vector<int>, 5>;
 
-  // 1. Knuckle rings of the four fingers (uniform angles: their centroid is the MCP joint).
-  std::array<std::vector<int>, 5> knuckle;
+// 1. Knuckle rings of the four fingers (uniform angles: their centroid is the MCP joint).
+KnuckleRings add_knuckle_rings(Builder& b) {
+  const Design& design = b.design;
+  Mesh& mesh = b.mesh;
+  KnuckleRings knuckle;
   for (int f : kPalmFingers) {
     const Chain& chain = design.chains[f];
     const RingFrame frame = ring_frame(chain, 0.0);
@@ -367,11 +368,41 @@ void build_mesh(Builder& b) {
     }
     b.joint_rings[kFingerJoints[f][0]] = knuckle[f];
   }
+  return knuckle;
+}
 
-  // 2. The knuckle ring of the palm: radial side of the index, the dorsal arcs from index to pinky,
-  //    the ulnar side of the pinky, the palmar arcs back from pinky to index.
-  std::vector<int> palm_columns;
-  std::vector<int> column_finger;
+// The palm's knuckle ring, made of the four knuckle rings' vertices: the palm rings' columns.
+struct PalmContour {
+  std::vector<int> columns;        // vertex ids, in the order of the walk around the palm
+  std::vector<int> column_finger;  // finger whose knuckle ring holds each column
+  std::vector<double> fraction;    // arc-length position: 0-1 dorsal half, 1-2 palmar half
+  Vec3 knuckle_centre;             // mean of the four MCP joints
+};
+
+// Column positions along the knuckle contour: arc-length fractions of the dorsal half (radial
+// side -> ulnar side) and of the palmar half (ulnar -> radial). The palm sections place their
+// columns at the same fractions of their own halves, so columns never cross.
+std::vector<double> contour_fractions(const Mesh& mesh, const std::vector<int>& palm_columns) {
+  const int columns = static_cast<int>(palm_columns.size());
+  const int ulnar_column = 1 + 4 * (kRingVertices / 2 - 1);  // after index k=0 and 4 dorsal arcs
+  std::vector<double> fraction(columns, 0.0);
+  std::vector<double> along(columns + 1, 0.0);
+  for (int c = 1; c <= columns; ++c)
+    along[c] = along[c - 1] + norm(mesh.positions[palm_columns[c % columns]] -
+                                   mesh.positions[palm_columns[c - 1]]);
+  for (int c = 0; c < columns; ++c)
+    fraction[c] = c <= ulnar_column ? along[c] / along[ulnar_column]
+                                    : 1.0 + (along[c] - along[ulnar_column]) /
+                                                (along[columns] - along[ulnar_column]);
+  return fraction;
+}
+
+// 2. The knuckle ring of the palm: radial side of the index, the dorsal arcs from index to pinky,
+//    the ulnar side of the pinky, the palmar arcs back from pinky to index.
+PalmContour knuckle_contour(const Builder& b, const KnuckleRings& knuckle) {
+  PalmContour contour;
+  std::vector<int>& palm_columns = contour.columns;
+  std::vector<int>& column_finger = contour.column_finger;
   palm_columns.push_back(knuckle[kIndex][0]);
   column_finger.push_back(kIndex);
   for (int f : kPalmFingers)
@@ -386,148 +417,196 @@ void build_mesh(Builder& b) {
       palm_columns.push_back(knuckle[kPalmFingers[i]][k]);
       column_finger.push_back(kPalmFingers[i]);
     }
-  const int columns = static_cast<int>(palm_columns.size());
 
-  Vec3 knuckle_centre;
-  for (int f : kPalmFingers) knuckle_centre = knuckle_centre + design.chains[f].points[0] * 0.25;
-  // Column positions along the knuckle contour: arc-length fractions of the dorsal half (radial
-  // side -> ulnar side) and of the palmar half (ulnar -> radial). The palm sections place their
-  // columns at the same fractions of their own halves, so columns never cross.
-  const int ulnar_column = 1 + 4 * (kRingVertices / 2 - 1);  // after index k=0 and 4 dorsal arcs
-  std::vector<double> fraction(columns, 0.0);
-  {
-    std::vector<double> along(columns + 1, 0.0);
-    for (int c = 1; c <= columns; ++c)
-      along[c] = along[c - 1] + norm(mesh.positions[palm_columns[c % columns]] -
-                                     mesh.positions[palm_columns[c - 1]]);
-    for (int c = 0; c < columns; ++c)
-      fraction[c] = c <= ulnar_column ? along[c] / along[ulnar_column]
-                                      : 1.0 + (along[c] - along[ulnar_column]) /
-                                                  (along[columns] - along[ulnar_column]);
+  for (int f : kPalmFingers)
+    contour.knuckle_centre = contour.knuckle_centre + b.design.chains[f].points[0] * 0.25;
+  contour.fraction = contour_fractions(b.mesh, palm_columns);
+  return contour;
+}
+
+// Palm cross-section at the palm parameter t: a superellipse, between an ellipse (exponent 2) and
+// a rectangle, for the rounded-rectangle section of a palm.
+constexpr double kSuperellipse = 2.6;
+// Half-width (m): 28 mm at the wrist, widening to the knuckles' 38 mm over the palm's first 35%.
+double section_width(double t) { return lerp(0.028, 0.038, smoothstep(t / 0.35)); }
+// Half-height (m): 16.5 mm at the wrist, thinning to 14 mm at the knuckles.
+double section_height(double t) { return lerp(0.0165, 0.0140, t); }
+// Superellipse point for angle, unit half-axes.
+std::pair<double, double> section_unit(double angle) {
+  const double c = std::cos(angle), s = std::sin(angle);
+  return std::pair<double, double>{std::copysign(std::pow(std::abs(c), 2.0 / kSuperellipse), c),
+                                   std::copysign(std::pow(std::abs(s), 2.0 / kSuperellipse), s)};
+}
+
+// Angle on the section at which the arc length reaches `fraction` (0-1 dorsal half, 1-2 palmar).
+double section_angle(double t, double f) {
+  constexpr int kSamples = 256;
+  const double width = section_width(t), height = section_height(t);
+  const double start = f <= 1.0 ? 0.0 : kPi;
+  const double local = f <= 1.0 ? f : f - 1.0;
+  std::vector<double> length(kSamples + 1, 0.0);
+  auto point = [&](int i) {
+    const auto [u, v] = section_unit(start + kPi * i / kSamples);
+    return std::pair<double, double>{width * u, height * v};
+  };
+  for (int i = 1; i <= kSamples; ++i) {
+    const auto [u0, v0] = point(i - 1);
+    const auto [u1, v1] = point(i);
+    length[i] = length[i - 1] + std::hypot(u1 - u0, v1 - v0);
   }
+  const double target = local * length[kSamples];
+  int i = 1;
+  while (i < kSamples && length[i] < target) ++i;
+  const double w = (target - length[i - 1]) / std::max(length[i] - length[i - 1], 1e-30);
+  return start + kPi * (i - 1 + std::clamp(w, 0.0, 1.0)) / kSamples;
+}
 
-  // 3. Palm rings from the wrist (t = 0) to the knuckles (t = 1): a rounded-rectangle section
-  //    (superellipse exponent 2.6) widening from the wrist, morphing into the knuckle ring.
-  constexpr double kSuperellipse = 2.6;
-  auto section_width = [](double t) { return lerp(0.028, 0.038, smoothstep(t / 0.35)); };
-  auto section_height = [](double t) { return lerp(0.0165, 0.0140, t); };
-  auto section_unit = [&](double angle) {  // superellipse point for angle, unit half-axes
-    const double c = std::cos(angle), s = std::sin(angle);
-    return std::pair<double, double>{std::copysign(std::pow(std::abs(c), 2.0 / kSuperellipse), c),
-                                     std::copysign(std::pow(std::abs(s), 2.0 / kSuperellipse), s)};
-  };
-  // Angle on the section at which the arc length reaches `fraction` (0-1 dorsal half, 1-2 palmar).
-  auto section_angle = [&](double t, double f) {
-    constexpr int kSamples = 256;
-    const double width = section_width(t), height = section_height(t);
-    const double start = f <= 1.0 ? 0.0 : kPi;
-    const double local = f <= 1.0 ? f : f - 1.0;
-    std::vector<double> length(kSamples + 1, 0.0);
-    auto point = [&](int i) {
-      const auto [u, v] = section_unit(start + kPi * i / kSamples);
-      return std::pair<double, double>{width * u, height * v};
-    };
-    for (int i = 1; i <= kSamples; ++i) {
-      const auto [u0, v0] = point(i - 1);
-      const auto [u1, v1] = point(i);
-      length[i] = length[i - 1] + std::hypot(u1 - u0, v1 - v0);
-    }
-    const double target = local * length[kSamples];
-    int i = 1;
-    while (i < kSamples && length[i] < target) ++i;
-    const double w = (target - length[i - 1]) / std::max(length[i] - length[i - 1], 1e-30);
-    return start + kPi * (i - 1 + std::clamp(w, 0.0, 1.0)) / kSamples;
-  };
-  auto section = [&](double t, double angle, double x) {
-    const auto [u, v] = section_unit(angle);
-    const Vec3 centre = lerp(design.wrist, knuckle_centre, t);
-    return Vec3{x, centre.y + section_height(t) * v, centre.z + section_width(t) * u};
-  };
+// Point of the section at palm parameter t and `angle`, in the plane at `x`; the section's centre
+// moves on the line from the wrist to the knuckle centre.
+Vec3 section_point(Vec3 wrist, Vec3 knuckle_centre, double t, double angle, double x) {
+  const auto [u, v] = section_unit(angle);
+  const Vec3 centre = lerp(wrist, knuckle_centre, t);
+  return Vec3{x, centre.y + section_height(t) * v, centre.z + section_width(t) * u};
+}
+
+// The palm's rings of vertices, one column per knuckle contour vertex.
+struct Palm {
+  std::vector<std::vector<int>> rings;  // kPalmRings rings: wrist ring .. knuckle ring
   std::vector<double> theta;  // column angles on the mid-palm section (thumb hole, labels)
-  for (int c = 0; c < columns; ++c) theta.push_back(section_angle(0.4, fraction[c]));
-  std::vector<std::vector<int>> palm(kPalmRings);
-  palm[kPalmRings - 1] = palm_columns;
+};
+
+// 3. Palm rings from the wrist (t = 0) to the knuckles (t = 1): a rounded-rectangle section
+//    (superellipse exponent 2.6) widening from the wrist, morphing into the knuckle ring.
+Palm add_palm_rings(Builder& b, const PalmContour& contour) {
+  const Design& design = b.design;
+  Mesh& mesh = b.mesh;
+  const std::vector<int>& palm_columns = contour.columns;
+  const int columns = static_cast<int>(palm_columns.size());
+  Palm palm;
+  for (int c = 0; c < columns; ++c) palm.theta.push_back(section_angle(0.4, contour.fraction[c]));
+  palm.rings.resize(kPalmRings);
+  palm.rings[kPalmRings - 1] = palm_columns;
   for (int r = 0; r + 1 < kPalmRings; ++r) {
     const double t = static_cast<double>(r) / (kPalmRings - 1);
-    const Vec3 centre = lerp(design.wrist, knuckle_centre, t);
+    const Vec3 centre = lerp(design.wrist, contour.knuckle_centre, t);
     for (int c = 0; c < columns; ++c) {
       const Vec3 knuckle_point = mesh.positions[palm_columns[c]];
       const double x = lerp(design.wrist.x, knuckle_point.x, t);
       // The cross-section morphs into the knuckle ring; x keeps the ring spacing.
-      Vec3 p = lerp(section(t, section_angle(t, fraction[c]), x), knuckle_point,
-                    smoothstep((t - 0.5) / 0.5));
+      const Vec3 on_section = section_point(design.wrist, contour.knuckle_centre, t,
+                                            section_angle(t, contour.fraction[c]), x);
+      Vec3 p = lerp(on_section, knuckle_point, smoothstep((t - 0.5) / 0.5));
       p.x = x;
-      VertexInfo info{kPartPalm, column_finger[c], -(x - knuckle_point.x), t, centre, false};
-      palm[r].push_back(mesh.add(p, info, std::sin(theta[c]) < kPalmarSin ? kPalmar : kSkin));
+      VertexInfo info{kPartPalm, contour.column_finger[c], -(x - knuckle_point.x), t, centre,
+                      false};
+      palm.rings[r].push_back(
+          mesh.add(p, info, std::sin(palm.theta[c]) < kPalmarSin ? kPalmar : kSkin));
     }
   }
   // The wrist joint is the wrist ring's centroid: centre the ring on the designed wrist.
-  mesh.translate(palm[0], design.wrist - mesh.centroid(palm[0]));
-  b.joint_rings[0] = palm[0];
+  mesh.translate(palm.rings[0], design.wrist - mesh.centroid(palm.rings[0]));
+  b.joint_rings[0] = palm.rings[0];
+  return palm;
+}
 
-  // 4. Thumb hole: a block of (kHoleRings - 1) x (kHoleColumns - 1) palm quads on the radial side
-  //    where the thumb's metacarpal axis leaves the palm.
-  const Chain& thumb = design.chains[kThumb];
+// The block of palm quads left out for the thumb, and its boundary.
+struct ThumbHole {
+  int column = 0;         // first column of the block (cyclic)
+  int ring = 1;           // first palm ring of the block
+  std::vector<int> walk;  // boundary walk: bottom row, far column, top row back, near column down
+};
+
+// First column of the hole: the block whose middle faces the thumb's metacarpal axis on the
+// mid-palm section.
+int thumb_hole_column(const std::vector<double>& theta, const Chain& thumb) {
+  const int columns = static_cast<int>(theta.size());
   const Vec3 thumb_axis = normalized(thumb.points[1] - thumb.points[0]);
   const double target_angle = std::atan2(thumb_axis.y, thumb_axis.z);
-  int hole_column = 0;  // first column of the block (cyclic)
-  {
-    double best = 1e9;
-    for (int c = 0; c < columns; ++c) {
-      const double a = theta[(c + kHoleColumns / 2 - 1) % columns];
-      const double a2 = theta[(c + kHoleColumns / 2) % columns];
-      const double mid = std::atan2(std::sin(a) + std::sin(a2), std::cos(a) + std::cos(a2));
-      const double diff = std::abs(std::remainder(mid - target_angle, 2 * kPi));
-      if (diff < best) {
-        best = diff;
-        hole_column = c;
-      }
+  int hole_column = 0;
+  double best = 1e9;
+  for (int c = 0; c < columns; ++c) {
+    const double a = theta[(c + kHoleColumns / 2 - 1) % columns];
+    const double a2 = theta[(c + kHoleColumns / 2) % columns];
+    const double mid = std::atan2(std::sin(a) + std::sin(a2), std::cos(a) + std::cos(a2));
+    const double diff = std::abs(std::remainder(mid - target_angle, 2 * kPi));
+    if (diff < best) {
+      best = diff;
+      hole_column = c;
     }
   }
+  return hole_column;
+}
+
+// First ring of the hole: the block whose middle (along x) is nearest the metacarpal's exit.
+int thumb_hole_ring(const Mesh& mesh, const Palm& palm, int hole_column, Vec3 knuckle_centre,
+                    const Chain& thumb) {
   int hole_ring = 1;
-  {
-    // Where the metacarpal axis reaches the palm's radial side (z = knuckle half-width).
-    const double side_z = knuckle_centre.z + 0.038;
-    const double along = (side_z - thumb.points[0].z) / (thumb.points[1].z - thumb.points[0].z);
-    const double exit_x = lerp(thumb.points[0].x, thumb.points[1].x, along);
-    double best = 1e9;
-    for (int r = 1; r + kHoleRings < kPalmRings - 1; ++r) {
-      const double mid_x = 0.5 * (mesh.positions[palm[r][hole_column]].x +
-                                  mesh.positions[palm[r + kHoleRings - 1][hole_column]].x);
-      if (std::abs(mid_x - exit_x) < best) {
-        best = std::abs(mid_x - exit_x);
-        hole_ring = r;
-      }
+  // Where the metacarpal axis reaches the palm's radial side (z = knuckle half-width).
+  const double side_z = knuckle_centre.z + 0.038;
+  const double along = (side_z - thumb.points[0].z) / (thumb.points[1].z - thumb.points[0].z);
+  const double exit_x = lerp(thumb.points[0].x, thumb.points[1].x, along);
+  double best = 1e9;
+  for (int r = 1; r + kHoleRings < kPalmRings - 1; ++r) {
+    const double mid_x = 0.5 * (mesh.positions[palm.rings[r][hole_column]].x +
+                                mesh.positions[palm.rings[r + kHoleRings - 1][hole_column]].x);
+    if (std::abs(mid_x - exit_x) < best) {
+      best = std::abs(mid_x - exit_x);
+      hole_ring = r;
     }
   }
+  return hole_ring;
+}
+
+// The palm's quads between consecutive rings, except the hole's block.
+void add_palm_quads(Mesh& mesh, const Palm& palm, const ThumbHole& hole) {
+  const int columns = static_cast<int>(palm.theta.size());
   auto in_hole = [&](int r, int c) {  // quad (r, c) -> (r + 1, c + 1) removed
-    const int dc = (c - hole_column + columns) % columns;
-    return r >= hole_ring && r < hole_ring + kHoleRings - 1 && dc < kHoleColumns - 1;
+    const int dc = (c - hole.column + columns) % columns;
+    return r >= hole.ring && r < hole.ring + kHoleRings - 1 && dc < kHoleColumns - 1;
   };
   for (int r = 0; r + 1 < kPalmRings; ++r)
     for (int c = 0; c < columns; ++c) {
       if (in_hole(r, c)) continue;
       const int c1 = (c + 1) % columns;
-      mesh.quad(palm[r][c], palm[r][c1], palm[r + 1][c1], palm[r + 1][c]);
+      mesh.quad(palm.rings[r][c], palm.rings[r][c1], palm.rings[r + 1][c1], palm.rings[r + 1][c]);
     }
-  std::vector<int> hole;  // boundary walk: bottom row, far column, top row back, near column down
-  {
-    auto column = [&](int i) { return (hole_column + i) % columns; };
-    for (int i = 0; i < kHoleColumns; ++i) hole.push_back(palm[hole_ring][column(i)]);
-    for (int r = 1; r < kHoleRings; ++r)
-      hole.push_back(palm[hole_ring + r][column(kHoleColumns - 1)]);
-    for (int i = kHoleColumns - 2; i >= 0; --i)
-      hole.push_back(palm[hole_ring + kHoleRings - 1][column(i)]);
-    for (int r = kHoleRings - 2; r >= 1; --r) hole.push_back(palm[hole_ring + r][column(0)]);
-  }
-  b.hole_top_t = static_cast<double>(hole_ring + kHoleRings - 1) / (kPalmRings - 1);
-  for (int id : hole) {
-    mesh.info[id].shared = true;
-    mesh.info[id].finger = kThumb;
-  }
+}
 
-  // 5. Webs between adjacent fingers: the hexagon (dorsal end, side, palmar start of one finger,
-  //    palmar end, side, dorsal start of the next) in four triangles.
+// The hole's boundary walk (ThumbHole::walk) around the block at `hole.column`, `hole.ring`.
+std::vector<int> thumb_hole_walk(const Palm& palm, const ThumbHole& hole) {
+  const int columns = static_cast<int>(palm.theta.size());
+  const auto& rings = palm.rings;
+  std::vector<int> walk;
+  auto column = [&](int i) { return (hole.column + i) % columns; };
+  for (int i = 0; i < kHoleColumns; ++i) walk.push_back(rings[hole.ring][column(i)]);
+  for (int r = 1; r < kHoleRings; ++r)
+    walk.push_back(rings[hole.ring + r][column(kHoleColumns - 1)]);
+  for (int i = kHoleColumns - 2; i >= 0; --i)
+    walk.push_back(rings[hole.ring + kHoleRings - 1][column(i)]);
+  for (int r = kHoleRings - 2; r >= 1; --r) walk.push_back(rings[hole.ring + r][column(0)]);
+  return walk;
+}
+
+// 4. Thumb hole: a block of (kHoleRings - 1) x (kHoleColumns - 1) palm quads on the radial side
+//    where the thumb's metacarpal axis leaves the palm.
+ThumbHole cut_thumb_hole(Builder& b, const Palm& palm, const PalmContour& contour) {
+  const Chain& thumb = b.design.chains[kThumb];
+  ThumbHole hole;
+  hole.column = thumb_hole_column(palm.theta, thumb);
+  hole.ring = thumb_hole_ring(b.mesh, palm, hole.column, contour.knuckle_centre, thumb);
+  add_palm_quads(b.mesh, palm, hole);
+  hole.walk = thumb_hole_walk(palm, hole);
+  b.hole_top_t = static_cast<double>(hole.ring + kHoleRings - 1) / (kPalmRings - 1);
+  for (int id : hole.walk) {
+    b.mesh.info[id].shared = true;
+    b.mesh.info[id].finger = kThumb;
+  }
+  return hole;
+}
+
+// 5. Webs between adjacent fingers: the hexagon (dorsal end, side, palmar start of one finger,
+//    palmar end, side, dorsal start of the next) in four triangles.
+void add_webs(Mesh& mesh, const KnuckleRings& knuckle) {
   for (int i = 0; i < 3; ++i) {
     const auto& a = knuckle[kPalmFingers[i]];
     const auto& n = knuckle[kPalmFingers[i + 1]];
@@ -538,124 +617,161 @@ void build_mesh(Builder& b) {
     mesh.faces.push_back({B, C, E});
     mesh.faces.push_back({C, D, E});
   }
+}
 
-  // 6. Forearm stub behind the wrist ring, closed by a shallow dome.
-  {
-    std::vector<int> previous = palm[0];
-    const Vec3 axis = normalized(design.wrist - knuckle_centre);  // towards the elbow
-    const double offsets[2] = {0.012, 0.022};
-    for (double offset : offsets) {
-      std::vector<int> ring;
-      for (int c = 0; c < columns; ++c) {
-        const Vec3 p = mesh.positions[palm[0][c]] + axis * offset;
-        ring.push_back(mesh.add(
-            p, {kPartForearm, -1, 0.0, 0.0, design.wrist + axis * offset, false}, kForearm));
-      }
-      mesh.band(previous, ring);
-      previous = ring;
+// 6. Forearm stub behind the wrist ring, closed by a shallow dome.
+void add_forearm(Mesh& mesh, const Design& design, const std::vector<int>& wrist_ring,
+                 Vec3 knuckle_centre) {
+  const int columns = static_cast<int>(wrist_ring.size());
+  std::vector<int> previous = wrist_ring;
+  const Vec3 axis = normalized(design.wrist - knuckle_centre);  // towards the elbow
+  const double offsets[2] = {0.012, 0.022};
+  for (double offset : offsets) {
+    std::vector<int> ring;
+    for (int c = 0; c < columns; ++c) {
+      const Vec3 p = mesh.positions[wrist_ring[c]] + axis * offset;
+      ring.push_back(
+          mesh.add(p, {kPartForearm, -1, 0.0, 0.0, design.wrist + axis * offset, false}, kForearm));
     }
-    const Vec3 base = design.wrist + axis * 0.022;
-    const double depth = 0.010;
-    const double elevations[2] = {35.0, 65.0};
-    for (double elevation_deg : elevations) {
-      const double e = elevation_deg * kPi / 180.0;
-      std::vector<int> ring;
-      for (int c = 0; c < columns; ++c) {
-        const Vec3 rim = mesh.positions[palm[0][c]] + axis * 0.022;
-        const Vec3 p = base + (rim - base) * std::cos(e) + axis * (depth * std::sin(e));
-        ring.push_back(mesh.add(p, {kPartForearm, -1, 0.0, 0.0, base, false}, kForearm));
-      }
-      mesh.band(previous, ring);
-      previous = ring;
-    }
-    const int pole =
-        mesh.add(base + axis * depth, {kPartForearm, -1, 0.0, 0.0, base, false}, kForearm);
-    mesh.fan(previous, pole);
+    mesh.band(previous, ring);
+    previous = ring;
   }
+  const Vec3 base = design.wrist + axis * 0.022;
+  const double depth = 0.010;
+  const double elevations[2] = {35.0, 65.0};
+  for (double elevation_deg : elevations) {
+    const double e = elevation_deg * kPi / 180.0;
+    std::vector<int> ring;
+    for (int c = 0; c < columns; ++c) {
+      const Vec3 rim = mesh.positions[wrist_ring[c]] + axis * 0.022;
+      const Vec3 p = base + (rim - base) * std::cos(e) + axis * (depth * std::sin(e));
+      ring.push_back(mesh.add(p, {kPartForearm, -1, 0.0, 0.0, base, false}, kForearm));
+    }
+    mesh.band(previous, ring);
+    previous = ring;
+  }
+  const int pole =
+      mesh.add(base + axis * depth, {kPartForearm, -1, 0.0, 0.0, base, false}, kForearm);
+  mesh.fan(previous, pole);
+}
 
-  // 7. Finger tubes from their knuckle rings.
+// 7. Finger tubes from their knuckle rings.
+void add_finger_tubes(Builder& b, const KnuckleRings& knuckle) {
   for (int f : kPalmFingers) {
     std::vector<double> uniform;
     for (int k = 0; k < kRingVertices; ++k) uniform.push_back(2.0 * kPi * k / kRingVertices);
-    const std::vector<double> stations = tube_stations(design.chains[f], design.radii[f], true);
+    const std::vector<double> stations = tube_stations(b.design.chains[f], b.design.radii[f], true);
     b.base_s[f] = 0.0;
     b.add_tube(f, knuckle[f], stations, uniform, uniform);
   }
+}
 
-  // 8. Thumb: the CMC joint mixes the hole's centroid with the palm ring's centroid nearest to the
-  //    designed joint; lofted rings lead from the hole to the MCP ring; then a finger tube.
-  {
-    const Vec3 hole_centre = mesh.centroid(hole);
-    int inner_ring = hole_ring;
-    for (int r = 0; r < kPalmRings - 1; ++r)
-      if (std::abs(mesh.positions[palm[r][0]].x - thumb.points[0].x) <
-          std::abs(mesh.positions[palm[inner_ring][0]].x - thumb.points[0].x))
-        inner_ring = r;
-    const Vec3 inner_centre = mesh.centroid(palm[inner_ring]);
-    const Vec3 span = inner_centre - hole_centre;
-    const double mix =
-        std::clamp(dot(thumb.points[0] - hole_centre, span) / dot(span, span), 0.0, 1.0);
-    design.chains[kThumb].points[0] = lerp(hole_centre, inner_centre, mix);
-    design.radii[kThumb] = thumb_radii(design.chains[kThumb]);
-    b.joint_rings[13] = hole;
-    b.thumb_cmc_inner = palm[inner_ring];
-    b.joint_ring_mix[13] = mix;
+// The thumb's CMC joint: the hole's centroid mixed with the centroid of the palm ring nearest to
+// the designed joint (along x); moves the thumb chain's base there and records the joint's rings.
+// Returns that palm ring's centroid.
+Vec3 place_thumb_cmc(Builder& b, const Palm& palm, const ThumbHole& hole, Vec3 hole_centre) {
+  const Mesh& mesh = b.mesh;
+  const Chain& thumb = b.design.chains[kThumb];
+  int inner_ring = hole.ring;
+  for (int r = 0; r < kPalmRings - 1; ++r)
+    if (std::abs(mesh.positions[palm.rings[r][0]].x - thumb.points[0].x) <
+        std::abs(mesh.positions[palm.rings[inner_ring][0]].x - thumb.points[0].x))
+      inner_ring = r;
+  const Vec3 inner_centre = mesh.centroid(palm.rings[inner_ring]);
+  const Vec3 span = inner_centre - hole_centre;
+  const double mix =
+      std::clamp(dot(thumb.points[0] - hole_centre, span) / dot(span, span), 0.0, 1.0);
+  b.design.chains[kThumb].points[0] = lerp(hole_centre, inner_centre, mix);
+  b.design.radii[kThumb] = thumb_radii(b.design.chains[kThumb]);
+  b.joint_rings[13] = hole.walk;
+  b.thumb_cmc_inner = palm.rings[inner_ring];
+  b.joint_ring_mix[13] = mix;
+  return inner_centre;
+}
 
-    const Chain& chain = design.chains[kThumb];
-    const Vec3 axis = normalized(chain.points[1] - chain.points[0]);
-    const RingFrame mcp_frame = ring_frame(chain, chain.joint_s(1));
-    // Angles of the hole's vertices around the metacarpal axis; the walk must turn like a ring.
-    std::vector<double> angles;
-    for (int id : hole)
-      angles.push_back(
-          ring_angle(mesh.positions[id], chain.points[0], mcp_frame.radial, mcp_frame.dorsal));
-    angles = unwrap(angles);
-    if (angles.back() < angles.front()) {  // the walk turns clockwise: reverse it
-      std::reverse(hole.begin() + 1, hole.end());
-      angles.clear();
-      for (int id : hole)
-        angles.push_back(
-            ring_angle(mesh.positions[id], chain.points[0], mcp_frame.radial, mcp_frame.dorsal));
-      angles = unwrap(angles);
+// Angles of the walk's vertices around the chain's base in the frame of `frame`, unwrapped.
+std::vector<double> walk_angles(const Mesh& mesh, const std::vector<int>& walk, const Chain& chain,
+                                const RingFrame& frame) {
+  std::vector<double> angles;
+  for (int id : walk)
+    angles.push_back(ring_angle(mesh.positions[id], chain.points[0], frame.radial, frame.dorsal));
+  return unwrap(angles);
+}
+
+// Lofted rings from the hole to the MCP ring's shape: quadratic Bezier curves that leave the
+// palm along its outward normal (so the thumb's base stands clear of the palm) and arrive
+// along the metacarpal. Returns the last ring.
+std::vector<int> add_thumb_loft(Builder& b, const std::vector<int>& hole, double s_hole,
+                                Vec3 hole_normal, const std::vector<double>& uniform,
+                                const RingFrame& mcp_frame) {
+  Mesh& mesh = b.mesh;
+  const Chain& chain = b.design.chains[kThumb];
+  const double s_mcp = chain.joint_s(1);
+  const auto [mcp_radial, mcp_dorsal] = b.design.radii[kThumb].at(s_mcp);
+  constexpr double kLoftLift = 0.008;  // metres: Bezier control point above the hole
+  std::vector<int> previous = hole;
+  for (double a : {1.0 / 3.0, 2.0 / 3.0}) {
+    const double s = lerp(s_hole, s_mcp, a);
+    const Vec3 centre = chain.point(s);
+    std::vector<int> ring;
+    for (int j = 0; j < kRingVertices; ++j) {
+      const double phi = uniform[j];
+      const Vec3 start = mesh.positions[hole[j]];
+      const Vec3 target = chain.point(s_mcp) + mcp_frame.radial * (mcp_radial * std::cos(phi)) +
+                          mcp_frame.dorsal * (mcp_dorsal * std::sin(phi));
+      const Vec3 control = start + hole_normal * kLoftLift;
+      const Vec3 p = start * ((1 - a) * (1 - a)) + control * (2 * a * (1 - a)) + target * (a * a);
+      ring.push_back(mesh.add(p, {kThumb, kThumb, s, 1.0, centre, false},
+                              std::sin(phi) < kPalmarSin ? kPalmar : kSkin));
     }
-    double offset = 0;
-    for (int j = 0; j < kRingVertices; ++j)
-      offset += (angles[j] - 2.0 * kPi * j / kRingVertices) / kRingVertices;
-    std::vector<double> uniform;
-    for (int j = 0; j < kRingVertices; ++j)
-      uniform.push_back(offset + 2.0 * kPi * j / kRingVertices);
-    const double s_hole = dot(hole_centre - chain.points[0], axis);
-    b.base_s[kThumb] = s_hole;
-    for (int id : hole) mesh.info[id].s = dot(mesh.positions[id] - chain.points[0], axis);
-
-    // Lofted rings from the hole to the MCP ring's shape: quadratic Bezier curves that leave the
-    // palm along its outward normal (so the thumb's base stands clear of the palm) and arrive
-    // along the metacarpal.
-    const double s_mcp = chain.joint_s(1);
-    const auto [mcp_radial, mcp_dorsal] = design.radii[kThumb].at(s_mcp);
-    const Vec3 hole_normal = orthogonal(hole_centre - inner_centre, Vec3{1, 0, 0});
-    constexpr double kLoftLift = 0.008;  // metres: Bezier control point above the hole
-    std::vector<int> previous = hole;
-    for (double a : {1.0 / 3.0, 2.0 / 3.0}) {
-      const double s = lerp(s_hole, s_mcp, a);
-      const Vec3 centre = chain.point(s);
-      std::vector<int> ring;
-      for (int j = 0; j < kRingVertices; ++j) {
-        const double phi = uniform[j];
-        const Vec3 start = mesh.positions[hole[j]];
-        const Vec3 target = chain.point(s_mcp) + mcp_frame.radial * (mcp_radial * std::cos(phi)) +
-                            mcp_frame.dorsal * (mcp_dorsal * std::sin(phi));
-        const Vec3 control = start + hole_normal * kLoftLift;
-        const Vec3 p = start * ((1 - a) * (1 - a)) + control * (2 * a * (1 - a)) + target * (a * a);
-        ring.push_back(mesh.add(p, {kThumb, kThumb, s, 1.0, centre, false},
-                                std::sin(phi) < kPalmarSin ? kPalmar : kSkin));
-      }
-      mesh.band(previous, ring);
-      previous = ring;
-    }
-    const std::vector<double> stations = tube_stations(chain, design.radii[kThumb], false);
-    b.add_tube(kThumb, previous, stations, uniform, uniform);
+    mesh.band(previous, ring);
+    previous = ring;
   }
+  return previous;
+}
+
+// 8. Thumb: the CMC joint mixes the hole's centroid with the palm ring's centroid nearest to the
+//    designed joint; lofted rings lead from the hole to the MCP ring; then a finger tube.
+void add_thumb(Builder& b, const Palm& palm, ThumbHole hole) {
+  Mesh& mesh = b.mesh;
+  const Vec3 hole_centre = mesh.centroid(hole.walk);
+  const Vec3 inner_centre = place_thumb_cmc(b, palm, hole, hole_centre);
+
+  const Chain& chain = b.design.chains[kThumb];
+  const Vec3 axis = normalized(chain.points[1] - chain.points[0]);
+  const RingFrame mcp_frame = ring_frame(chain, chain.joint_s(1));
+  // Angles of the hole's vertices around the metacarpal axis; the walk must turn like a ring.
+  std::vector<double> angles = walk_angles(mesh, hole.walk, chain, mcp_frame);
+  if (angles.back() < angles.front()) {  // the walk turns clockwise: reverse it
+    std::reverse(hole.walk.begin() + 1, hole.walk.end());
+    angles = walk_angles(mesh, hole.walk, chain, mcp_frame);
+  }
+  double offset = 0;
+  for (int j = 0; j < kRingVertices; ++j)
+    offset += (angles[j] - 2.0 * kPi * j / kRingVertices) / kRingVertices;
+  std::vector<double> uniform;
+  for (int j = 0; j < kRingVertices; ++j) uniform.push_back(offset + 2.0 * kPi * j / kRingVertices);
+  const double s_hole = dot(hole_centre - chain.points[0], axis);
+  b.base_s[kThumb] = s_hole;
+  for (int id : hole.walk) mesh.info[id].s = dot(mesh.positions[id] - chain.points[0], axis);
+
+  const Vec3 hole_normal = orthogonal(hole_centre - inner_centre, Vec3{1, 0, 0});
+  const std::vector<int> last_loft_ring =
+      add_thumb_loft(b, hole.walk, s_hole, hole_normal, uniform, mcp_frame);
+  const std::vector<double> stations = tube_stations(chain, b.design.radii[kThumb], false);
+  b.add_tube(kThumb, last_loft_ring, stations, uniform, uniform);
+}
+
+// Builds the skin: knuckle rings, palm, thumb hole, webs, forearm stub, finger and thumb tubes.
+void build_mesh(Builder& b) {
+  const KnuckleRings knuckle = add_knuckle_rings(b);
+  const PalmContour contour = knuckle_contour(b, knuckle);
+  const Palm palm = add_palm_rings(b, contour);
+  ThumbHole hole = cut_thumb_hole(b, palm, contour);
+  add_webs(b.mesh, knuckle);
+  add_forearm(b.mesh, b.design, palm.rings[0], contour.knuckle_centre);
+  add_finger_tubes(b, knuckle);
+  add_thumb(b, palm, std::move(hole));
 }
 
 // Drops vertices no face uses (the thumb hole's interior) and renumbers everything.
