@@ -50,6 +50,7 @@ LABELS = {
     "reg_all": "L_reg with fusion offsets",
     "reg_1e-2": "lambda_reg = 1e-2",
     "reg_0": "lambda_reg = 0",
+    "scs_open": "(b) + SCS, decoders open (lambda_reg = 0, no L_con)",
 }
 METRICS = ("psnr", "ssim", "lpips")
 
