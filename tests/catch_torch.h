@@ -4,5 +4,4 @@
 
 #include <torch/torch.h>
 
-#undef CHECK
-#include <catch2/catch.hpp>
+#include "catch_after_torch.h"

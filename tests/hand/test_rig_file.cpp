@@ -15,9 +15,7 @@
 #include "hand/rig.h"
 #include "rig_fixtures.h"
 
-// c10 pulls in glog, whose CHECK would replace Catch's: Catch comes last, after dropping it.
-#undef CHECK
-#include <catch2/catch.hpp>
+#include "catch_after_torch.h"  // last: after c10's glog (see there)
 
 using namespace handscs;
 using json = nlohmann::json;

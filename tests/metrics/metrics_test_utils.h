@@ -22,10 +22,7 @@
 #include <torch/csrc/autograd/autograd.h>
 #include <torch/types.h>
 
-#ifdef CHECK
-#undef CHECK
-#endif
-#include <catch2/catch.hpp>
+#include "catch_after_torch.h"
 
 #include "core/atomic_file.h"
 #include "core/config.h"
