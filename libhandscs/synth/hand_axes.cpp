@@ -1,6 +1,7 @@
 #include "synth/hand_axes.h"
 
 #include "hand/joint_order.h"
+#include "synth/tensor_row.h"
 
 namespace handscs {
 
@@ -8,18 +9,13 @@ using namespace synth;
 
 namespace {
 
-Vec3 row(const torch::Tensor& t, int64_t i) {
-  const double* p = t[i].data_ptr<double>();
-  return {p[0], p[1], p[2]};
-}
-
 }  // namespace
 
 HandAxes rig_axes(const Rig& rig) {
   const torch::Tensor vt = rig.v_template.to(torch::kFloat64).contiguous();
   const torch::Tensor joints = torch::matmul(rig.j_regressor.to(torch::kFloat64), vt).contiguous();
-  auto J = [&](int k) { return row(joints, k); };
-  auto tip = [&](int f) { return row(vt, rig.tip_vertices[f]); };
+  auto J = [&](int k) { return tensor_row(joints, k); };
+  auto tip = [&](int f) { return tensor_row(vt, rig.tip_vertices[f]); };
   HandAxes axes;
   const Vec3 wrist = J(0);
   const Vec3 knuckles = (J(1) + J(4) + J(10) + J(7)) * 0.25;
@@ -34,7 +30,7 @@ HandAxes rig_axes(const Rig& rig) {
     if (palmar.any().item<bool>()) {
       const torch::Tensor c_palmar = vt.index({palmar}).mean(0).contiguous();
       const torch::Tensor c_all = vt.mean(0).contiguous();
-      const Vec3 towards = row(c_palmar.unsqueeze(0), 0) - row(c_all.unsqueeze(0), 0);
+      const Vec3 towards = tensor_row(c_palmar.unsqueeze(0), 0) - tensor_row(c_all.unsqueeze(0), 0);
       if (dot(n, towards) < 0) n = n * -1.0;
       oriented = true;
     }
@@ -59,7 +55,7 @@ HandAxes rig_axes(const Rig& rig) {
     for (int64_t v = 0; v < rig.num_vertices(); ++v) {
       const int64_t o = owner[v].item<int64_t>();
       if (labels[v].item<int64_t>() != 1 || (o != 13 && o != 14 && o != 15)) continue;
-      const Vec3 offset = row(vt, v) - base;
+      const Vec3 offset = tensor_row(vt, v) - base;
       sum = sum + (offset - dir * dot(offset, dir));
       ++count;
     }

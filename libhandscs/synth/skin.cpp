@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "hand/joint_order.h"
+#include "synth/tensor_row.h"
 
 namespace handscs {
 
@@ -74,11 +75,6 @@ double line_profile(double distance, double width = kCreaseWidth) {
   return std::exp(-(distance * distance) / (width * width));
 }
 
-Vec3 row(const torch::Tensor& t, int64_t i) {
-  const double* p = t[i].data_ptr<double>();
-  return {p[0], p[1], p[2]};
-}
-
 }  // namespace
 
 SynthSkin make_synth_skin(const Rig& rig, uint64_t seed) {
@@ -100,10 +96,10 @@ SynthSkin make_synth_skin(const Rig& rig, uint64_t seed) {
     }
   }
   const torch::Tensor joints = torch::matmul(rig.j_regressor.to(torch::kFloat64), vt).contiguous();
-  auto J = [&](int k) { return row(joints, k); };
+  auto J = [&](int k) { return tensor_row(joints, k); };
   for (int f = 0; f < kFingers; ++f) {
     const auto& chain = kFingerJoints[f];
-    const Vec3 tip = row(vt, rig.tip_vertices[f]);
+    const Vec3 tip = tensor_row(vt, rig.tip_vertices[f]);
     for (int k = 0; k < 3; ++k) {
       const Vec3 next = k < 2 ? J(chain[k + 1]) : tip;
       skin.crease_centre.push_back(J(chain[k]));

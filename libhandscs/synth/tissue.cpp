@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "hand/joint_order.h"
+#include "synth/tensor_row.h"
 
 namespace handscs {
 
@@ -19,11 +20,6 @@ constexpr double kFoldWidth = 0.0015, kFoldReach = 0.012;
 constexpr double kFacingCos = -0.5;
 constexpr double kMm = 1e-3;
 
-Vec3 row(const torch::Tensor& t, int64_t i) {
-  const double* p = t[i].data_ptr<double>();
-  return {p[0], p[1], p[2]};
-}
-
 double smooth_side(double x) {  // 0 for x <= -0.3, 1 for x >= 0.3, smooth between
   const double t = std::clamp((x + 0.3) / 0.6, 0.0, 1.0);
   return t * t * (3 - 2 * t);
@@ -37,13 +33,14 @@ TissueRig make_tissue_rig(const Rig& rig, const HandAxes& axes) {
   const torch::Tensor joints = torch::matmul(rig.j_regressor.to(torch::kFloat64), vt).contiguous();
   const torch::Tensor owner = rig.weights.argmax(1).to(torch::kInt64).contiguous();
   const int64_t n = vt.size(0);
-  for (int j = 0; j < 16; ++j) t.joints[j] = row(joints, j);
+  for (int j = 0; j < 16; ++j) t.joints[j] = tensor_row(joints, j);
   std::array<int, 16> finger_of{};
   finger_of.fill(5);
   for (int f = 0; f < kFingers; ++f)
     for (int k = 0; k < 3; ++k) {
       finger_of[kFingerJoints[f][k]] = f;
-      const Vec3 end = k < 2 ? t.joints[kFingerJoints[f][k + 1]] : row(vt, rig.tip_vertices[f]);
+      const Vec3 end =
+          k < 2 ? t.joints[kFingerJoints[f][k + 1]] : tensor_row(vt, rig.tip_vertices[f]);
       t.bone_dir[f][k] = normalized(end - t.joints[kFingerJoints[f][k]]);
     }
   t.wrist = t.joints[0];
@@ -59,7 +56,7 @@ TissueRig make_tissue_rig(const Rig& rig, const HandAxes& axes) {
   t.part.resize(n);
   t.palmar.resize(n);
   for (int64_t i = 0; i < n; ++i) {
-    t.rest[i] = row(vt, i);
+    t.rest[i] = tensor_row(vt, i);
     const int joint = static_cast<int>(o[i]);
     t.part[i] = finger_of[joint];
     // Palmar side relative to the owning bone's axis: the offset from the bone, against the

@@ -1,10 +1,7 @@
 #include "train/data_parallel.h"
 
-// ProcessGroupGloo.hpp declares its class only when the build says Gloo is there (Debian's
-// libtorch is built with it; the headers come with libgloo-dev).
-#ifndef USE_C10D_GLOO
-#define USE_C10D_GLOO
-#endif
+// ProcessGroupGloo.hpp declares its class only under USE_C10D_GLOO (Debian's libtorch is built with
+// Gloo; the headers come with libgloo-dev): libhandscs/CMakeLists.txt defines it for this file alone.
 
 #include <chrono>
 #include <cstring>
