@@ -93,8 +93,7 @@ int main(int argc, char** argv) {
                  summary.seconds > 0 ? summary.views / summary.seconds : 0.0, summary.gaussians,
                  summary.skipped_steps, summary.rollbacks);
     if (group && summary.communication.calls > 0) {
-      const double steps = std::max<double>(1.0, static_cast<double>(summary.views) /
-                                                     (config.train.batch_size * parallel.world_size));
+      const double steps = std::max<double>(1.0, static_cast<double>(summary.steps));
       spdlog::info("data parallel: {:.2f} MB exchanged per step, {:.1f} ms per step in the "
                    "collectives (waiting for the slowest rank included)",
                    summary.communication.bytes / steps / 1e6,

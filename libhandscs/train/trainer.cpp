@@ -756,7 +756,8 @@ TrainSummary Trainer::run() {
   summary.gaussians = avatar_->gaussians().size();
   summary.interrupted = interrupted;
   summary.checkpoint = last_checkpoint_;
-  summary.views = (iteration_ - first_iteration) * views_per_step();
+  summary.steps = iteration_ - first_iteration;
+  summary.views = summary.steps * views_per_step();
   if (group_) {
     const auto& now = group_->stats();
     summary.communication = {now.calls - communication_before.calls,

@@ -61,7 +61,8 @@ struct TrainSummary {
   bool interrupted = false;
   std::string checkpoint;  // path of the last checkpoint written (rank 0)
   CommunicationStats communication;  // data parallel: this rank's collectives over the run
-  int64_t views = 0;                 // views rendered by all ranks over this run() call
+  int64_t steps = 0;                 // steps taken by this run() call (a resume starts later)
+  int64_t views = 0;                 // views rendered by all ranks in those steps
 };
 
 class Trainer {

@@ -47,6 +47,16 @@ int shell(const std::string& script) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+struct Timed {
+  int exit_code;
+  double seconds;
+};
+Timed timed_shell(const std::string& script) {
+  const auto started = std::chrono::steady_clock::now();
+  const int rc = shell(script);
+  return {rc, std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count()};
+}
+
 // 12 steps of the tiny capture, densifying at steps 4, 8 and 12 (a threshold that picks some
 // Gaussians, not all: the decision depends on the summed statistics).
 std::string train_command(const std::string& out) {
@@ -119,15 +129,12 @@ TEST_CASE("train: data parallel: a killed rank ends the other with a clear error
   // the rendezvous and the first exchange); rank 0 must exit non-zero on its own,
   // well within the 30 s timeout (a dead peer closes its connection at once).
   const std::string long_run = train_command(dir + "/run") + " train.iterations=100000 --dist-timeout 30";
-  const auto started = std::chrono::steady_clock::now();
-  const int rc = shell(rank_env(0, port) + long_run + " > " + dir + "/log0 2>&1 & p0=$!; " +
+  const auto [rc, seconds] = timed_shell(rank_env(0, port) + long_run + " > " + dir + "/log0 2>&1 & p0=$!; " +
                        rank_env(1, port) + kBin + "/handscs-train --threads 1 --out " + dir +
                        "/run > " + dir + "/log1 2>&1 & p1=$!; "
                        "for i in $(seq 150); do test -e " + dir +
                        "/run/checkpoints/step_00000000.ckpt && break; sleep 0.2; done; "
                        "sleep 1; kill -9 $p1; wait $p0");
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   const auto log = handscs::read_file(dir + "/log0");
   INFO(log);
   CHECK(rc == 1);
@@ -138,11 +145,9 @@ TEST_CASE("train: data parallel: a killed rank ends the other with a clear error
 
 TEST_CASE("train: data parallel: a rank whose peers never come fails its rendezvous with a clear error") {
   const auto dir = fresh_dir("dp_alone");
-  const auto started = std::chrono::steady_clock::now();
-  const int rc = shell(rank_env(1, free_port()) + kBin + "/handscs-train --threads 1 --out " + dir +
-                       " --dist-timeout 2 > " + dir + ".log 2>&1");
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  const auto [rc, seconds] = timed_shell(rank_env(1, free_port()) + kBin +
+                                         "/handscs-train --threads 1 --out " + dir +
+                                         " --dist-timeout 2 > " + dir + ".log 2>&1");
   const auto log = handscs::read_file(dir + ".log");
   INFO(log);
   CHECK(rc == 1);
