@@ -1,10 +1,12 @@
 // handscs-bench-model: forward and backward ms of the full avatar step (no losses) for several
 // Gaussian counts, split by stage (LBS, SCS = descriptor + virtual-bone generator, decoders,
-// rasterizer), and render_fps: the inference path handscs-render takes for a new pose. Prints one
-// JSON object. Usage:
+// rasterizer), render_fps: the inference path handscs-render takes for a new pose, and
+// train_step_ms: one full training step with every loss (train_step_timing.h). Prints one JSON
+// object. Usage:
 //   handscs-bench-model [--gaussians 778,5000,10000,20000] [--width 512] [--height 334]
 //                       [--threads 2] [--repeats 10] [--decoder-hidden 256]
-//                       [--decoder-precision auto|float|bf16]
+//                       [--decoder-precision auto|float|bf16] [--lpips-weights FILE]
+//                       [--no-train-step] [--work-dir /tmp/handscs-bench-model]
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -22,6 +24,7 @@
 #include "hand/lbs.h"
 #include "scs/descriptor.h"
 #include "bench_timing.h"
+#include "train_step_timing.h"
 
 namespace {
 
@@ -72,8 +75,20 @@ int main(int argc, char** argv) {
   std::string precision = "auto";
   app.add_option("--decoder-hidden", decoder_hidden, "model.decoder_hidden (paper: 256)");
   app.add_option("--decoder-precision", precision, "model.decoder_precision: auto, float, bf16");
+  bench::TrainStepOptions train_step;
+  bool no_train_step = false;
+  std::string work_dir = "/tmp/handscs-bench-model";
+  app.add_option("--lpips-weights", train_step.lpips_weights,
+                 "LPIPS weight file for the training step's LPIPS term (without: the term is skipped)");
+  app.add_flag("--no-train-step", no_train_step, "skip train_step_ms (saves generating a capture)");
+  app.add_option("--work-dir", work_dir, "where the training step's synthetic capture is written")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   handscs::set_threads(threads);
+  train_step.decoder_hidden = decoder_hidden;
+  train_step.decoder_precision = precision;
+  train_step.repeats = repeats;
+  if (!no_train_step) train_step.capture_dir = bench::make_train_step_capture(work_dir + "/capture");
   torch::manual_seed(0);
 
   nlohmann::json result;
@@ -84,6 +99,7 @@ int main(int argc, char** argv) {
   result["decoder_hidden"] = decoder_hidden;
   result["decoder_precision"] = precision;
   result["blas"] = handscs::blas_in_use();
+  result["train_step_lpips"] = !no_train_step && !train_step.lpips_weights.empty();
   const auto camera = capture_camera(width, height);
   const auto pose = torch::randn({48}) * 0.2;
   const auto shape = torch::zeros({10});
@@ -200,6 +216,10 @@ int main(int argc, char** argv) {
                                {"rasterizer", median(t_raster_fwd)}};
     row["rasterizer_backward_ms"] = median(t_raster_bwd);
     row["other_backward_ms"] = median(t_backward) - median(t_raster_bwd);
+    if (!no_train_step) {
+      row["train_step"] = bench::time_train_steps(n, train_step);
+      row["train_step_ms"] = row["train_step"].is_null() ? nlohmann::json() : row["train_step"]["step_ms"];
+    }
     result["runs"].push_back(row);
   }
   std::printf("%s\n", result.dump(2).c_str());
