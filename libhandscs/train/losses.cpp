@@ -46,11 +46,14 @@ LossResult Objective::compute(const LossInputs& in) const {
   };
   if (weights_.rgb > 0) add("rgb", weights_.rgb, (in.rgb - in.target).abs().mean());
   if (weights_.mask > 0) add("mask", weights_.mask, (in.alpha - in.mask).pow(2).mean());
-  if (weights_.ssim > 0 || uses_lpips()) {
+  const bool lpips = uses_lpips() && in.lpips_step;
+  if (weights_.ssim > 0 || lpips) {
     const auto pred = hwc_to_bchw(in.rgb);
     const auto target = hwc_to_bchw(in.target);
     if (weights_.ssim > 0) add("ssim", weights_.ssim, ssim_loss(pred, target, SsimConfig{SsimConfig::Variant::three_dgs}));
-    if (uses_lpips()) add("lpips", weights_.lpips, lpips_loss(*lpips_, pred, target));
+    if (lpips)
+      add("lpips", weights_.lpips * static_cast<double>(weights_.lpips_every),
+          lpips_loss(*lpips_, pred, target));
   }
   if (weights_.reg > 0 && in.offsets) add("reg", weights_.reg, offset_regularizer(*in.offsets, weights_.reg_terms));
   if (weights_.consistency > 0 && in.consistency.defined())

@@ -26,6 +26,7 @@ struct LossInputs {
   torch::Tensor mask;    // [h, w] in {0, 1}
   const DecodedOffsets* offsets = nullptr;
   torch::Tensor consistency;  // scalar L_con (already weighted by pose similarity), or undefined
+  bool lpips_step = true;     // a step that takes LPIPS (train.loss.lpips_every)
 };
 
 struct LossResult {

@@ -14,6 +14,9 @@ struct LossWeights {
   double ssim = 0.01;         // lambda_2, 1 - SSIM ("3dgs" variant) on the ROI crop
   double lpips = 0.01;        // lambda_3, LPIPS on the ROI crop with eval.lpips (skipped without
                               // a weight file there)
+  // LPIPS on every k-th step only (its AlexNet forward + backward is a fixed cost per view),
+  // weighted k x lambda_3 there so that the objective's expectation over steps is unchanged.
+  int64_t lpips_every = 1;
   double reg = 0.1;           // lambda_reg, offset regularisation L_reg
   // L_reg's terms: "paper" = |dx| + |dSigma - I|_F + |dc| of the geometry and appearance decoders
   // (paper eq. for L_reg); "all" adds the fusion decoder's offsets (this code's choice before).
@@ -30,6 +33,8 @@ struct LossWeights {
     v.field("mask", mask, "weight of the L2 mask loss", 0.0, 1e6);
     v.field("ssim", ssim, "weight of 1 - SSIM", 0.0, 1e6);
     v.field("lpips", lpips, "weight of LPIPS (0 = never computed)", 0.0, 1e6);
+    v.field("lpips_every", lpips_every,
+            "LPIPS on steps whose number is a multiple of this, weighted this x lpips there", 1, 1e6);
     v.field("reg", reg, "weight of the offset regulariser L_reg", 0.0, 1e6);
     v.choice("reg_terms", reg_terms, {{"paper", RegTerms::paper}, {"all", RegTerms::all}},
              "L_reg terms: paper = geometry and appearance offsets; all = fusion offsets too");

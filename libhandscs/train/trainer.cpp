@@ -301,6 +301,7 @@ Trainer::ViewOutcome Trainer::train_view(int64_t view, bool diagnostics, StepRes
   in.target = target;
   in.mask = mask;
   in.offsets = &out.state.offsets;
+  in.lpips_step = (iteration_ + 1) % config_.train.loss.lpips_every == 0;
   double pair_weight = -1;
   if (consistency) in.consistency = consistency_loss(out.state, pose, view, &pair_weight);
   if (view == 0) result.consistency_weight = pair_weight;

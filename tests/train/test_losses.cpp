@@ -4,6 +4,8 @@
 
 #include <cmath>
 
+#include "metrics/eval_config.h"
+#include "metrics/image_tensor.h"
 #include "train/losses.h"
 
 namespace {
@@ -67,4 +69,32 @@ TEST_CASE("losses: L_reg is finite with zero gradient at zero offsets") {
   CHECK(value.item<double>() == 0.0);
   CHECK(torch::isfinite(o.dx.grad()).all().item<bool>());
   CHECK(o.dx.grad().abs().max().item<double>() == 0.0);
+}
+
+TEST_CASE("losses: LPIPS on every k-th step weighs k x lambda_3 there and is absent elsewhere") {
+  handscs::EvalConfig eval;
+  eval.lpips.weights = std::string(HANDSCS_SHARED_DIR) + "/assets/lpips/lpips_alex_v0.1.pt";
+  const auto lpips = std::make_shared<const handscs::Lpips>(eval.lpips);
+  handscs::LossWeights weights;
+  weights.rgb = weights.mask = weights.ssim = weights.reg = weights.consistency = 0;
+  weights.lpips = 0.01;
+  weights.lpips_every = 3;
+  const handscs::Objective objective(weights, lpips);
+  torch::manual_seed(5);
+  handscs::LossInputs in;
+  in.rgb = torch::rand({40, 36, 3});
+  in.target = torch::rand({40, 36, 3});
+  in.alpha = torch::rand({40, 36});
+  in.mask = torch::ones({40, 36});
+  const double direct =
+      handscs::lpips_loss(*lpips, handscs::hwc_to_bchw(in.rgb), handscs::hwc_to_bchw(in.target))
+          .item<double>();
+  REQUIRE(direct > 0.01);  // two random images are far apart
+  const auto taken = objective.compute(in);
+  CHECK_THAT(taken.terms.at("lpips"), Catch::Matchers::WithinRel(direct, 1e-6));
+  CHECK_THAT(taken.total.item<double>(), Catch::Matchers::WithinRel(0.03 * direct, 1e-6));
+  in.lpips_step = false;
+  const auto skipped = objective.compute(in);
+  CHECK(skipped.terms.count("lpips") == 0);
+  CHECK(skipped.total.item<double>() == 0.0);
 }

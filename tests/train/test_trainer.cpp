@@ -213,3 +213,16 @@ TEST_CASE("trainer: pose pairs less similar than train.consistency.min_weight sk
   }
   handscs::set_threads(2);
 }
+
+TEST_CASE("trainer: train.loss.lpips_every takes LPIPS on the steps whose number it divides") {
+  auto config = tiny_run_config();
+  config.eval.lpips.weights = std::string(HANDSCS_SHARED_DIR) + "/assets/lpips/lpips_alex_v0.1.pt";
+  config.train.loss.lpips_every = 3;
+  handscs::Trainer trainer(config, fresh_dir("lpips_every"));
+  for (int i = 0; i < 7; ++i) {
+    const auto r = trainer.step();
+    INFO("step " << r.iteration);
+    CHECK(r.terms.count("lpips") == (r.iteration % 3 == 0 ? 1u : 0u));
+    CHECK(r.terms.count("ssim") == 1u);
+  }
+}
