@@ -78,6 +78,13 @@ torch::Tensor Avatar::compute_descriptor(const torch::Tensor& pose, const LbsOut
   return torch::cat(parts, 1);
 }
 
+const FrozenDecoders& Avatar::frozen_decoders() {
+  const auto& g = gaussians_;
+  if (!frozen_ || !frozen_->current(*decoders_, g.embed_geometry, g.embed_appearance))
+    frozen_.emplace(*decoders_, g.embed_geometry, g.embed_appearance);
+  return *frozen_;
+}
+
 AvatarState Avatar::pose(const torch::Tensor& pose_in, const torch::Tensor& shape_in,
                          const torch::Tensor& trans_in, bool need_descriptor) {
   require(pose_in.numel() == kPoseDim, "avatar: pose must have 48 values, got " +
@@ -114,7 +121,9 @@ AvatarState Avatar::pose(const torch::Tensor& pose_in, const torch::Tensor& shap
   const auto descriptor_in =
       use_descriptor ? s.descriptor : torch::zeros({g.size(), 0}, s.lbs_means.options());
   const auto transform_in = transforms.slice(1, 0, 3).reshape({-1, 12});
-  s.offsets = decoders_->forward(descriptor_in, g.embed_geometry, g.embed_appearance, transform_in);
+  s.offsets = torch::GradMode::is_enabled()
+                  ? decoders_->forward(descriptor_in, g.embed_geometry, g.embed_appearance, transform_in)
+                  : frozen_decoders().forward(descriptor_in, transform_in);
 
   s.canonical_means = g.means + s.offsets.dx + s.offsets.dx_f;
   s.canonical_colors = g.colors + s.offsets.dc + s.offsets.dc_f;

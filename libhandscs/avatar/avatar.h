@@ -4,10 +4,13 @@
 //   posed mean = T (x' + blend offset),  posed covariance = A_T Sigma' A_T^T.
 #pragma once
 
+#include <optional>
+
 #include <torch/types.h>
 
 #include "avatar/avatar_config.h"
 #include "avatar/decoders.h"
+#include "avatar/frozen_decoders.h"
 #include "avatar/gaussians.h"
 #include "core/camera.h"
 #include "hand/lbs.h"
@@ -48,6 +51,8 @@ class Avatar {
 
   // pose [48], shape [10], trans [3] (any float dtype; computed in float32). Throws Error on
   // non-finite input. need_descriptor forces P even when the decoders do not use it (for L_con).
+  // Without autograd (inference mode or no-grad) the decoders run in their frozen form
+  // (avatar/frozen_decoders.h), rebuilt whenever a weight or an embedding has changed.
   AvatarState pose(const torch::Tensor& pose, const torch::Tensor& shape,
                    const torch::Tensor& trans, bool need_descriptor = false);
 
@@ -75,6 +80,7 @@ class Avatar {
   bool uses_static_bones() const;
   torch::Tensor compute_descriptor(const torch::Tensor& pose, const LbsOutput& lbs,
                                    const torch::Tensor& lbs_means, VirtualBones* bones);
+  const FrozenDecoders& frozen_decoders();  // built or rebuilt when not current
 
   AvatarConfig config_;
   Rig rig_;
@@ -82,6 +88,7 @@ class Avatar {
   GaussianState gaussians_;
   VirtualBoneGenerator generator_{nullptr};
   OffsetDecoders decoders_{nullptr};
+  std::optional<FrozenDecoders> frozen_;
 };
 
 // Upper triangle [N, 6] of symmetric matrices [N, 3, 3].

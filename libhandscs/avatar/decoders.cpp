@@ -37,7 +37,8 @@ torch::Tensor GatedMlpImpl::forward(const torch::Tensor& x) {
 }
 
 OffsetDecodersImpl::OffsetDecodersImpl(int64_t descriptor_dim, int64_t embedding_dim,
-                                       int64_t hidden, bool bf16) {
+                                       int64_t hidden, bool bf16)
+    : descriptor_dim_(descriptor_dim), embedding_dim_(embedding_dim) {
   geometry = register_module(
       "geometry",
       GatedMlp(descriptor_dim + embedding_dim + kTransformDim, hidden, 3 + kSpdRaw, bf16));
@@ -63,9 +64,12 @@ DecodedOffsets OffsetDecodersImpl::forward(const torch::Tensor& descriptor,
   const auto geometry_in = torch::cat({descriptor, embed_geometry, transforms}, 1);
   const auto appearance_in = torch::cat({descriptor, embed_appearance, transforms}, 1);
   const auto fusion_in = torch::cat({descriptor, embed_geometry, embed_appearance, transforms}, 1);
-  const auto g = geometry->forward(geometry_in);
-  const auto a = appearance->forward(appearance_in);
-  const auto f = fusion->forward(fusion_in);
+  return offsets_from_outputs(geometry->forward(geometry_in), appearance->forward(appearance_in),
+                              fusion->forward(fusion_in));
+}
+
+DecodedOffsets offsets_from_outputs(const torch::Tensor& g, const torch::Tensor& a,
+                                    const torch::Tensor& f) {
   DecodedOffsets out;
   out.dx = g.slice(1, 0, 3);
   out.dsigma = spd_from_raw(g.slice(1, 3, 3 + kSpdRaw));

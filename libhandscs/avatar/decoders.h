@@ -17,6 +17,8 @@ class GatedMlpImpl : public torch::nn::Module {
   GatedMlpImpl(int64_t inputs, int64_t hidden, int64_t outputs, bool bf16 = false);
   torch::Tensor forward(const torch::Tensor& x);  // [N, inputs] -> [N, outputs]
   torch::Tensor gate;                             // [1], starts at 0
+  const torch::nn::Linear& layer(int k) const { return k == 0 ? layer1_ : k == 1 ? layer2_ : layer3_; }
+  bool bf16() const { return bf16_; }
 
  private:
   torch::nn::Linear layer1_{nullptr}, layer2_{nullptr}, layer3_{nullptr};
@@ -44,8 +46,18 @@ class OffsetDecodersImpl : public torch::nn::Module {
                          const torch::Tensor& embed_appearance, const torch::Tensor& transforms);
 
   GatedMlp geometry{nullptr}, appearance{nullptr}, fusion{nullptr};
+  int64_t descriptor_dim() const { return descriptor_dim_; }
+  int64_t embedding_dim() const { return embedding_dim_; }
+
+ private:
+  int64_t descriptor_dim_, embedding_dim_;
 };
 TORCH_MODULE(OffsetDecoders);
+
+// The offsets from the three decoders' raw outputs: geometry [N, 10], appearance [N, 3], fusion
+// [N, 13].
+DecodedOffsets offsets_from_outputs(const torch::Tensor& geometry, const torch::Tensor& appearance,
+                                    const torch::Tensor& fusion);
 
 // SPD factor from 7 raw values [N, 7] = (log-scales 3, quaternion delta 4): R diag(exp(s)) R^T.
 torch::Tensor spd_from_raw(const torch::Tensor& raw);

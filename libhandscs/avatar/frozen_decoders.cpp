@@ -1,0 +1,77 @@
+#include "avatar/frozen_decoders.h"
+
+#include <torch/torch.h>
+
+namespace handscs {
+
+namespace {
+
+// Every tensor the frozen values depend on, in a fixed order.
+std::vector<torch::Tensor> source_tensors(OffsetDecodersImpl& decoders, const torch::Tensor& eg,
+                                          const torch::Tensor& ea) {
+  std::vector<torch::Tensor> out = decoders.parameters();
+  out.push_back(eg);
+  out.push_back(ea);
+  return out;
+}
+
+std::vector<std::pair<const void*, int64_t>> fingerprint(const std::vector<torch::Tensor>& tensors) {
+  std::vector<std::pair<const void*, int64_t>> out;
+  for (const auto& t : tensors)
+    out.emplace_back(t.unsafeGetTensorImpl(), static_cast<int64_t>(t._version()));
+  return out;
+}
+
+}  // namespace
+
+FrozenDecoders::FrozenDecoders(OffsetDecodersImpl& decoders, const torch::Tensor& embed_geometry,
+                               const torch::Tensor& embed_appearance)
+    : bf16_(decoders.geometry->bf16()), descriptor_dim_(decoders.descriptor_dim()) {
+  torch::NoGradGuard no_grad;
+  sources_ = fingerprint(source_tensors(decoders, embed_geometry, embed_appearance));
+  geometry_ = freeze(*decoders.geometry, embed_geometry);
+  appearance_ = freeze(*decoders.appearance, embed_appearance);
+  fusion_ = freeze(*decoders.fusion, torch::cat({embed_geometry, embed_appearance}, 1));
+}
+
+bool FrozenDecoders::current(OffsetDecodersImpl& decoders, const torch::Tensor& embed_geometry,
+                             const torch::Tensor& embed_appearance) const {
+  return fingerprint(source_tensors(decoders, embed_geometry, embed_appearance)) == sources_;
+}
+
+FrozenDecoders::Mlp FrozenDecoders::freeze(GatedMlpImpl& mlp, const torch::Tensor& embeddings) const {
+  // Layer 1's columns: [descriptor (|P|), embeddings (e), vec(T) (12)].
+  const auto w = mlp.layer(0)->weight.detach();
+  const int64_t p = descriptor_dim_, e = embeddings.size(1);
+  Mlp out;
+  out.w1 = torch::cat({w.slice(1, 0, p), w.slice(1, p + e)}, 1);
+  // Computed in the parameters' precision (float), whatever the decoders run in.
+  out.per_gaussian1 = embeddings.detach().matmul(w.slice(1, p, p + e).t()) + mlp.layer(0)->bias.detach();
+  out.w2 = mlp.layer(1)->weight.detach();
+  out.b2 = mlp.layer(1)->bias.detach();
+  const auto gate = mlp.gate.detach();
+  out.w3 = mlp.layer(2)->weight.detach() * gate;
+  out.b3 = mlp.layer(2)->bias.detach() * gate;
+  const bool bf16 = bf16_ && w.scalar_type() == torch::kFloat;
+  for (auto* t : {&out.w1, &out.per_gaussian1, &out.w2, &out.b2, &out.w3, &out.b3})
+    *t = (bf16 ? t->to(torch::kBFloat16) : *t).contiguous();
+  return out;
+}
+
+torch::Tensor FrozenDecoders::run(const Mlp& mlp, const torch::Tensor& x) const {
+  auto h = torch::addmm(mlp.per_gaussian1, x, mlp.w1.t()).relu_();
+  h = torch::addmm(mlp.b2, h, mlp.w2.t()).relu_();
+  return torch::addmm(mlp.b3, h, mlp.w3.t());
+}
+
+DecodedOffsets FrozenDecoders::forward(const torch::Tensor& descriptor,
+                                       const torch::Tensor& transforms) const {
+  torch::NoGradGuard no_grad;
+  const auto dtype = transforms.scalar_type();
+  auto x = torch::cat({descriptor, transforms}, 1);
+  if (geometry_.w1.scalar_type() != dtype) x = x.to(geometry_.w1.scalar_type());
+  auto output = [&](const Mlp& mlp) { return run(mlp, x).to(dtype); };
+  return offsets_from_outputs(output(geometry_), output(appearance_), output(fusion_));
+}
+
+}  // namespace handscs
