@@ -27,6 +27,7 @@ struct TrainStepOptions {
   int decoder_hidden = 256;
   std::string decoder_precision = "auto";
   int repeats = 10;
+  int64_t lpips_every = 1;  // train.loss.lpips_every
 };
 
 // Writes the capture into dir (replacing what is there) and returns dir.
@@ -44,7 +45,8 @@ inline std::string make_train_step_capture(const std::string& dir) {
 // reach 20k from the built-in hand's 1,696 with room to spare.
 constexpr int kGrowSteps = 12;
 
-// The median step and its stages over opt.repeats steps (after kGrowSteps + 2 warm-up steps), or
+// The median step (and the mean: with lpips_every > 1 steps alternate between two costs) and the
+// median stages over opt.repeats steps (after kGrowSteps + 2 warm-up steps), or
 // null when N is below the built-in hand's Gaussian count (densification only grows).
 inline nlohmann::json time_train_steps(int64_t n, const TrainStepOptions& opt) {
   handscs::RunConfig config;
@@ -57,6 +59,7 @@ inline nlohmann::json time_train_steps(int64_t n, const TrainStepOptions& opt) {
     handscs::config_from_json(json, "--decoder-precision", config.model);
   }
   config.eval.lpips.weights = opt.lpips_weights;
+  config.train.loss.lpips_every = opt.lpips_every;
   config.train.iterations = kGrowSteps + 2 + opt.repeats;
   config.train.validate_every = 0;
   auto& d = config.train.densify;
@@ -87,8 +90,11 @@ inline nlohmann::json time_train_steps(int64_t n, const TrainStepOptions& opt) {
   std::filesystem::remove_all(run_dir);
   const int64_t reached = trainer.avatar().gaussians().size();
   if (reached != n) spdlog::warn("train step: the avatar grew to {} Gaussians, not {}", reached, n);
+  double total = 0;
+  for (double ms : step) total += ms;
   return {{"gaussians", reached},
           {"step_ms", median(step)},
+          {"mean_step_ms", step.empty() ? 0.0 : total / step.size()},
           {"stages_ms",
            {{"data", median(data)},
             {"forward", median(forward)},
