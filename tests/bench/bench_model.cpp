@@ -17,6 +17,7 @@
 #include <torch/torch.h>
 
 #include "avatar/avatar.h"
+#include "avatar/frozen_decoders.h"
 #include "core/allocator.h"
 #include "core/config.h"
 #include "core/logging.h"
@@ -206,8 +207,32 @@ int main(int argc, char** argv) {
         if (r >= 2) t_render.push_back(ms);
       }
     }
+    // The decoders alone at inference, alternating in one process (so that the machine's slow and
+    // fast phases hit both alike): OffsetDecoders::forward against the frozen form.
+    std::vector<double> t_decoders_plain, t_decoders_frozen;
+    {
+      c10::InferenceMode guard;
+      const auto state = avatar.pose(pose, shape, trans);
+      const auto descriptor = state.descriptor.defined() ? state.descriptor : torch::zeros({n, 0});
+      const auto transforms = torch::randn({n, 12});
+      const auto& g = avatar.gaussians();
+      const handscs::FrozenDecoders frozen(*avatar.decoders(), g.embed_geometry, g.embed_appearance);
+      for (int r = 0; r < 4 * repeats + 2; ++r) {
+        auto t0 = Clock::now();
+        (void)avatar.decoders()->forward(descriptor, g.embed_geometry, g.embed_appearance, transforms);
+        const double plain = ms_since(t0);
+        t0 = Clock::now();
+        (void)frozen.forward(descriptor, transforms);
+        const double fast = ms_since(t0);
+        if (r < 2) continue;
+        t_decoders_plain.push_back(plain);
+        t_decoders_frozen.push_back(fast);
+      }
+    }
     nlohmann::json row;
     row["gaussians"] = n;
+    row["inference_decoders_ms"] = {{"plain", median(t_decoders_plain)},
+                                    {"frozen", median(t_decoders_frozen)}};
     row["render_ms"] = median(t_render);
     row["render_fps"] = 1000.0 / median(t_render);
     row["forward_ms"] = median(t_forward);

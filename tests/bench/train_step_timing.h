@@ -27,7 +27,7 @@ struct TrainStepOptions {
   int decoder_hidden = 256;
   std::string decoder_precision = "auto";
   int repeats = 10;
-  int64_t lpips_every = 1;  // train.loss.lpips_every
+  int64_t lpips_every = handscs::LossWeights{}.lpips_every;  // train.loss.lpips_every
 };
 
 // Writes the capture into dir (replacing what is there) and returns dir.
