@@ -150,6 +150,7 @@ void Avatar::set_dtype(torch::ScalarType dtype) {
   }
   if (generator_) generator_->to(dtype);
   decoders_->to(dtype);
+  frozen_.reset();  // Module::to swaps parameter data (set_data), which the version check may miss
 }
 
 AvatarOutput Avatar::forward(const torch::Tensor& pose_in, const torch::Tensor& shape,

@@ -38,7 +38,7 @@ torch::Tensor GatedMlpImpl::forward(const torch::Tensor& x) {
 
 OffsetDecodersImpl::OffsetDecodersImpl(int64_t descriptor_dim, int64_t embedding_dim,
                                        int64_t hidden, bool bf16)
-    : descriptor_dim_(descriptor_dim), embedding_dim_(embedding_dim) {
+    : descriptor_dim_(descriptor_dim) {
   geometry = register_module(
       "geometry",
       GatedMlp(descriptor_dim + embedding_dim + kTransformDim, hidden, 3 + kSpdRaw, bf16));

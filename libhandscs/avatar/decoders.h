@@ -46,11 +46,10 @@ class OffsetDecodersImpl : public torch::nn::Module {
                          const torch::Tensor& embed_appearance, const torch::Tensor& transforms);
 
   GatedMlp geometry{nullptr}, appearance{nullptr}, fusion{nullptr};
-  int64_t descriptor_dim() const { return descriptor_dim_; }
-  int64_t embedding_dim() const { return embedding_dim_; }
+  int64_t descriptor_dim() const { return descriptor_dim_; }  // |P|, the first inputs
 
  private:
-  int64_t descriptor_dim_, embedding_dim_;
+  int64_t descriptor_dim_;
 };
 TORCH_MODULE(OffsetDecoders);
 
