@@ -64,14 +64,20 @@ torch::Tensor FrozenDecoders::run(const Mlp& mlp, const torch::Tensor& x) const 
   return torch::addmm(mlp.b3, h, mlp.w3.t());
 }
 
-DecodedOffsets FrozenDecoders::forward(const torch::Tensor& descriptor,
-                                       const torch::Tensor& transforms) const {
+FrozenDecoders::Outputs FrozenDecoders::outputs(const torch::Tensor& descriptor,
+                                                const torch::Tensor& transforms) const {
   torch::NoGradGuard no_grad;
   const auto dtype = transforms.scalar_type();
   auto x = torch::cat({descriptor, transforms}, 1);
   if (geometry_.w1.scalar_type() != dtype) x = x.to(geometry_.w1.scalar_type());
   auto output = [&](const Mlp& mlp) { return run(mlp, x).to(dtype); };
-  return offsets_from_outputs(output(geometry_), output(appearance_), output(fusion_));
+  return {output(geometry_), output(appearance_), output(fusion_)};
+}
+
+DecodedOffsets FrozenDecoders::forward(const torch::Tensor& descriptor,
+                                       const torch::Tensor& transforms) const {
+  const auto out = outputs(descriptor, transforms);
+  return offsets_from_outputs(out.geometry, out.appearance, out.fusion);
 }
 
 }  // namespace handscs

@@ -17,12 +17,14 @@
 #include <torch/torch.h>
 
 #include "avatar/avatar.h"
+#include "avatar/covariance_chain.h"
 #include "avatar/frozen_decoders.h"
 #include "core/allocator.h"
 #include "core/config.h"
 #include "core/logging.h"
 #include "core/threads.h"
 #include "hand/lbs.h"
+#include "render/rotation.h"
 #include "scs/descriptor.h"
 #include "bench_timing.h"
 #include "train_step_timing.h"
@@ -229,8 +231,38 @@ int main(int argc, char** argv) {
         t_decoders_frozen.push_back(fast);
       }
     }
+    // The per-Gaussian 3x3 chain at inference, alternating in one process: LibTorch ops as the
+    // training path runs them against avatar/covariance_chain.h.
+    std::vector<double> t_chain_ops, t_chain_fused;
+    {
+      c10::InferenceMode guard;
+      const auto& g = avatar.gaussians();
+      const auto raw_g = torch::randn({n, 10}) * 0.1, raw_f = torch::randn({n, 13}) * 0.1;
+      const auto linear = torch::randn({n, 3, 3});
+      for (int r = 0; r < 4 * repeats + 2; ++r) {
+        auto t0 = Clock::now();
+        {
+          const auto offsets = handscs::offsets_from_outputs(raw_g, torch::zeros({n, 3}), raw_f);
+          const auto rot = handscs::quaternion_to_matrix(g.rotations);
+          const auto scaled = rot * torch::exp(g.log_scales).unsqueeze(1);
+          const auto a = offsets.dsigma_f.matmul(offsets.dsigma);
+          const auto canonical = a.matmul(scaled.matmul(scaled.transpose(1, 2))).matmul(a.transpose(1, 2));
+          (void)handscs::symmetric_upper(linear.matmul(canonical).matmul(linear.transpose(1, 2)));
+        }
+        const double ops = ms_since(t0);
+        t0 = Clock::now();
+        (void)handscs::covariance_chain(g.rotations, g.log_scales, raw_g.slice(1, 3, 10),
+                                        raw_f.slice(1, 3, 10), linear);
+        const double fused = ms_since(t0);
+        if (r < 2) continue;
+        t_chain_ops.push_back(ops);
+        t_chain_fused.push_back(fused);
+      }
+    }
     nlohmann::json row;
     row["gaussians"] = n;
+    row["inference_covariance_chain_ms"] = {{"ops", median(t_chain_ops)},
+                                            {"fused", median(t_chain_fused)}};
     row["inference_decoders_ms"] = {{"plain", median(t_decoders_plain)},
                                     {"frozen", median(t_decoders_frozen)}};
     row["render_ms"] = median(t_render);

@@ -1,0 +1,27 @@
+// The avatar's per-Gaussian 3x3 chain at inference (issue 13), in one pass over the Gaussians:
+//   dSigma = R(q_g) diag(exp(s_g)) R(q_g)^T,  dSigma^f likewise (decoders/spd_from_raw),
+//   Sigma = R(q) diag(exp(s))^2 R(q)^T,  Sigma' = A Sigma A^T with A = dSigma^f dSigma,
+//   posed = L Sigma' L^T (upper triangle), L the blend transform's 3x3 part.
+// The same arithmetic as Avatar::pose's LibTorch ops (quaternions normalised with the 1e-24 floor of
+// render/rotation.h), without their ~150 small kernels and temporaries; no autograd. Equal to the
+// training path to rounding (tests/avatar/test_frozen_decoders.cpp, in double).
+#pragma once
+
+#include <torch/types.h>
+
+namespace handscs {
+
+struct CovarianceChain {
+  torch::Tensor dsigma, dsigma_f;  // [N, 3, 3]
+  torch::Tensor canonical;         // [N, 3, 3] Sigma'
+  torch::Tensor posed_upper;       // [N, 6] upper triangle of L Sigma' L^T
+};
+
+// rotations [N, 4] (w, x, y, z), log_scales [N, 3], geometry_raw and fusion_raw [N, 7] (3
+// log-scales, 4 quaternion-delta values; rows may be strided), linear [N, 3, 3] (may be strided).
+// Float or double, all of one dtype.
+CovarianceChain covariance_chain(const torch::Tensor& rotations, const torch::Tensor& log_scales,
+                                 const torch::Tensor& geometry_raw, const torch::Tensor& fusion_raw,
+                                 const torch::Tensor& linear);
+
+}  // namespace handscs
