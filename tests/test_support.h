@@ -1,11 +1,13 @@
-// Small helpers shared by test files that need no torch: the text of an expected error, and a
-// scratch file under the system temp folder.
+// Small helpers shared by test files that need no torch: the text of an expected error, a scratch
+// file under the system temp folder, a folder's files and bytes, the repository and program paths.
 #pragma once
 
 #include <exception>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
+#include <map>
 #include <string>
 
 namespace handscs_test {
@@ -34,5 +36,21 @@ inline std::string scratch_file(const std::string& folder, const std::string& na
   std::ofstream(path) << text;
   return path;
 }
+
+// Every file under `dir` with its bytes (to prove a command changed nothing).
+inline std::map<std::string, std::string> snapshot(const std::string& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(dir)) {
+    if (!entry.is_regular_file()) continue;
+    std::ifstream in(entry.path(), std::ios::binary);
+    files[entry.path().string()] = std::string(std::istreambuf_iterator<char>(in), {});
+  }
+  return files;
+}
+
+#ifdef HANDSCS_SOURCE_DIR
+inline const std::string kSource = HANDSCS_SOURCE_DIR;  // the repository (configs/, docs/, scripts/)
+inline const std::string kBin = HANDSCS_BIN_DIR;        // the built programs
+#endif
 
 }  // namespace handscs_test

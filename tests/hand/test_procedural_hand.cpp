@@ -14,7 +14,6 @@ using namespace handscs;
 
 namespace {
 
-const auto f64 = torch::kFloat64;
 
 const Rig& right_hand() {
   static const Rig rig = make_procedural_hand(Handedness::right);
@@ -22,11 +21,11 @@ const Rig& right_hand() {
 }
 
 LbsOutput rest_of(const Rig& rig, const torch::Tensor& shape) {
-  return lbs(rig, torch::zeros({1, kPoseDim}, f64), shape, torch::zeros({1, 3}, f64),
+  return lbs(rig, torch::zeros({1, kPoseDim}, torch::kFloat64), shape, torch::zeros({1, 3}, torch::kFloat64),
              LbsOptions{true});
 }
 
-torch::Tensor no_shape() { return torch::zeros({1, kShapeDim}, f64); }
+torch::Tensor no_shape() { return torch::zeros({1, kShapeDim}, torch::kFloat64); }
 
 }  // namespace
 
@@ -91,8 +90,8 @@ TEST_CASE("procedural hand: no self-intersections at rest, relaxed, and with sha
   const Rig& rig = right_hand();
   CHECK(test::self_intersections(test::mesh_data(rig.v_template, rig.faces)) == 0);
   // The relaxed pose (hands_mean) and each shape mode at +-2.
-  const LbsOutput relaxed = lbs(rig, torch::zeros({1, kPoseDim}, f64), no_shape(),
-                                torch::zeros({1, 3}, f64), LbsOptions{false});
+  const LbsOutput relaxed = lbs(rig, torch::zeros({1, kPoseDim}, torch::kFloat64), no_shape(),
+                                torch::zeros({1, 3}, torch::kFloat64), LbsOptions{false});
   CHECK(test::self_intersections(test::mesh_data(relaxed.vertices[0], rig.faces)) == 0);
   for (int mode = 0; mode < 7; ++mode)
     for (double value : {-2.0, 2.0}) {
@@ -243,17 +242,17 @@ TEST_CASE("procedural hand: deterministic, and the left hand is the mirror image
   const Rig left = make_procedural_hand(Handedness::left);
   CHECK(left.handedness == Handedness::left);
   validate_rig(left, "builtin:left");
-  const torch::Tensor mirror = torch::tensor({-1.0, 1.0, 1.0}, f64);
+  const torch::Tensor mirror = torch::tensor({-1.0, 1.0, 1.0}, torch::kFloat64);
   CHECK(torch::equal(left.v_template, right.v_template * mirror));
   const test::MeshData m = test::mesh_data(left.v_template, left.faces);
   CHECK(test::signed_volume(m) > 0);  // faces re-wound: still outward
   CHECK(test::edge_report(m).inconsistent == 0);
   // LBS of the left hand with the mirrored pose (a, -b, -c) and shape is the mirrored right LBS.
   torch::manual_seed(5);
-  const torch::Tensor pose = torch::randn({2, kPoseDim}, f64) * 0.5;
-  const torch::Tensor shape = torch::randn({2, kShapeDim}, f64);
-  const torch::Tensor trans = torch::randn({2, 3}, f64) * 0.1;
-  const torch::Tensor axis_sign = torch::tensor({1.0, -1.0, -1.0}, f64).repeat({16});
+  const torch::Tensor pose = torch::randn({2, kPoseDim}, torch::kFloat64) * 0.5;
+  const torch::Tensor shape = torch::randn({2, kShapeDim}, torch::kFloat64);
+  const torch::Tensor trans = torch::randn({2, 3}, torch::kFloat64) * 0.1;
+  const torch::Tensor axis_sign = torch::tensor({1.0, -1.0, -1.0}, torch::kFloat64).repeat({16});
   for (bool flat : {true, false}) {
     const LbsOutput r = lbs(right, pose, shape, trans, LbsOptions{flat});
     const LbsOutput l = lbs(left, pose * axis_sign, shape, trans * mirror, LbsOptions{flat});

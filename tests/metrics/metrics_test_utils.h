@@ -133,4 +133,14 @@ inline torch::Tensor smooth_image(at::IntArrayRef size, uint64_t seed, torch::Dt
   return (0.1 + 0.8 * smooth).to(dtype);
 }
 
+// A smooth random RGB image [h, w, 3] in float (smooth_image in HWC layout).
+inline torch::Tensor random_hwc(int64_t h, int64_t w, uint64_t seed) {
+  return handscs::bchw_to_hwc(smooth_image({1, 3, h, w}, seed, torch::kFloat));
+}
+
+// Writes an RGB image [h, w, 3] in [0, 1] as a PNG (the test fails when it cannot).
+inline void write_png(const std::string& path, const torch::Tensor& hwc) {
+  REQUIRE(cv::imwrite(path, handscs::rgb_tensor_to_mat(hwc)));
+}
+
 }  // namespace metrics_test

@@ -25,13 +25,8 @@ handscs::EvalConfig with_lpips() {
   return config;
 }
 
-void write_png(const std::string& path, const torch::Tensor& hwc) {
-  REQUIRE(cv::imwrite(path, handscs::rgb_tensor_to_mat(hwc)));
-}
-
-torch::Tensor random_hwc(int64_t h, int64_t w, uint64_t seed) {
-  return handscs::bchw_to_hwc(metrics_test::smooth_image({1, 3, h, w}, seed, torch::kFloat));
-}
+using metrics_test::random_hwc;
+using metrics_test::write_png;
 
 }  // namespace
 

@@ -34,13 +34,8 @@ std::string write_legend(const std::string& dir, const std::string& text) {
   return path;
 }
 
-void write_png(const std::string& path, const torch::Tensor& hwc) {
-  REQUIRE(cv::imwrite(path, handscs::rgb_tensor_to_mat(hwc)));
-}
-
-torch::Tensor random_hwc(int64_t h, int64_t w, uint64_t seed) {
-  return handscs::bchw_to_hwc(metrics_test::smooth_image({1, 3, h, w}, seed, torch::kFloat));
-}
+using metrics_test::random_hwc;
+using metrics_test::write_png;
 
 // A folder-mode set of two 64x80 pairs (large enough for AlexNet's taps), a and b: crease (bit 1)
 // is rows 2-9 in a and empty in b,

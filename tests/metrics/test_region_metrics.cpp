@@ -20,9 +20,7 @@ namespace {
 
 constexpr int64_t kH = 16, kW = 20;
 
-torch::Tensor random_hwc(int64_t h, int64_t w, uint64_t seed) {
-  return handscs::bchw_to_hwc(metrics_test::smooth_image({1, 3, h, w}, seed, torch::kFloat));
-}
+using metrics_test::random_hwc;
 
 // Four hand-made regions on kH x kW: a rectangle, a checkerboard with a hole, one pixel, nothing.
 torch::Tensor hand_made_regions() {

@@ -15,7 +15,7 @@
 namespace {
 
 namespace fs = std::filesystem;
-const std::string kSource = HANDSCS_SOURCE_DIR;
+using handscs_test::kSource;
 
 std::string scratch(const std::string& name) {
   return handscs_test::scratch_path("handscs_test_sweep", name);

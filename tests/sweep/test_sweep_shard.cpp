@@ -20,7 +20,7 @@ using handscs_test::error_of;
 
 namespace {
 
-const std::string kSource = HANDSCS_SOURCE_DIR;
+using handscs_test::kSource;
 // The columns of results.csv as handscs-bench writes them (sweep_runner.cpp).
 const std::string kHeader =
     "point,budget,threads,settings,status,train_wall_s,loop_s,ms_per_step,peak_rss_mb,gaussians,"

@@ -1,6 +1,7 @@
 // The three commands end to end on the tiny capture, as a user runs them: handscs-train (then
 // --resume), handscs-eval in model mode, handscs-render with novel poses and a video; plus kill -9
 // during checkpoint writes and a bad POSES file.
+#include "test_support.h"
 #include "catch_torch.h"
 
 #include <signal.h>
@@ -25,8 +26,9 @@ using handscs_test::fresh_dir;
 using handscs_test::tiny_capture_dir;
 
 namespace {
-const std::string kBin = HANDSCS_BIN_DIR;
-const std::string kSource = HANDSCS_SOURCE_DIR;
+using handscs_test::kBin;
+using handscs_test::kSource;
+using handscs_test::snapshot;
 
 // One log per test process: ctest -j runs the cases of this file side by side.
 const std::string kLog = "/tmp/handscs_cli_test_" + std::to_string(getpid()) + ".log";
@@ -160,16 +162,6 @@ TEST_CASE("cli: kill -9 during checkpoint writes leaves a loadable checkpoint") 
     CHECK(steps.insert(row.substr(0, row.find(','))).second);
   }
 }
-
-namespace {
-// Every file under `dir` with its bytes.
-std::map<std::string, std::string> snapshot(const std::string& dir) {
-  std::map<std::string, std::string> files;
-  for (const auto& entry : std::filesystem::recursive_directory_iterator(dir))
-    if (entry.is_regular_file()) files[entry.path().string()] = handscs::read_file(entry.path().string());
-  return files;
-}
-}  // namespace
 
 TEST_CASE("cli: a run folder is never overwritten or mixed without --overwrite") {
   const auto run_dir = fresh_dir("cli_safe");

@@ -1,6 +1,7 @@
 // The shipped configs: base.json equals the compiled-in defaults, docs/CONFIG.md documents every
 // key, and every run config under configs/ loads and validates.
 #include "catch_torch.h"
+#include "test_support.h"
 
 #include <filesystem>
 #include <fstream>
@@ -11,7 +12,7 @@
 #include "train/run_config.h"
 
 namespace {
-const std::string kSource = HANDSCS_SOURCE_DIR;
+using handscs_test::kSource;
 }
 
 TEST_CASE("configs: base.json holds exactly the defaults") {

@@ -3,6 +3,7 @@
 // one process with batch_size 2 (densification inside the window), a killed rank, a rank alone,
 // and resuming a 2-rank run with 1 rank and a 1-rank run with 2. In process (two ranks as two
 // threads): a NaN on one rank is skipped and rolled back on both.
+#include "test_support.h"
 #include "catch_torch.h"
 
 #include <netinet/in.h>
@@ -25,8 +26,8 @@ using handscs_test::fresh_dir;
 using handscs_test::tiny_capture_dir;
 
 namespace {
-const std::string kBin = HANDSCS_BIN_DIR;
-const std::string kSource = HANDSCS_SOURCE_DIR;
+using handscs_test::kBin;
+using handscs_test::kSource;
 
 // A port free now (the kernel's pick for port 0), so parallel test processes never collide.
 int free_port() {

@@ -2,6 +2,7 @@
 // byte unless --overwrite, which removes that run's files only; temporaries of dead writers go,
 // those of live ones stay; a resume drops log rows after its checkpoint, torn rows too; an
 // incompatible resume names the keys and changes nothing.
+#include "test_support.h"
 #include "catch_torch.h"
 
 #include <sys/wait.h>
@@ -23,12 +24,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::map<std::string, std::string> snapshot(const std::string& dir) {
-  std::map<std::string, std::string> files;
-  for (const auto& entry : fs::recursive_directory_iterator(dir))
-    if (entry.is_regular_file()) files[entry.path().string()] = handscs::read_file(entry.path().string());
-  return files;
-}
+using handscs_test::snapshot;
 
 void write(const std::string& path, const std::string& text) {
   fs::create_directories(fs::path(path).parent_path());
