@@ -6,7 +6,6 @@
 #include "core/error.h"
 #include "core/threads.h"
 #include "scs/descriptor.h"
-#include "render/rotation.h"
 
 namespace handscs {
 
@@ -122,29 +121,20 @@ AvatarState Avatar::pose(const torch::Tensor& pose_in, const torch::Tensor& shap
   const auto descriptor_in =
       use_descriptor ? s.descriptor : torch::zeros({g.size(), 0}, s.lbs_means.options());
   const auto transform_in = transforms.slice(1, 0, 3).reshape({-1, 12});
+  CovarianceChain chain;
   if (torch::GradMode::is_enabled()) {
     s.offsets = decoders_->forward(descriptor_in, g.embed_geometry, g.embed_appearance, transform_in);
-    const auto rot = quaternion_to_matrix(g.rotations);
-    const auto scaled = rot * torch::exp(g.log_scales).unsqueeze(1);
-    const auto sigma = scaled.matmul(scaled.transpose(1, 2));           // R S S R^T
-    const auto a = s.offsets.dsigma_f.matmul(s.offsets.dsigma);          // A = dSigma^f dSigma
-    s.canonical_covariances = a.matmul(sigma).matmul(a.transpose(1, 2));  // A Sigma A^T
-    const auto posed_cov = linear.matmul(s.canonical_covariances).matmul(linear.transpose(1, 2));
-    s.posed.covariances = symmetric_upper(posed_cov);
+    chain = covariance_chain_ops(g.rotations, g.log_scales, s.offsets.dsigma, s.offsets.dsigma_f, linear);
   } else {
     // Inference: frozen decoders, and the same 3x3 chain in one pass (avatar/covariance_chain.h).
     const auto raw = frozen_decoders().outputs(descriptor_in, transform_in);
-    const auto chain = covariance_chain(g.rotations, g.log_scales, raw.geometry.slice(1, 3, 10),
-                                        raw.fusion.slice(1, 3, 10), linear);
-    s.offsets.dx = raw.geometry.slice(1, 0, 3);
-    s.offsets.dsigma = chain.dsigma;
-    s.offsets.dc = raw.appearance;
-    s.offsets.dx_f = raw.fusion.slice(1, 0, 3);
-    s.offsets.dsigma_f = chain.dsigma_f;
-    s.offsets.dc_f = raw.fusion.slice(1, 10, 13);
-    s.canonical_covariances = chain.canonical;
-    s.posed.covariances = chain.posed_upper;
+    chain = covariance_chain(g.rotations, g.log_scales, spd_raw(raw.geometry), spd_raw(raw.fusion),
+                             linear);
+    s.offsets = offsets_from_outputs(raw.geometry, raw.appearance, raw.fusion, chain.dsigma,
+                                     chain.dsigma_f);
   }
+  s.canonical_covariances = chain.canonical;
+  s.posed.covariances = chain.posed_upper;
   s.canonical_means = g.means + s.offsets.dx + s.offsets.dx_f;
   s.canonical_colors = g.colors + s.offsets.dc + s.offsets.dc_f;
   s.posed.means = apply(s.canonical_means);

@@ -4,31 +4,15 @@
 
 #include <torch/torch.h>
 
+#include "avatar/avatar.h"
+#include "render/rotation.h"
+
 namespace handscs {
 
 namespace {
 
 template <class T>
 using M3 = T[3][3];
-
-// R(q) of a quaternion (w, x, y, z) after normalisation with render/rotation.h's floor.
-template <class T>
-void rotation(T w, T x, T y, T z, M3<T>& r) {
-  const T norm = std::sqrt(std::max<T>(w * w + x * x + y * y + z * z, T(1e-24)));
-  w /= norm;
-  x /= norm;
-  y /= norm;
-  z /= norm;
-  r[0][0] = 1 - 2 * (y * y + z * z);
-  r[0][1] = 2 * (x * y - w * z);
-  r[0][2] = 2 * (x * z + w * y);
-  r[1][0] = 2 * (x * y + w * z);
-  r[1][1] = 1 - 2 * (x * x + z * z);
-  r[1][2] = 2 * (y * z - w * x);
-  r[2][0] = 2 * (x * z - w * y);
-  r[2][1] = 2 * (y * z + w * x);
-  r[2][2] = 1 - 2 * (x * x + y * y);
-}
 
 // R diag(d) R^T.
 template <class T>
@@ -57,7 +41,7 @@ void sandwich(const M3<T>& a, const M3<T>& b, M3<T>& out) {
 template <class T>
 void spd(const T* raw, int64_t stride, M3<T>& out) {
   M3<T> r;
-  rotation<T>(1 + raw[3 * stride], raw[4 * stride], raw[5 * stride], raw[6 * stride], r);
+  quaternion_to_matrix<T>(1 + raw[3 * stride], raw[4 * stride], raw[5 * stride], raw[6 * stride], r);
   const T e[3] = {std::exp(raw[0]), std::exp(raw[stride]), std::exp(raw[2 * stride])};
   rotated_diagonal(r, e, out);
 }
@@ -87,7 +71,7 @@ CovarianceChain run(const torch::Tensor& rotations, const torch::Tensor& log_sca
       M3<T> ds, df, r, sigma, a, canonical, posed, lin;
       spd<T>(gp + k * g_row, g_col, ds);
       spd<T>(fp + k * f_row, f_col, df);
-      rotation<T>(qp[4 * k], qp[4 * k + 1], qp[4 * k + 2], qp[4 * k + 3], r);
+      quaternion_to_matrix<T>(qp[4 * k], qp[4 * k + 1], qp[4 * k + 2], qp[4 * k + 3], r);
       T e2[3];  // diag(exp(s))^2
       for (int i = 0; i < 3; ++i) e2[i] = std::exp(sp[3 * k + i]) * std::exp(sp[3 * k + i]);
       rotated_diagonal(r, e2, sigma);
@@ -115,6 +99,21 @@ CovarianceChain run(const torch::Tensor& rotations, const torch::Tensor& log_sca
 }
 
 }  // namespace
+
+CovarianceChain covariance_chain_ops(const torch::Tensor& rotations, const torch::Tensor& log_scales,
+                                     const torch::Tensor& dsigma, const torch::Tensor& dsigma_f,
+                                     const torch::Tensor& linear) {
+  const auto rot = quaternion_to_matrix(rotations);
+  const auto scaled = rot * torch::exp(log_scales).unsqueeze(1);
+  const auto sigma = scaled.matmul(scaled.transpose(1, 2));  // R S S R^T
+  const auto a = dsigma_f.matmul(dsigma);                    // A = dSigma^f dSigma
+  CovarianceChain out;
+  out.dsigma = dsigma;
+  out.dsigma_f = dsigma_f;
+  out.canonical = a.matmul(sigma).matmul(a.transpose(1, 2));  // A Sigma A^T
+  out.posed_upper = symmetric_upper(linear.matmul(out.canonical).matmul(linear.transpose(1, 2)));
+  return out;
+}
 
 CovarianceChain covariance_chain(const torch::Tensor& rotations, const torch::Tensor& log_scales,
                                  const torch::Tensor& geometry_raw, const torch::Tensor& fusion_raw,

@@ -19,9 +19,15 @@ struct CovarianceChain {
 
 // rotations [N, 4] (w, x, y, z), log_scales [N, 3], geometry_raw and fusion_raw [N, 7] (3
 // log-scales, 4 quaternion-delta values; rows may be strided), linear [N, 3, 3] (may be strided).
-// Float or double, all of one dtype.
+// Float or double, all of one dtype. No autograd.
 CovarianceChain covariance_chain(const torch::Tensor& rotations, const torch::Tensor& log_scales,
                                  const torch::Tensor& geometry_raw, const torch::Tensor& fusion_raw,
                                  const torch::Tensor& linear);
+
+// The same chain in LibTorch ops from dSigma and dSigma^f (differentiable: the training path, and
+// the reference covariance_chain is measured and tested against).
+CovarianceChain covariance_chain_ops(const torch::Tensor& rotations, const torch::Tensor& log_scales,
+                                     const torch::Tensor& dsigma, const torch::Tensor& dsigma_f,
+                                     const torch::Tensor& linear);
 
 }  // namespace handscs

@@ -68,14 +68,22 @@ DecodedOffsets OffsetDecodersImpl::forward(const torch::Tensor& descriptor,
                               fusion->forward(fusion_in));
 }
 
+torch::Tensor spd_raw(const torch::Tensor& output) { return output.slice(1, 3, 3 + kSpdRaw); }
+
 DecodedOffsets offsets_from_outputs(const torch::Tensor& g, const torch::Tensor& a,
                                     const torch::Tensor& f) {
+  return offsets_from_outputs(g, a, f, spd_from_raw(spd_raw(g)), spd_from_raw(spd_raw(f)));
+}
+
+DecodedOffsets offsets_from_outputs(const torch::Tensor& g, const torch::Tensor& a,
+                                    const torch::Tensor& f, const torch::Tensor& dsigma,
+                                    const torch::Tensor& dsigma_f) {
   DecodedOffsets out;
   out.dx = g.slice(1, 0, 3);
-  out.dsigma = spd_from_raw(g.slice(1, 3, 3 + kSpdRaw));
+  out.dsigma = dsigma;
   out.dc = a;
   out.dx_f = f.slice(1, 0, 3);
-  out.dsigma_f = spd_from_raw(f.slice(1, 3, 3 + kSpdRaw));
+  out.dsigma_f = dsigma_f;
   out.dc_f = f.slice(1, 3 + kSpdRaw, 6 + kSpdRaw);
   return out;
 }

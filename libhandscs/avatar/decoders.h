@@ -54,9 +54,16 @@ class OffsetDecodersImpl : public torch::nn::Module {
 TORCH_MODULE(OffsetDecoders);
 
 // The offsets from the three decoders' raw outputs: geometry [N, 10], appearance [N, 3], fusion
-// [N, 13].
+// [N, 13]; dSigma and dSigma^f by spd_from_raw of their spd_raw columns, or given (computed from
+// those columns elsewhere, e.g. avatar/covariance_chain.h).
 DecodedOffsets offsets_from_outputs(const torch::Tensor& geometry, const torch::Tensor& appearance,
                                     const torch::Tensor& fusion);
+DecodedOffsets offsets_from_outputs(const torch::Tensor& geometry, const torch::Tensor& appearance,
+                                    const torch::Tensor& fusion, const torch::Tensor& dsigma,
+                                    const torch::Tensor& dsigma_f);
+
+// The 7 raw values [N, 7] of the SPD factor in a geometry or fusion output.
+torch::Tensor spd_raw(const torch::Tensor& output);
 
 // SPD factor from 7 raw values [N, 7] = (log-scales 3, quaternion delta 4): R diag(exp(s)) R^T.
 torch::Tensor spd_from_raw(const torch::Tensor& raw);

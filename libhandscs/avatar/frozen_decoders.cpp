@@ -25,13 +25,13 @@ std::vector<std::pair<const void*, int64_t>> fingerprint(const std::vector<torch
 }  // namespace
 
 FrozenDecoders::FrozenDecoders(OffsetDecodersImpl& decoders, const torch::Tensor& embed_geometry,
-                               const torch::Tensor& embed_appearance)
-    : bf16_(decoders.geometry->bf16()), descriptor_dim_(decoders.descriptor_dim()) {
+                               const torch::Tensor& embed_appearance) {
   torch::NoGradGuard no_grad;
   sources_ = fingerprint(source_tensors(decoders, embed_geometry, embed_appearance));
-  geometry_ = freeze(*decoders.geometry, embed_geometry);
-  appearance_ = freeze(*decoders.appearance, embed_appearance);
-  fusion_ = freeze(*decoders.fusion, torch::cat({embed_geometry, embed_appearance}, 1));
+  const int64_t p = decoders.descriptor_dim();
+  geometry_ = freeze(*decoders.geometry, embed_geometry, p);
+  appearance_ = freeze(*decoders.appearance, embed_appearance, p);
+  fusion_ = freeze(*decoders.fusion, torch::cat({embed_geometry, embed_appearance}, 1), p);
 }
 
 bool FrozenDecoders::current(OffsetDecodersImpl& decoders, const torch::Tensor& embed_geometry,
@@ -39,10 +39,11 @@ bool FrozenDecoders::current(OffsetDecodersImpl& decoders, const torch::Tensor& 
   return fingerprint(source_tensors(decoders, embed_geometry, embed_appearance)) == sources_;
 }
 
-FrozenDecoders::Mlp FrozenDecoders::freeze(GatedMlpImpl& mlp, const torch::Tensor& embeddings) const {
+FrozenDecoders::Mlp FrozenDecoders::freeze(GatedMlpImpl& mlp, const torch::Tensor& embeddings,
+                                           int64_t descriptor_dim) {
   // Layer 1's columns: [descriptor (|P|), embeddings (e), vec(T) (12)].
   const auto w = mlp.layer(0)->weight.detach();
-  const int64_t p = descriptor_dim_, e = embeddings.size(1);
+  const int64_t p = descriptor_dim, e = embeddings.size(1);
   Mlp out;
   out.w1 = torch::cat({w.slice(1, 0, p), w.slice(1, p + e)}, 1);
   // Computed in the parameters' precision (float), whatever the decoders run in.
@@ -52,7 +53,7 @@ FrozenDecoders::Mlp FrozenDecoders::freeze(GatedMlpImpl& mlp, const torch::Tenso
   const auto gate = mlp.gate.detach();
   out.w3 = mlp.layer(2)->weight.detach() * gate;
   out.b3 = mlp.layer(2)->bias.detach() * gate;
-  const bool bf16 = bf16_ && w.scalar_type() == torch::kFloat;
+  const bool bf16 = mlp.bf16() && w.scalar_type() == torch::kFloat;  // as GatedMlp::forward
   for (auto* t : {&out.w1, &out.per_gaussian1, &out.w2, &out.b2, &out.w3, &out.b3})
     *t = (bf16 ? t->to(torch::kBFloat16) : *t).contiguous();
   return out;

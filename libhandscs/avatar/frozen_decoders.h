@@ -41,11 +41,10 @@ class FrozenDecoders {
     torch::Tensor w1, per_gaussian1;  // [hidden, |P| + 12] pose part; [N, hidden] = W_e e + b1
     torch::Tensor w2, b2, w3, b3;     // gate folded into w3, b3
   };
-  Mlp freeze(GatedMlpImpl& mlp, const torch::Tensor& embeddings) const;
+  // descriptor_dim: |P|, the first columns of layer 1 (then the embeddings, then vec(T)).
+  static Mlp freeze(GatedMlpImpl& mlp, const torch::Tensor& embeddings, int64_t descriptor_dim);
   torch::Tensor run(const Mlp& mlp, const torch::Tensor& x) const;
 
-  bool bf16_ = false;
-  int64_t descriptor_dim_ = 0;
   Mlp geometry_, appearance_, fusion_;
   // (tensor, version) of every input the frozen values were computed from.
   std::vector<std::pair<const void*, int64_t>> sources_;

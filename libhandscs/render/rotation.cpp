@@ -5,7 +5,7 @@
 namespace handscs {
 
 torch::Tensor quaternion_to_matrix(const torch::Tensor& quats) {
-  const auto q = quats / (quats * quats).sum(-1, true).clamp_min(1e-24).sqrt();
+  const auto q = quats / (quats * quats).sum(-1, true).clamp_min(kQuaternionNormSquaredFloor).sqrt();
   const auto w = q.select(-1, 0), x = q.select(-1, 1), y = q.select(-1, 2), z = q.select(-1, 3);
   const auto m = torch::stack({1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
                                2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),

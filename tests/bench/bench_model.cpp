@@ -24,7 +24,6 @@
 #include "core/logging.h"
 #include "core/threads.h"
 #include "hand/lbs.h"
-#include "render/rotation.h"
 #include "scs/descriptor.h"
 #include "bench_timing.h"
 #include "train_step_timing.h"
@@ -243,16 +242,13 @@ int main(int argc, char** argv) {
         auto t0 = Clock::now();
         {
           const auto offsets = handscs::offsets_from_outputs(raw_g, torch::zeros({n, 3}), raw_f);
-          const auto rot = handscs::quaternion_to_matrix(g.rotations);
-          const auto scaled = rot * torch::exp(g.log_scales).unsqueeze(1);
-          const auto a = offsets.dsigma_f.matmul(offsets.dsigma);
-          const auto canonical = a.matmul(scaled.matmul(scaled.transpose(1, 2))).matmul(a.transpose(1, 2));
-          (void)handscs::symmetric_upper(linear.matmul(canonical).matmul(linear.transpose(1, 2)));
+          (void)handscs::covariance_chain_ops(g.rotations, g.log_scales, offsets.dsigma,
+                                              offsets.dsigma_f, linear);
         }
         const double ops = ms_since(t0);
         t0 = Clock::now();
-        (void)handscs::covariance_chain(g.rotations, g.log_scales, raw_g.slice(1, 3, 10),
-                                        raw_f.slice(1, 3, 10), linear);
+        (void)handscs::covariance_chain(g.rotations, g.log_scales, handscs::spd_raw(raw_g),
+                                        handscs::spd_raw(raw_f), linear);
         const double fused = ms_since(t0);
         if (r < 2) continue;
         t_chain_ops.push_back(ops);
