@@ -188,6 +188,11 @@ struct TrainConfig {
   // data-parallel processes a step sees N x batch_size views (one process with batch_size N gives
   // the same steps). 1, as the paper: the step counts of every benchmark assume it.
   int64_t batch_size = 1;
+  // Cameras of one pose each of those views becomes (beyond the paper): the pose is decoded once
+  // and its Gaussians rasterised from up to this many of the pose's training cameras, so the
+  // decoders' forward and backward serve them all (their losses averaged with the step's other
+  // views). 1, as the paper: every frame on its own.
+  int64_t views_per_pose = 1;
   enum class Background { black, white, random };
   Background background = Background::black;  // black, white or random (per step) in training
   double resolution_scale = 1.0;    // train on images scaled by this factor (0.5 = half size)
@@ -208,6 +213,9 @@ struct TrainConfig {
     v.field("seed", seed, "seed of frame order and backgrounds", 0, 9.0e15);
     v.field("batch_size", batch_size,
             "views per step on each process (their losses averaged; N processes see N x this)", 1, 4096);
+    v.field("views_per_pose", views_per_pose,
+            "cameras of one pose each view renders, decoding the pose once (1 = one frame each)", 1,
+            4096);
     v.choice("background", background,
              {{"black", Background::black}, {"white", Background::white}, {"random", Background::random}},
              "training background");

@@ -82,6 +82,12 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir, ProcessGro
   capture_ = std::make_unique<Capture>(Capture::open(config_.data, run_dir_ + "/cache"));
   require(!capture_->train().empty(),
           "data: the capture has no training frames (check data.root, split, capture, cameras)");
+  if (config_.train.views_per_pose > 1) {
+    std::map<int, std::vector<int64_t>> by_pose;  // ordered: the same grouping on every run
+    const auto& frames = capture_->train();
+    for (size_t k = 0; k < frames.size(); ++k) by_pose[frames[k].pose_index].push_back(k);
+    for (auto& [pose, positions] : by_pose) train_poses_.push_back(std::move(positions));
+  }
   if (is_root())
     spdlog::info("capture: {} training and {} test frames, {} poses, {} cameras",
                capture_->train().size(), capture_->test().size(), capture_->num_poses(),
@@ -155,20 +161,23 @@ void Trainer::build_optimizer() {
   }
 }
 
-int64_t Trainer::views_per_step() const {
+int64_t Trainer::entries_per_step() const {
   return config_.train.batch_size * (group_ ? group_->world_size() : 1);
 }
 
-int64_t Trainer::first_view() const {
+int64_t Trainer::first_entry() const {
   return config_.train.batch_size * (group_ ? group_->rank() : 0);
 }
 
 bool Trainer::stop_requested() const { return group_ ? stop_agreed_ : g_stop_requested.load(); }
 
-const FrameInfo& Trainer::frame_for(int64_t view_index) {
+std::vector<const FrameInfo*> Trainer::frames_for(int64_t entry_index) {
   const auto& frames = capture_->train();
-  const int64_t n = static_cast<int64_t>(frames.size());
-  const int64_t epoch = view_index / n;
+  const int64_t per_pose = config_.train.views_per_pose;
+  // One frame per entry, or one pose: the epoch runs over frames or over poses.
+  const int64_t n = per_pose == 1 ? static_cast<int64_t>(frames.size())
+                                  : static_cast<int64_t>(train_poses_.size());
+  const int64_t epoch = entry_index / n;
   if (epoch != order_epoch_) {
     order_.resize(n);
     for (int64_t i = 0; i < n; ++i) order_[i] = i;
@@ -177,7 +186,16 @@ const FrameInfo& Trainer::frame_for(int64_t view_index) {
     std::shuffle(order_.begin(), order_.end(), rng);
     order_epoch_ = epoch;
   }
-  return frames[order_[view_index % n]];
+  const int64_t picked = order_[entry_index % n];
+  if (per_pose == 1) return {&frames[picked]};
+  // The pose's cameras in an order of (seed, entry) alone; the first views_per_pose of them.
+  std::vector<int64_t> cameras = train_poses_[picked];
+  std::mt19937_64 rng(static_cast<uint64_t>(config_.train.seed) * 2000029ull + entry_index);
+  std::shuffle(cameras.begin(), cameras.end(), rng);
+  cameras.resize(std::min<size_t>(cameras.size(), static_cast<size_t>(per_pose)));
+  std::vector<const FrameInfo*> out;
+  for (const int64_t k : cameras) out.push_back(&frames[k]);
+  return out;
 }
 
 std::array<float, 3> Trainer::background_for(int64_t view_index) const {
@@ -233,54 +251,66 @@ torch::Tensor Trainer::consistency_loss(const AvatarState& state, const torch::T
   return loss;
 }
 
-// What one view of a step leaves behind after its backward (its gradients are in the parameters).
-struct Trainer::ViewOutcome {
-  double loss = 0;  // unweighted by the view count
-  double psnr = 0;
-  Densifier::ViewStatistics densify;  // undefined tensors without densification
+// What one entry of a step leaves behind after its backward (its gradients are in the parameters).
+struct Trainer::EntryOutcome {
+  double loss = 0;  // mean over the entry's views, unweighted by the step's entry count
+  double psnr = 0;  // mean over the entry's views
+  int64_t views = 0;
+  Densifier::ViewStatistics densify;  // summed over the views; undefined without densification
   int64_t pose_index = -1;            // pose refinement: the pose whose correction was learned
   torch::Tensor pose_delta;           // ... its correction (holds the gradient); else undefined
 };
 
-Trainer::ViewOutcome Trainer::train_view(int64_t view, bool diagnostics, StepResult& result) {
-  ViewOutcome outcome;
-  const int64_t views = config_.train.batch_size;
-  const int64_t view_index = iteration_ * views_per_step() + first_view() + view;
-  const auto t0 = Clock::now();
-  const FrameInfo& current = frame_for(view_index);
-  FrameSample sample = capture_->load(current);
-  empty_masks_->record(current, !sample.mask.any().item<bool>());
-  Camera camera = sample.roi_camera();
+Trainer::ViewTarget Trainer::load_view(const FrameInfo& frame, int64_t view_index) {
+  FrameSample sample = capture_->load(frame);
+  empty_masks_->record(frame, !sample.mask.any().item<bool>());
+  ViewTarget view;
+  view.camera = sample.roi_camera();
   torch::Tensor image = sample.image.to(torch::kFloat32).div_(255.0);  // [h, w, 3]
-  torch::Tensor mask = sample.mask.to(torch::kFloat32);                // [h, w]
+  view.mask = sample.mask.to(torch::kFloat32);                        // [h, w]
   const double scale = config_.train.resolution_scale;
   if (scale != 1.0) {
-    const int w = std::max(1, static_cast<int>(std::lround(camera.width * scale)));
-    const int h = std::max(1, static_cast<int>(std::lround(camera.height * scale)));
+    const int w = std::max(1, static_cast<int>(std::lround(view.camera.width * scale)));
+    const int h = std::max(1, static_cast<int>(std::lround(view.camera.height * scale)));
     cv::Mat img(image.size(0), image.size(1), CV_32FC3, image.data_ptr<float>());
-    cv::Mat msk(mask.size(0), mask.size(1), CV_32FC1, mask.data_ptr<float>());
+    cv::Mat msk(view.mask.size(0), view.mask.size(1), CV_32FC1, view.mask.data_ptr<float>());
     cv::Mat img_small, msk_small;
     cv::resize(img, img_small, cv::Size(w, h), 0, 0, cv::INTER_AREA);
     cv::resize(msk, msk_small, cv::Size(w, h), 0, 0, cv::INTER_AREA);
     image = torch::from_blob(img_small.data, {h, w, 3}, torch::kFloat32).clone();
-    mask = torch::from_blob(msk_small.data, {h, w}, torch::kFloat32).clone();
-    camera = resample_camera(camera, double(w) / camera.width, w, h);
+    view.mask = torch::from_blob(msk_small.data, {h, w}, torch::kFloat32).clone();
+    view.camera = resample_camera(view.camera, double(w) / view.camera.width, w, h);
   }
-  const std::string too_small = scaled_crop_problem(current, static_cast<int>(image.size(1)),
+  const std::string too_small = scaled_crop_problem(frame, static_cast<int>(image.size(1)),
                                                     static_cast<int>(image.size(0)), scale,
                                                     min_loss_side_);
   if (!too_small.empty()) throw Error(too_small);
-  const auto bg = background_for(view_index);
-  const auto bg_tensor = torch::tensor({bg[0], bg[1], bg[2]});
-  const auto target = image * mask.unsqueeze(2) + bg_tensor * (1 - mask.unsqueeze(2));
+  view.background = background_for(view_index);
+  const auto bg = torch::tensor({view.background[0], view.background[1], view.background[2]});
+  const auto mask3 = view.mask.unsqueeze(2);
+  view.target = image * mask3 + bg * (1 - mask3);
+  return view;
+}
+
+Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, StepResult& result) {
+  EntryOutcome outcome;
+  const int64_t entries = config_.train.batch_size;
+  const int64_t entry_index = iteration_ * entries_per_step() + first_entry() + entry;
+  const auto t0 = Clock::now();
+  const std::vector<const FrameInfo*> frames = frames_for(entry_index);
+  const FrameInfo& current = *frames.front();  // the pose, shape and translation of them all
+  std::vector<ViewTarget> views;
+  for (const FrameInfo* frame : frames) result.frames.push_back(frame->index);
+  for (size_t k = 0; k < frames.size(); ++k)
+    views.push_back(load_view(*frames[k], entry_index * config_.train.views_per_pose +
+                                              static_cast<int64_t>(k)));
+  const int64_t count = static_cast<int64_t>(views.size());
+  outcome.views = count;
   const auto t1 = Clock::now();
 
   auto& g = avatar_->gaussians();
   const bool densify = config_.train.densify.enabled;
-  const auto probe = densify ? torch::zeros({g.size(), 2}).requires_grad_(true) : torch::Tensor();
   const bool consistency = config_.train.loss.consistency > 0;
-  RasterSettings settings;
-  settings.background = bg;
   auto pose = float_vector(current.pose);
   auto trans = float_vector(current.trans);
   CorrectedPose corrected;  // delta undefined without pose refinement
@@ -291,29 +321,50 @@ Trainer::ViewOutcome Trainer::train_view(int64_t view, bool diagnostics, StepRes
     trans = corrected.trans;
   }
   const bool learn_pose = corrected.delta.defined() && corrected.delta.requires_grad();
-  auto out = avatar_->forward(pose, float_vector(current.shape), trans, camera, settings, probe,
-                              consistency);
+  // The pose is decoded once; each view rasterises the same posed Gaussians.
+  const AvatarState state = avatar_->pose(pose, float_vector(current.shape), trans, consistency);
+  std::vector<torch::Tensor> probes;
+  std::vector<RasterOutput> renders;
+  for (const auto& view : views) {
+    probes.push_back(densify ? torch::zeros({g.size(), 2}).requires_grad_(true) : torch::Tensor());
+    RasterSettings settings;
+    settings.background = view.background;
+    const auto& p = state.posed;
+    renders.push_back(rasterize_gaussians(p.means, p.covariances, p.colors, p.opacities,
+                                          view.camera, settings, probes.back()));
+  }
   const auto t2 = Clock::now();
 
-  LossInputs in;
-  in.rgb = out.render.rgb;
-  in.alpha = out.render.alpha;
-  in.target = target;
-  in.mask = mask;
-  in.offsets = &out.state.offsets;
-  in.lpips_step = (iteration_ + 1) % config_.train.loss.lpips_every == 0;
   double pair_weight = -1;
-  if (consistency) in.consistency = consistency_loss(out.state, pose, view, &pair_weight);
-  if (view == 0) result.consistency_weight = pair_weight;
-  auto loss = objective_->compute(in);
+  torch::Tensor consistency_term;  // one per pose: the same for each of its views
+  if (consistency) consistency_term = consistency_loss(state, pose, entry, &pair_weight);
+  if (entry == 0) result.consistency_weight = pair_weight;
+  // The entry's loss is the mean over its views (the pose's terms, L_reg and L_con, are the same
+  // in each, so they count once).
+  torch::Tensor total;
+  std::map<std::string, double> terms;
+  for (int64_t k = 0; k < count; ++k) {
+    LossInputs in;
+    in.rgb = renders[k].rgb;
+    in.alpha = renders[k].alpha;
+    in.target = views[k].target;
+    in.mask = views[k].mask;
+    in.offsets = &state.offsets;
+    in.lpips_step = (iteration_ + 1) % config_.train.loss.lpips_every == 0;
+    in.consistency = consistency_term;
+    auto loss = objective_->compute(in);
+    total = k == 0 ? loss.total : total + loss.total;
+    for (const auto& [name, value] : loss.terms) terms[name] += value / count;
+  }
+  if (count > 1) total = total * (1.0 / count);
   if (learn_pose) {
     const auto penalty = pose_corrections_->penalty(corrected.delta);
-    loss.terms["pose_refine"] = penalty.item<double>();
-    loss.total = loss.total + penalty;
+    terms["pose_refine"] = penalty.item<double>();
+    total = total + penalty;
     outcome.pose_index = current.pose_index;
     outcome.pose_delta = corrected.delta;
   }
-  for (const auto& [name, value] : loss.terms) result.terms[name] += value / views;
+  for (const auto& [name, value] : terms) result.terms[name] += value / entries;
   if (diagnostics) {
     // Whether the decoders do anything: their gates and the mean size of each offset, on the
     // steps run() logs (each is a reduction and a sync; no need on every step).
@@ -322,30 +373,36 @@ Trainer::ViewOutcome Trainer::train_view(int64_t view, bool diagnostics, StepRes
     result.diagnostics["gate_geometry"] = decoders->geometry->gate.item<double>();
     result.diagnostics["gate_appearance"] = decoders->appearance->gate.item<double>();
     result.diagnostics["gate_fusion"] = decoders->fusion->gate.item<double>();
-    for (const auto& [name, norms] : offset_norms(out.state.offsets))
+    for (const auto& [name, norms] : offset_norms(state.offsets))
       result.diagnostics["offset_" + name] = norms.mean().item<double>();
     if (pose_corrections_)
       for (const auto& [name, value] : pose_corrections_->summary()) result.diagnostics[name] = value;
   }
   const auto t3 = Clock::now();
 
-  // The step's loss is the mean over its views: each view's gradients arrive scaled by 1/views.
-  (views == 1 ? loss.total : loss.total * (1.0 / views)).backward();
+  // The step's loss is the mean over its entries: each entry's gradients arrive scaled by 1/entries.
+  (entries == 1 ? total : total * (1.0 / entries)).backward();
   const auto t4 = Clock::now();
 
-  outcome.loss = loss.total.item<double>();
+  outcome.loss = total.item<double>();
   {
     torch::NoGradGuard no_grad;
-    const double mse = (out.render.rgb.detach() - target).pow(2).mean().item<double>();
     // Capped: a crop rendered exactly (mse 0, +inf dB) would make the running average infinite.
     constexpr double kMaxStepPsnr = 99.0;
-    outcome.psnr = std::min(psnr_from_mse(mse), kMaxStepPsnr);
+    for (int64_t k = 0; k < count; ++k) {
+      const double mse = (renders[k].rgb.detach() - views[k].target).pow(2).mean().item<double>();
+      outcome.psnr += std::min(psnr_from_mse(mse), kMaxStepPsnr) / count;
+    }
   }
   if (densify) {
-    // The densification threshold is per view: undo the 1/views of the mean.
-    const auto grad = probe.grad().defined() ? probe.grad() : torch::zeros_like(probe);
-    outcome.densify =
-        Densifier::view_statistics(views == 1 ? grad : grad * double(views), out.render.radii);
+    // The densification threshold is per view: undo the 1/(entries x views) of the means.
+    const double weight = double(entries * count);
+    for (int64_t k = 0; k < count; ++k) {
+      const auto grad = probes[k].grad().defined() ? probes[k].grad() : torch::zeros_like(probes[k]);
+      const auto s = Densifier::view_statistics(weight == 1 ? grad : grad * weight, renders[k].radii);
+      outcome.densify.grad_norm = k == 0 ? s.grad_norm : outcome.densify.grad_norm + s.grad_norm;
+      outcome.densify.visible = k == 0 ? s.visible : outcome.densify.visible + s.visible;
+    }
   }
   result.times.data_ms += ms_between(t0, t1);
   result.times.forward_ms += ms_between(t1, t2);
@@ -354,7 +411,7 @@ Trainer::ViewOutcome Trainer::train_view(int64_t view, bool diagnostics, StepRes
   return outcome;
 }
 
-bool Trainer::reduce_across_ranks(ViewOutcome& sums, bool finite) {
+bool Trainer::reduce_across_ranks(EntryOutcome& sums, bool finite) {
   // One buffer, one all-reduce: per parameter a flag (has a gradient here) and its gradient, the
   // densification statistics, then loss, PSNR, "not finite here" and "stop requested here".
   std::vector<torch::Tensor*> params;
@@ -407,29 +464,32 @@ bool Trainer::reduce_across_ranks(ViewOutcome& sums, bool finite) {
 StepResult Trainer::step() {
   StepResult result;
   const int64_t total = config_.train.iterations;
-  const int64_t views = config_.train.batch_size;
+  const int64_t entries = config_.train.batch_size;
   {
     std::vector<int64_t> ahead;
     for (int k = 1; k <= kPrefetchAhead; ++k)
-      for (int64_t v = 0; v < views; ++v)
-        ahead.push_back(frame_for((iteration_ + k) * views_per_step() + first_view() + v).index);
-    frame_for(iteration_ * views_per_step() + first_view());  // restore this epoch's order
+      for (int64_t e = 0; e < entries; ++e)
+        for (const FrameInfo* frame :
+             frames_for((iteration_ + k) * entries_per_step() + first_entry() + e))
+          ahead.push_back(frame->index);
+    frames_for(iteration_ * entries_per_step() + first_entry());  // restore this epoch's order
     capture_->prefetch(ahead);
   }
   const bool diagnostics = (iteration_ + 1) % config_.train.log_every == 0;
-  ViewOutcome sums;  // loss and PSNR summed over this rank's views, densification statistics
-  std::vector<ViewOutcome> outcomes;
+  EntryOutcome sums;  // loss and PSNR summed over this rank's entries, densification statistics
+  std::vector<EntryOutcome> outcomes;
   bool finite = true;
-  for (int64_t v = 0; v < views; ++v) {
-    outcomes.push_back(train_view(v, diagnostics && v == 0, result));
+  for (int64_t e = 0; e < entries; ++e) {
+    outcomes.push_back(train_entry(e, diagnostics && e == 0, result));
     const auto& o = outcomes.back();
     finite = finite && std::isfinite(o.loss);
     sums.loss += o.loss;
     sums.psnr += o.psnr;
+    views_rendered_ += o.views;
     if (o.densify.visible.defined()) {
-      // Summed over the step's views first, then added: the same sums on every rank layout.
-      sums.densify.grad_norm = v == 0 ? o.densify.grad_norm : sums.densify.grad_norm + o.densify.grad_norm;
-      sums.densify.visible = v == 0 ? o.densify.visible : sums.densify.visible + o.densify.visible;
+      // Summed over the step's entries first, then added: the same sums on every rank layout.
+      sums.densify.grad_norm = e == 0 ? o.densify.grad_norm : sums.densify.grad_norm + o.densify.grad_norm;
+      sums.densify.visible = e == 0 ? o.densify.visible : sums.densify.visible + o.densify.visible;
     }
   }
   const auto t4 = Clock::now();
@@ -448,8 +508,8 @@ StepResult Trainer::step() {
     if (finite && o.pose_delta.defined() && o.pose_delta.grad().defined() &&
         !torch::isfinite(o.pose_delta.grad()).all().item<bool>())
       finite = false;
-  result.loss = sums.loss / views_per_step();
-  result.psnr = sums.psnr / views_per_step();
+  result.loss = sums.loss / entries_per_step();
+  result.psnr = sums.psnr / entries_per_step();
   auto& g = avatar_->gaussians();
   if (!finite) {
     optimizer_->zero_grad();
@@ -561,7 +621,7 @@ Checkpoint Trainer::make_checkpoint() {
     if (t.defined()) ckpt.tensors[name] = t.clone();
   };
   for (size_t i = 0; i < prev_chains_.size(); ++i) {
-    const std::string prefix = chain_prefix(first_view() + static_cast<int64_t>(i));
+    const std::string prefix = chain_prefix(first_entry() + static_cast<int64_t>(i));
     put(prefix + "descriptor", prev_chains_[i].descriptor);
     put(prefix + "attributes", prev_chains_[i].attributes);
     put(prefix + "pose_feature", prev_chains_[i].pose_feature);
@@ -614,7 +674,7 @@ void Trainer::load_from(const Checkpoint& ckpt, const std::string& source) {
     return it == ckpt.tensors.end() ? torch::Tensor() : it->second.clone();
   };
   for (size_t i = 0; i < prev_chains_.size(); ++i) {
-    const std::string prefix = chain_prefix(first_view() + static_cast<int64_t>(i));
+    const std::string prefix = chain_prefix(first_entry() + static_cast<int64_t>(i));
     prev_chains_[i] = {get(prefix + "descriptor"), get(prefix + "attributes"),
                        get(prefix + "pose_feature")};
   }
@@ -718,6 +778,7 @@ TrainSummary Trainer::run() {
   const auto start = Clock::now();
   const double elapsed_before = elapsed_seconds_;
   const int64_t first_iteration = iteration_;
+  const int64_t views_before = views_rendered_;
   const CommunicationStats communication_before = group_ ? group_->stats() : CommunicationStats{};
   if (root && last_checkpoint_.empty()) save_checkpoint();  // the state a first rollback returns to
   const int64_t total = config_.train.iterations;
@@ -758,7 +819,9 @@ TrainSummary Trainer::run() {
   summary.interrupted = interrupted;
   summary.checkpoint = last_checkpoint_;
   summary.steps = iteration_ - first_iteration;
-  summary.views = summary.steps * views_per_step();
+  // Every rank renders as many views per step (ranks differ at most where a pose has fewer
+  // cameras than train.views_per_pose).
+  summary.views = (views_rendered_ - views_before) * (group_ ? group_->world_size() : 1);
   if (group_) {
     const auto& now = group_->stats();
     summary.communication = {now.calls - communication_before.calls,

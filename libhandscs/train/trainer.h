@@ -1,22 +1,25 @@
-// The training loop (paper §3.2-3.3): train.batch_size views per step (one, as the paper, by
-// default), each rendered as its ROI crop, losses, backward; Adam, optional densification; metrics
-// log, validation renders, atomic checkpoints, exact resume, SIGINT/SIGTERM handling, and NaN/Inf
-// steps that never reach the parameters (skip, then rollback).
+// The training loop (paper §3.2-3.3): train.batch_size entries per step (one, as the paper, by
+// default). An entry is one frame, or with train.views_per_pose = V up to V cameras of one pose
+// whose decoding they share; each view is rendered as its ROI crop; losses, backward; Adam,
+// optional densification; metrics log, validation renders, atomic checkpoints, exact resume,
+// SIGINT/SIGTERM handling, and NaN/Inf steps that never reach the parameters (skip, then rollback).
 //
-// Data parallel (a ProcessGroup of N ranks): rank r renders views r*B .. r*B+B-1 of each step's
+// Data parallel (a ProcessGroup of N ranks): rank r trains entries r*B .. r*B+B-1 of each step's
 // N*B (B = batch_size), gradients and densification statistics are summed across ranks in one
 // all-reduce, so N ranks equal one process with batch_size N*B. Rank 0 alone writes the run folder
 // (checkpoints, metrics, validation), decides densification and rollbacks and broadcasts its state
 // after them (and at the start, fresh or resumed), so the ranks never diverge; NaN skips and
-// Ctrl-C are agreed in the same all-reduce. Each view keeps its own inter-pose chain (L_con pairs
-// view b of a step with view b of the step before); a checkpoint holds rank 0's chains, so after
+// Ctrl-C are agreed in the same all-reduce. Each entry keeps its own inter-pose chain (L_con pairs
+// entry b of a step with entry b of the step before); a checkpoint holds rank 0's chains, so after
 // resuming with several ranks the others' first step has no L_con. Pose refinement needs one rank.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "avatar/avatar.h"
 #include "data/capture.h"
@@ -40,13 +43,14 @@ struct StepResult {
   int64_t iteration = 0;     // the step just taken (1-based count of steps done)
   bool skipped = false;      // non-finite loss or gradient: parameters untouched
   bool rolled_back = false;  // too many skipped steps in a row: reloaded the last checkpoint
-  double loss = 0;           // mean over the step's views (on every rank)
-  double psnr = 0;           // of this step's ROI crops, mean over the step's views
+  double loss = 0;           // mean over the step's entries of their views' mean (every rank)
+  double psnr = 0;           // of this step's ROI crops, likewise
   std::map<std::string, double> terms;        // unweighted loss terms (LossResult::terms), mean
-                                              // over this rank's views
+                                              // over this rank's entries and views
   // L_con's pose-similarity weight of this step and the previous one (-1: no pair); the term is
   // absent when it is below train.consistency.min_weight.
-  double consistency_weight = -1;  // of the step's first view
+  double consistency_weight = -1;  // of the step's first entry
+  std::vector<int64_t> frames;     // FrameInfo::index of each view this rank rendered, in order
   std::map<std::string, double> diagnostics;  // decoder gates, mean offset norms (metrics.csv),
                                               // on steps whose count is a multiple of log_every
   StepTimes times;
@@ -92,32 +96,47 @@ class Trainer {
 
 
  private:
-  // The inter-pose state one view leaves for the same view of the next step (detached).
+  // The inter-pose state one entry leaves for the same entry of the next step (detached).
   struct ConsistencyChain {
     torch::Tensor descriptor, attributes, pose_feature;
   };
-  struct ViewOutcome;
-  ViewOutcome train_view(int64_t view, bool diagnostics, StepResult& result);
+  // What a view is trained against: its ROI crop (scaled by train.resolution_scale) composited on
+  // its background.
+  struct ViewTarget {
+    Camera camera;
+    torch::Tensor target;  // [h, w, 3]
+    torch::Tensor mask;    // [h, w]
+    std::array<float, 3> background{};
+  };
+  ViewTarget load_view(const FrameInfo& frame, int64_t view_index);
+  struct EntryOutcome;
+  // Entry `entry` of this rank's step: its frames' pose decoded once, each frame rasterised, the
+  // losses averaged over them and backpropagated (scaled to the step's mean over entries).
+  EntryOutcome train_entry(int64_t entry, bool diagnostics, StepResult& result);
   // Sums this rank's gradients, densification statistics, loss, PSNR and flags with the other
   // ranks' and divides the gradients by the world size; returns whether the step is finite on
   // every rank.
-  bool reduce_across_ranks(ViewOutcome& sums, bool finite);
+  bool reduce_across_ranks(EntryOutcome& sums, bool finite);
   // Data parallel: every rank takes rank 0's state (parameters, optimiser, counters). keep_chains:
   // the other ranks keep their inter-pose chains where the Gaussian count is unchanged.
   void synchronize_state(bool keep_chains);
   bool stop_requested() const;
-  int64_t views_per_step() const;  // on all ranks
-  int64_t first_view() const;      // this rank's first view of a step
+  int64_t entries_per_step() const;  // batch_size on each of the ranks
+  int64_t first_entry() const;       // this rank's first entry of a step
   void build_optimizer();
   void write_run_files();
   Checkpoint make_checkpoint();
   void load_from(const Checkpoint& checkpoint, const std::string& source);
   bool rollback();
-  // view_index = iteration x views_per_step() + the view's place in the step.
-  const FrameInfo& frame_for(int64_t view_index);
+  // The frames entry `entry_index` (= iteration x entries_per_step() + its place in the step)
+  // renders: one frame of a per-epoch shuffle of the training frames (views_per_pose 1), else up
+  // to views_per_pose of the cameras, in a shuffled order, of one pose of a per-epoch shuffle of
+  // the training poses.
+  std::vector<const FrameInfo*> frames_for(int64_t entry_index);
+  // view_index = entry_index x views_per_pose + the view's place in the entry.
   std::array<float, 3> background_for(int64_t view_index) const;
-  // pose: the pose the view rendered (annotated, or corrected by pose refinement); chain: the
-  // view's place in the step.
+  // pose: the pose the entry rendered (annotated, or corrected by pose refinement); chain: the
+  // entry's place in the step.
   torch::Tensor consistency_loss(const AvatarState& state, const torch::Tensor& pose, size_t chain,
                                  double* weight);
   void validate();
@@ -141,13 +160,16 @@ class Trainer {
   int64_t rollbacks_ = 0;
   std::string last_checkpoint_;
   bool run_files_written_ = false;
-  // Inter-pose state of the previous step, one chain per view of this rank, this step's (pending
+  // Inter-pose state of the previous step, one chain per entry of this rank, this step's (pending
   // until the step is taken) and the canonical K-NN candidate sets.
   std::vector<ConsistencyChain> prev_chains_, next_chains_;
   torch::Tensor candidates_;
   std::vector<torch::Tensor> network_params_;  // the optimiser points into this vector
   double elapsed_seconds_ = 0;                 // training wall time, across resumes
-  std::vector<int64_t> order_;  // frame permutation of the current epoch
+  std::vector<int64_t> order_;  // frame (or pose) permutation of the current epoch
+  // views_per_pose > 1: positions in capture_->train() of each training pose's frames.
+  std::vector<std::vector<int64_t>> train_poses_;
+  int64_t views_rendered_ = 0;  // by this process, over its lifetime
   int64_t order_epoch_ = -1;
   double running_psnr_ = 0;
 };

@@ -6,7 +6,8 @@
 //   handscs-bench-model [--gaussians 778,5000,10000,20000] [--width 512] [--height 334]
 //                       [--threads 2] [--repeats 10] [--decoder-hidden 256]
 //                       [--decoder-precision auto|float|bf16] [--lpips-weights FILE]
-//                       [--lpips-every 1] [--no-train-step] [--work-dir /tmp/handscs-bench-model]
+//                       [--lpips-every 1] [--views-per-pose 1] [--no-train-step]
+//                       [--work-dir /tmp/handscs-bench-model]
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -84,6 +85,9 @@ int main(int argc, char** argv) {
                  "LPIPS weight file for the training step's LPIPS term (without: the term is skipped)");
   app.add_option("--lpips-every", train_step.lpips_every,
                  "train.loss.lpips_every of the training step (see mean_step_ms then)");
+  app.add_option("--views-per-pose", train_step.views_per_pose,
+                 "train.views_per_pose of the training step (cameras of one pose sharing a decoding)")
+      ->check(CLI::Range(1, 4));
   app.add_flag("--no-train-step", no_train_step, "skip train_step_ms (saves generating a capture)");
   app.add_option("--work-dir", work_dir, "where the training step's synthetic capture is written")
       ->capture_default_str();
@@ -105,6 +109,7 @@ int main(int argc, char** argv) {
   result["blas"] = handscs::blas_in_use();
   result["train_step_lpips"] = !no_train_step && !train_step.lpips_weights.empty();
   result["train_step_lpips_every"] = train_step.lpips_every;
+  result["train_step_views_per_pose"] = train_step.views_per_pose;
   const auto camera = capture_camera(width, height);
   const auto pose = torch::randn({48}) * 0.2;
   const auto shape = torch::zeros({10});

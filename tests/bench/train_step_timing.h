@@ -28,6 +28,7 @@ struct TrainStepOptions {
   std::string decoder_precision = "auto";
   int repeats = 10;
   int64_t lpips_every = handscs::LossWeights{}.lpips_every;  // train.loss.lpips_every
+  int64_t views_per_pose = 1;  // train.views_per_pose: cameras of one pose per step, one decoding
 };
 
 // Writes the capture into dir (replacing what is there) and returns dir.
@@ -60,6 +61,7 @@ inline nlohmann::json time_train_steps(int64_t n, const TrainStepOptions& opt) {
   }
   config.eval.lpips.weights = opt.lpips_weights;
   config.train.loss.lpips_every = opt.lpips_every;
+  config.train.views_per_pose = opt.views_per_pose;
   config.train.iterations = kGrowSteps + 2 + opt.repeats;
   config.train.validate_every = 0;
   auto& d = config.train.densify;
@@ -75,12 +77,14 @@ inline nlohmann::json time_train_steps(int64_t n, const TrainStepOptions& opt) {
   handscs::Trainer trainer(config, run_dir);
   if (trainer.avatar().gaussians().size() > n) return nullptr;
   std::vector<double> step, data, forward, losses, backward, optimizer;
+  size_t views = 0;
   for (int s = 0; s < config.train.iterations; ++s) {
     const auto t0 = Clock::now();
     const auto r = trainer.step();
     const double ms = ms_since(t0);
     if (s < kGrowSteps + 2) continue;
     step.push_back(ms);
+    views += r.frames.size();
     data.push_back(r.times.data_ms);
     forward.push_back(r.times.forward_ms);
     losses.push_back(r.times.losses_ms);
@@ -95,6 +99,8 @@ inline nlohmann::json time_train_steps(int64_t n, const TrainStepOptions& opt) {
   return {{"gaussians", reached},
           {"step_ms", median(step)},
           {"mean_step_ms", step.empty() ? 0.0 : total / step.size()},
+          // Views rendered per step (train.views_per_pose, fewer if a pose has fewer cameras).
+          {"views_per_step", step.empty() ? 0.0 : double(views) / step.size()},
           {"stages_ms",
            {{"data", median(data)},
             {"forward", median(forward)},

@@ -16,6 +16,7 @@
 #include <set>
 #include <thread>
 
+#include "checkpoint_compare.h"
 #include "core/atomic_file.h"
 #include "tiny_capture.h"
 #include "train/checkpoint.h"
@@ -104,22 +105,10 @@ TEST_CASE("train: data parallel: 2 ranks x 1 view equal 1 process x batch_size 2
   // hold view 1's inter-pose chain (rank 1's, which rank 0 does not store).
   for (const auto& [name, tensor] : a.tensors)
     if (!b.tensors.count(name)) CHECK(name.rfind("consistency/view1/", 0) == 0);
-  double worst = 0;
-  std::string worst_name;
-  for (const auto& [name, tensor] : b.tensors) {
-    REQUIRE(a.tensors.count(name) == 1);
-    const auto& other = a.tensors.at(name);
-    REQUIRE(other.sizes() == tensor.sizes());
-    if (!tensor.is_floating_point()) {
-      CHECK(torch::equal(tensor, other));
-      continue;
-    }
-    const double scale = std::max(1.0, other.abs().max().item<double>());
-    const double diff = (tensor.to(torch::kFloat64) - other.to(torch::kFloat64)).abs().max().item<double>() / scale;
-    if (diff > worst) worst = diff, worst_name = name;
-  }
-  INFO("largest relative difference " << worst << " in " << worst_name);
-  CHECK(worst <= 1e-5);
+  const auto difference = handscs_test::compare_checkpoints(a, b);
+  CHECK(difference.mismatch == "");
+  INFO("largest relative difference " << difference.worst << " in " << difference.worst_name);
+  CHECK(difference.worst <= 1e-5);
 }
 
 TEST_CASE("train: data parallel: a killed rank ends the other with a clear error within the timeout") {
