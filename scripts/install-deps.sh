@@ -5,6 +5,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ccache pkg-config
+  ninja-build             # scripts/build.sh's generator when present (builds side by side)
   libtorch-dev            # LibTorch 1.13 (CPU): autograd for encoder, generator, decoders
   libopenblas0-openmp     # BLAS for LibTorch: 100 GFLOP/s/core instead of the 6 GFLOP/s reference BLAS
   libgloo-dev             # headers of the Gloo collectives LibTorch's c10d uses (data-parallel training)
