@@ -21,8 +21,6 @@ constexpr int kMinTransition = 4, kMaxTransition = 7, kMaxHold = 2;
 constexpr double kJitter = 0.06;
 // Each finger starts its transition up to this many frames late: fingers move independently.
 constexpr double kMaxLag = 1.0;
-// Slow wrist motion (rad): pronation/supination, flexion/extension, deviation.
-constexpr double kPronation = 0.6, kWristFlex = 0.3, kWristDeviation = 0.12;
 
 Gesture make(const std::string& name, std::array<double, 3> index, std::array<double, 3> middle,
              std::array<double, 3> ring, std::array<double, 3> pinky, double spread,
@@ -175,9 +173,9 @@ std::vector<SynthPose> make_gesture_poses(const Rig& rig, int num_frames, int he
     art.flex[kThumb] = {0.25 * opposition, kThumbMcpRange * thumb_flex,
                         kThumbIpRange * thumb_flex};
     const double t = 2 * M_PI * k / 40.0;  // one slow wrist cycle per ~8 s
-    art.pronation = kPronation * std::sin(0.9 * t + wrist_phase[0]);
-    art.wrist_flex = kWristFlex * std::sin(1.3 * t + wrist_phase[1]);
-    art.wrist_deviation = kWristDeviation * std::sin(1.7 * t + wrist_phase[2]);
+    art.pronation = WristAmplitudes::pronation * std::sin(0.9 * t + wrist_phase[0]);
+    art.wrist_flex = WristAmplitudes::flexion * std::sin(1.3 * t + wrist_phase[1]);
+    art.wrist_deviation = WristAmplitudes::deviation * std::sin(1.7 * t + wrist_phase[2]);
 
     SynthPose& pose = poses[k];
     pose.articulation = art;

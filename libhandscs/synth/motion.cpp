@@ -45,7 +45,6 @@ constexpr double kFramesPerCycle = 30.0;
 constexpr double kMcpFlex = 1.1, kPipFlex = 1.3, kDipFlex = 0.8, kMcpExtension = -0.12;
 constexpr double kSpread = 0.2;
 constexpr double kThumbOpposition = 0.85, kThumbFlex = 0.6;
-constexpr double kPronation = 0.6, kWristFlex = 0.3, kWristDeviation = 0.12;
 // Shape: per-capture base ~ N(0, 0.5^2) on the modes, per-frame jitter ~ N(0, 0.04^2) (the real
 // annotations refit the shape for every frame).
 constexpr double kShapeBase = 0.5, kShapeJitter = 0.04, kShapeClamp = 1.2;
@@ -81,9 +80,9 @@ std::vector<SynthPose> make_rom_poses(const Rig& rig, int num_frames, uint64_t s
     const double opposition = 0.5 - 0.5 * std::cos(0.8 * w + phase_opp);
 
     HandArticulation a;
-    a.pronation = kPronation * std::sin(0.5 * w + phase_pron);
-    a.wrist_flex = kWristFlex * std::sin(0.6 * w + phase_wflex);
-    a.wrist_deviation = kWristDeviation * std::sin(0.9 * w + phase_dev);
+    a.pronation = WristAmplitudes::pronation * std::sin(0.5 * w + phase_pron);
+    a.wrist_flex = WristAmplitudes::flexion * std::sin(0.6 * w + phase_wflex);
+    a.wrist_deviation = WristAmplitudes::deviation * std::sin(0.9 * w + phase_dev);
     for (int f = 1; f < kFingers; ++f) {
       a.flex[f] = {kMcpExtension + (kMcpFlex - kMcpExtension) * fist[f], kPipFlex * fist[f],
                    kDipFlex * fist[f]};

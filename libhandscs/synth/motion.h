@@ -13,6 +13,12 @@
 
 namespace handscs {
 
+// Amplitudes (rad) of the slow wrist motion of both the range-of-motion sequence and the gestures
+// (synth/gestures.h): pronation/supination, flexion/extension, deviation.
+struct WristAmplitudes {
+  static constexpr double pronation = 0.6, flexion = 0.3, deviation = 0.12;
+};
+
 struct SynthPose {
   std::array<double, 48> pose{};   // absolute axis-angle (flat_hand_mean = true), MANO joint order
   std::array<double, 10> shape{};  // a per-capture base shape plus a small per-frame jitter

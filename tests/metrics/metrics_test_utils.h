@@ -27,6 +27,7 @@
 #include "core/atomic_file.h"
 #include "core/config.h"
 #include "metrics/image_tensor.h"
+#include "metrics/lpips.h"
 #include "metrics/ssim.h"
 #include "test_support.h"
 
@@ -60,6 +61,13 @@ inline handscs::SsimConfig ssim_variant_config(const std::string& name) {
 inline std::string shared_dir() { return HANDSCS_SHARED_DIR; }
 inline std::string pairs_dir() { return shared_dir() + "/testdata/metric_pairs"; }
 inline std::string lpips_alex_path() { return shared_dir() + "/assets/lpips/lpips_alex_v0.1.pt"; }
+
+// LPIPS with the shared AlexNet weights.
+inline handscs::Lpips load_alex() {
+  handscs::LpipsConfig config;
+  config.weights = lpips_alex_path();
+  return handscs::Lpips(config);
+}
 
 // [1, 3, H, W] float32 RGB in [0, 1] of a shared pair image ("ref" or "dist").
 inline torch::Tensor load_pair_image(const std::string& which, const std::string& name) {

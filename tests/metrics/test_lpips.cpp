@@ -12,12 +12,6 @@ using Catch::Matchers::WithinAbs;
 
 namespace {
 
-handscs::Lpips load_alex() {
-  handscs::LpipsConfig config;
-  config.weights = metrics_test::lpips_alex_path();
-  return handscs::Lpips(config);
-}
-
 // Reference LPIPS from torchvision's `features` layer list: 'C' conv (index i of the original
 // Sequential) + ReLU, 'P' max-pool; `taps` are the indices whose ReLU output LPIPS uses.
 struct Layer {
@@ -77,7 +71,7 @@ const std::vector<int> kVggTaps = {3, 8, 15, 22, 29};
 }  // namespace
 
 TEST_CASE("lpips alex matches the published values of the TID2013 pairs", "[lpips][oracle]") {
-  const auto lpips = load_alex();
+  const auto lpips = metrics_test::load_alex();
   const std::vector<std::pair<std::string, double>> published = {{"I03", 0.7237}, {"I04", 0.2572}};
   for (const auto& [name, expected] : published) {
     const auto ref = metrics_test::load_pair_image("ref", name);
@@ -98,7 +92,7 @@ TEST_CASE("lpips alex matches the published values of the TID2013 pairs", "[lpip
 
 TEST_CASE("lpips alex equals the torchvision layer-list reference and batches independently", "[lpips]") {
   const auto dict = handscs::read_tensor_dict(metrics_test::lpips_alex_path());
-  const auto lpips = load_alex().to(torch::kDouble);
+  const auto lpips = metrics_test::load_alex().to(torch::kDouble);
   const auto x = metrics_test::smooth_image({2, 3, 67, 45}, 41);
   const auto y = metrics_test::smooth_image({2, 3, 67, 45}, 42);
   const auto value = lpips.distance(x, y);
@@ -184,7 +178,7 @@ TEST_CASE("unit_normalize_channels keeps value and gradient finite for zero feat
 }
 
 TEST_CASE("lpips loss gradients match finite differences (double, alex)", "[lpips][gradient]") {
-  const auto lpips = load_alex().to(torch::kDouble);
+  const auto lpips = metrics_test::load_alex().to(torch::kDouble);
   const auto x = metrics_test::smooth_image({1, 3, 40, 44}, 71);
   const auto y = metrics_test::smooth_image({1, 3, 40, 44}, 72);
   // Central differences, step 1e-6, on 40 random pixels and 4 random directions, for each input.
@@ -209,7 +203,7 @@ TEST_CASE("lpips loss gradients match finite differences (double, alex)", "[lpip
 }
 
 TEST_CASE("lpips rejects wrong shapes, dtypes and too-small images", "[lpips]") {
-  const auto lpips = load_alex();
+  const auto lpips = metrics_test::load_alex();
   CHECK_THROWS_WITH(lpips.distance(torch::zeros({1, 1, 64, 64}), torch::zeros({1, 1, 64, 64})),
                     Catch::Contains("lpips: images must be [B, 3, H, W], got [2, 1, 64, 64]"));
   CHECK_THROWS_WITH(lpips.distance(torch::zeros({1, 3, 64, 64}), torch::zeros({1, 3, 64, 65})),
@@ -222,7 +216,7 @@ TEST_CASE("lpips rejects wrong shapes, dtypes and too-small images", "[lpips]") 
 }
 
 TEST_CASE("lpips min_image_side is the smallest side features() accepts (brute force)", "[lpips]") {
-  const auto lpips = load_alex();
+  const auto lpips = metrics_test::load_alex();
   const int64_t side = lpips.min_image_side();
   const auto accepts = [&](int64_t s) {
     try {

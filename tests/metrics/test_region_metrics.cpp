@@ -55,12 +55,6 @@ std::optional<double> loop_mean(const torch::Tensor& map, const torch::Tensor& r
   return sum / count;
 }
 
-handscs::Lpips load_alex() {
-  handscs::LpipsConfig config;
-  config.weights = metrics_test::lpips_alex_path();
-  return handscs::Lpips(config);
-}
-
 }  // namespace
 
 TEST_CASE("region PSNR equals a per-pixel loop over the region's pixels", "[regions]") {
@@ -187,7 +181,7 @@ TEST_CASE("upsample_mean_preserving keeps the mean of any map exactly", "[region
 }
 
 TEST_CASE("the spatial LPIPS map's mean is the scalar LPIPS", "[regions][lpips]") {
-  const auto lpips = load_alex();
+  const auto lpips = metrics_test::load_alex();
   for (const std::string name : {"I03", "I04"}) {
     INFO(name);
     const auto ref = metrics_test::load_pair_image("ref", name);
@@ -215,7 +209,7 @@ TEST_CASE("region LPIPS is the mean of the spatial map over the region's pixels"
   handscs::EvalConfig config;
   config.lpips.weights = metrics_test::lpips_alex_path();
   const handscs::ImageScorer scorer(config);
-  const auto lpips = load_alex();
+  const auto lpips = metrics_test::load_alex();
   const int64_t h = 64, w = 80;
   const auto gt = random_hwc(h, w, 51);
   const auto pred = (gt + 0.3 * (random_hwc(h, w, 52) - 0.5)).clamp(0, 1);
