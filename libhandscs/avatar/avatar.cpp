@@ -155,15 +155,19 @@ void Avatar::set_dtype(torch::ScalarType dtype) {
   frozen_.reset();  // Module::to swaps parameter data (set_data), which the version check may miss
 }
 
+RasterOutput render_posed(const PosedGaussians& posed, const Camera& camera,
+                          const RasterSettings& settings, const torch::Tensor& means2d_probe) {
+  return rasterize_gaussians(posed.means, posed.covariances, posed.colors, posed.opacities, camera,
+                             settings, means2d_probe);
+}
+
 AvatarOutput Avatar::forward(const torch::Tensor& pose_in, const torch::Tensor& shape,
                              const torch::Tensor& trans, const Camera& camera,
                              const RasterSettings& settings, const torch::Tensor& means2d_probe,
                              bool need_descriptor) {
   AvatarOutput out;
   out.state = pose(pose_in, shape, trans, need_descriptor);
-  const auto& p = out.state.posed;
-  out.render = rasterize_gaussians(p.means, p.covariances, p.colors, p.opacities, camera, settings,
-                                   means2d_probe);
+  out.render = render_posed(out.state.posed, camera, settings, means2d_probe);
   return out;
 }
 

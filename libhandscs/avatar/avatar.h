@@ -27,6 +27,11 @@ struct PosedGaussians {
   torch::Tensor opacities;    // [N]
 };
 
+// Rasterises posed Gaussians from `camera` (render/rasterize.h); means2d_probe as there. One posed
+// set may be rendered from several cameras (a pose decoded once).
+RasterOutput render_posed(const PosedGaussians& posed, const Camera& camera,
+                          const RasterSettings& settings, const torch::Tensor& means2d_probe = {});
+
 // Everything one forward pass produces that losses and tools may need.
 struct AvatarState {
   PosedGaussians posed;

@@ -141,9 +141,7 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
     AvatarOutput out;
     out.state = memo.pose(f.pose.data(), f.shape.data(), f.trans.data());
     const auto t0 = std::chrono::steady_clock::now();
-    const auto& posed = out.state.posed;
-    out.render = rasterize_gaussians(posed.means, posed.covariances, posed.colors, posed.opacities,
-                                     camera, settings);
+    out.render = render_posed(out.state.posed, camera, settings);
     forward_ms.push_back(memo.pose_ms() + std::chrono::duration<double, std::milli>(
                                               std::chrono::steady_clock::now() - t0).count());
     {

@@ -191,8 +191,7 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, const ModelEvalOptio
       // full cost plus its own rasterisation, as if each were rendered alone.
       const auto& posed = memo.pose(frame.pose.data(), frame.shape.data(), frame.trans.data()).posed;
       const auto t0 = std::chrono::steady_clock::now();
-      const RasterOutput render = rasterize_gaussians(posed.means, posed.covariances, posed.colors,
-                                                      posed.opacities, sample.camera, settings);
+      const RasterOutput render = render_posed(posed, sample.camera, settings);
       forward_ms.push_back(memo.pose_ms() + std::chrono::duration<double, std::milli>(
                                                 std::chrono::steady_clock::now() - t0).count());
       const auto pred = render.rgb.clamp(0, 1);

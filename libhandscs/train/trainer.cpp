@@ -329,9 +329,7 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
     probes.push_back(densify ? torch::zeros({g.size(), 2}).requires_grad_(true) : torch::Tensor());
     RasterSettings settings;
     settings.background = view.background;
-    const auto& p = state.posed;
-    renders.push_back(rasterize_gaussians(p.means, p.covariances, p.colors, p.opacities,
-                                          view.camera, settings, probes.back()));
+    renders.push_back(render_posed(state.posed, view.camera, settings, probes.back()));
   }
   const auto t2 = Clock::now();
 
