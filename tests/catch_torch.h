@@ -2,6 +2,6 @@
 // Catch2's; this includes torch, drops glog's CHECK, then includes Catch2.
 #pragma once
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "catch_after_torch.h"

@@ -3,7 +3,7 @@
 // decoders' offsets reach the output.
 #pragma once
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "avatar/avatar.h"
 

@@ -1,6 +1,6 @@
 #include "avatar/avatar.h"
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "avatar/covariance_chain.h"
 #include "core/error.h"

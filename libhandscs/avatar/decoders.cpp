@@ -1,6 +1,6 @@
 #include "avatar/decoders.h"
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "avatar/gaussians.h"
 #include "render/rotation.h"

@@ -1,6 +1,6 @@
 #include "avatar/frozen_decoders.h"
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 namespace handscs {
 

@@ -6,7 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 namespace handscs {
 

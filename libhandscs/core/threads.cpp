@@ -7,7 +7,7 @@
 
 #include <ATen/Parallel.h>
 #include <omp.h>
-#include <torch/torch.h>
+#include <torch/types.h>
 
 namespace handscs {
 

@@ -7,7 +7,8 @@
 
 #include <opencv2/videoio.hpp>
 #include <spdlog/spdlog.h>
-#include <torch/torch.h>
+#include <torch/types.h>
+#include <torch/linalg.h>  // after types.h: it is not self-contained
 
 #include "avatar/avatar.h"
 #include "avatar/pose_memo.h"

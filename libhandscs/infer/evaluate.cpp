@@ -7,7 +7,7 @@
 
 #include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "avatar/avatar.h"
 #include "avatar/pose_memo.h"

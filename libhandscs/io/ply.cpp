@@ -6,7 +6,7 @@
 #include <sstream>
 #include <vector>
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "core/atomic_file.h"
 #include "core/error.h"

@@ -1,6 +1,6 @@
 #include "io/ply_check.h"
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 namespace handscs {
 

@@ -4,7 +4,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <vector>
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "core/atomic_file.h"
 #include "core/error.h"

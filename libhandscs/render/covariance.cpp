@@ -1,6 +1,6 @@
 // covariance_from_scale_rotation (declared in render/rasterize.h):
 //   Sigma = R(q) diag(s)^2 R(q)^T, returned as the upper triangle (xx, xy, xz, yy, yz, zz); plain torch ops.
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "render/rasterize.h"
 #include "render/rotation.h"

@@ -1,7 +1,7 @@
 #include "render/raster_work.h"
 
 #include <ATen/Dispatch.h>
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "render/binning.h"
 #include "render/composite.h"

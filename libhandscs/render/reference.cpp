@@ -1,6 +1,6 @@
 #include "render/reference.h"
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "render/composite.h"
 #include "render/raster_frame.h"

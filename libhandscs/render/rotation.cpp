@@ -1,6 +1,6 @@
 #include "render/rotation.h"
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 namespace handscs {
 

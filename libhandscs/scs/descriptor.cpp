@@ -1,6 +1,6 @@
 #include "scs/descriptor.h"
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 namespace handscs {
 

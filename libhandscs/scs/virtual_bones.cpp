@@ -1,6 +1,6 @@
 #include "scs/virtual_bones.h"
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "hand/rig.h"
 

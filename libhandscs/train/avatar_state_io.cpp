@@ -1,6 +1,6 @@
 #include "train/avatar_state_io.h"
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "core/error.h"
 

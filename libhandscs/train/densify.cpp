@@ -1,7 +1,7 @@
 #include "train/densify.h"
 #include "render/rotation.h"
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 namespace handscs {
 

@@ -1,6 +1,6 @@
 #include "train/losses.h"
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "metrics/image_tensor.h"
 #include "metrics/ssim.h"

@@ -11,7 +11,7 @@
 
 #include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "core/atomic_file.h"
 #include "core/config.h"

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <functional>
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "avatar/avatar.h"
 #include "core/error.h"

@@ -4,7 +4,7 @@
 // weights and embeddings (the frozen values are rebuilt, never stale).
 #include "catch_torch.h"
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "avatar/avatar.h"
 #include "avatar/frozen_decoders.h"

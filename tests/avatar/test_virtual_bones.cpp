@@ -1,7 +1,7 @@
 // Virtual-bone generator: attention rows sum to 1, t in [0, 1], endpoints follow the paper's formula.
 #include "catch_torch.h"
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "scs/topology.h"
 #include "scs/virtual_bones.h"

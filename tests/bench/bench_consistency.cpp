@@ -9,7 +9,7 @@
 // the share of the pairs' similarity weight those skipped pairs carried. Prints one JSON object:
 //   handscs-bench-consistency --checkpoint RUN [--capture ROOT] [--k 16,32,64,128] [--pairs 20]
 //                             [--gaussians 3000,10000,20000] [--min-weight 0.05]
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>

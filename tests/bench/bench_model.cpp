@@ -15,7 +15,7 @@
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "avatar/avatar.h"
 #include "avatar/covariance_chain.h"

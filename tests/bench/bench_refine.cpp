@@ -5,7 +5,7 @@
 // between annotated and rendered pose of each finger joint and of the global orientation, and the
 // translation error, before and after the correction. Prints one JSON object. Usage:
 //   handscs-bench-refine --run RUN [--preset real_demo]
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include <CLI/CLI.hpp>
 #include <cmath>

@@ -15,7 +15,7 @@
 #include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "core/atomic_file.h"
 #include "io/ply.h"

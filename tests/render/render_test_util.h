@@ -9,7 +9,7 @@
 #include <vector>
 
 #include <omp.h>
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "core/threads.h"
 #include "render/rasterize.h"

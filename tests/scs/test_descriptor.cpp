@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "hand/lbs.h"
 #include "scs/descriptor.h"

@@ -1,7 +1,7 @@
 // Static bone basis and smoothing kernel (paper §3.1.1, DESIGN.md §4).
 #include "catch_torch.h"
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "core/error.h"
 #include "scs/topology.h"

@@ -4,7 +4,7 @@
 
 #include <utility>
 
-#include <torch/torch.h>
+#include <torch/types.h>
 
 #include "avatar/avatar.h"
 

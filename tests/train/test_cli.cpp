@@ -125,22 +125,25 @@ TEST_CASE("cli: kill -9 during checkpoint writes leaves a loadable checkpoint") 
                               "/configs/tiny.json --out " + run_dir +
                               " --threads 1 --log-level error --set data.root=" + tiny_capture_dir() +
                               " train.iterations=100000 train.checkpoint_every=1";
-  for (int delay_ms : {1500, 2300, 3100}) {
+  for (int delay_ms : {120, 370, 630}) {
+    const auto before = handscs::latest_checkpoint(run_dir);
     const pid_t pid = fork();
     REQUIRE(pid >= 0);
     if (pid == 0) {
       execl("/bin/sh", "sh", "-c", ("exec " + command + " > /dev/null 2>&1").c_str(), nullptr);
       _exit(127);
     }
-    // Wait until the first checkpoint exists, then kill at an arbitrary moment.
-    for (int i = 0; i < 600 && handscs::latest_checkpoint(run_dir).empty(); ++i)
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    // Wait until this start has written a checkpoint of its own (it is writing one every step
+    // then), then kill at an arbitrary moment.
+    for (int i = 0; i < 600 && handscs::latest_checkpoint(run_dir) == before; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
     std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
     kill(pid, SIGKILL);
     int status = 0;
     waitpid(pid, &status, 0);
     const auto latest = handscs::latest_checkpoint(run_dir);
     REQUIRE_FALSE(latest.empty());
+    CHECK(latest != before);  // this start wrote checkpoints before its kill
     INFO(latest);
     CHECK_NOTHROW(handscs::load_checkpoint(latest));
     // Every file that looks like a checkpoint is complete (temporaries have another name).
