@@ -5,6 +5,7 @@
 #include "avatar/covariance_chain.h"
 #include "core/error.h"
 #include "core/threads.h"
+#include "hand/lbs_one_pose.h"
 #include "scs/descriptor.h"
 
 namespace handscs {
@@ -61,9 +62,11 @@ torch::Tensor Avatar::compute_descriptor(const torch::Tensor& pose, const LbsOut
   std::vector<torch::Tensor> parts;
   const auto posed_joints = lbs.joints[0];      // [21, 3]
   const auto canonical_joints = lbs.rest_joints[0];
-  if (uses_static_bones())
-    parts.push_back(static_descriptor(lbs_means, posed_joints, topology_, config_.scs.tau,
-                                      config_.scs.norm_eps));
+  if (uses_static_bones()) {
+    // Inference: the same arithmetic in one pass (scs/descriptor.h).
+    const auto descriptor = torch::GradMode::is_enabled() ? static_descriptor : static_descriptor_loop;
+    parts.push_back(descriptor(lbs_means, posed_joints, topology_, config_.scs.tau, config_.scs.norm_eps));
+  }
   if (generator_) {
     const bool posed_space = config_.scs.virtual_space == ScsConfig::VirtualSpace::posed;
     *bones = generator_->forward(pose, canonical_joints, posed_space ? posed_joints : canonical_joints);
@@ -102,7 +105,10 @@ AvatarState Avatar::pose(const torch::Tensor& pose_in, const torch::Tensor& shap
   const auto trans = trans_in.to(dtype).reshape({1, 3});
 
   AvatarState s;
-  s.lbs = lbs(rig_, pose, shape, trans, LbsOptions{config_.flat_hand_mean});
+  // Inference: the same skinning in plain loops (hand/lbs_one_pose.h).
+  const LbsOptions lbs_options{config_.flat_hand_mean};
+  s.lbs = torch::GradMode::is_enabled() ? lbs(rig_, pose, shape, trans, lbs_options)
+                                        : lbs_one_pose(rig_, pose, shape, trans, lbs_options);
   auto& g = gaussians_;
   // Per-Gaussian blend transform T = sum_k w_k A_k and blend offset of the nearest rig vertex.
   const auto transforms =

@@ -15,6 +15,12 @@ namespace handscs {
 torch::Tensor static_descriptor(const torch::Tensor& x, const torch::Tensor& joints,
                                 const BoneTopology& topology, double tau, double eps);
 
+// The same static descriptor in one pass over the Gaussians (inference, no autograd): the LibTorch
+// form above builds ~15 [N, E, 3]- and [N, E]-sized temporaries. Float or double; equal to it to
+// rounding (tests/scs/test_descriptor.cpp).
+torch::Tensor static_descriptor_loop(const torch::Tensor& x, const torch::Tensor& joints,
+                                     const BoneTopology& topology, double tau, double eps);
+
 // x: [N, 3]; start, end: [M, 3] virtual bone endpoints p, q; returns [N, M].
 // With d = |r|, d * rho = r.b / |b| exactly (for |r| >= eps), which is what is computed: it is smooth
 // where the cosine alone is not.

@@ -25,6 +25,7 @@
 #include "core/logging.h"
 #include "core/threads.h"
 #include "hand/lbs.h"
+#include "hand/lbs_one_pose.h"
 #include "scs/descriptor.h"
 #include "bench_timing.h"
 #include "train_step_timing.h"
@@ -260,8 +261,41 @@ int main(int argc, char** argv) {
         t_chain_fused.push_back(fused);
       }
     }
+    // Skinning and the static descriptor at inference, alternating in one process: LibTorch ops as
+    // the training path runs them against hand/lbs_one_pose.h and static_descriptor_loop.
+    std::vector<double> t_lbs_ops, t_lbs_loops, t_static_ops, t_static_loop;
+    {
+      c10::InferenceMode guard;
+      const auto state = avatar.pose(pose, shape, trans);
+      const auto joints = state.lbs.joints[0];
+      const auto& tau = config.scs.tau;
+      const auto& eps = config.scs.norm_eps;
+      for (int r = 0; r < 4 * repeats + 2; ++r) {
+        const auto novel_pose = torch::randn({48}) * 0.2;
+        auto t0 = Clock::now();
+        (void)handscs::lbs(avatar.rig(), novel_pose.view({1, 48}), shape.view({1, 10}), trans.view({1, 3}));
+        const double lbs_ops = ms_since(t0);
+        t0 = Clock::now();
+        (void)handscs::lbs_one_pose(avatar.rig(), novel_pose, shape, trans);
+        const double lbs_loops = ms_since(t0);
+        t0 = Clock::now();
+        (void)handscs::static_descriptor(state.lbs_means, joints, avatar.topology(), tau, eps);
+        const double static_ops = ms_since(t0);
+        t0 = Clock::now();
+        (void)handscs::static_descriptor_loop(state.lbs_means, joints, avatar.topology(), tau, eps);
+        const double static_loop = ms_since(t0);
+        if (r < 2) continue;
+        t_lbs_ops.push_back(lbs_ops);
+        t_lbs_loops.push_back(lbs_loops);
+        t_static_ops.push_back(static_ops);
+        t_static_loop.push_back(static_loop);
+      }
+    }
     nlohmann::json row;
     row["gaussians"] = n;
+    row["inference_lbs_ms"] = {{"ops", median(t_lbs_ops)}, {"loops", median(t_lbs_loops)}};
+    row["inference_static_descriptor_ms"] = {{"ops", median(t_static_ops)},
+                                             {"loop", median(t_static_loop)}};
     row["inference_covariance_chain_ms"] = {{"ops", median(t_chain_ops)},
                                             {"fused", median(t_chain_fused)}};
     row["inference_decoders_ms"] = {{"plain", median(t_decoders_plain)},

@@ -4,6 +4,7 @@
 
 #include "hand/joint_order.h"
 #include "hand/lbs.h"
+#include "hand/lbs_one_pose.h"
 #include "hand/procedural_hand.h"
 #include "rig_fixtures.h"
 
@@ -65,6 +66,44 @@ TEST_CASE("lbs matches a plain-loop MANO reference (toy rig with pose and shape 
       CHECK(max_abs(out.joint_transforms[b].slice(1, 0, 3), ref_transforms) < 1e-12);
     }
   }
+}
+
+TEST_CASE("lbs_one_pose gives every output of lbs, in double and in float") {
+  // The toy rig has pose and shape blend shapes (the procedural hand's are zero); the poses include
+  // a zero one (every joint on the Taylor branch) and large angles.
+  const Rig rig = test::make_toy_rig(40, 7);
+  torch::manual_seed(12);
+  const std::vector<torch::Tensor> poses = {torch::zeros({kPoseDim}, f64),
+                                            torch::randn({kPoseDim}, f64) * 0.7,
+                                            torch::randn({kPoseDim}, f64) * 2.0};
+  const torch::Tensor shape = torch::randn({kShapeDim}, f64);
+  const torch::Tensor trans = torch::randn({3}, f64) * 0.1;
+  for (const auto& pose : poses)
+    for (bool flat : {true, false})
+      for (const auto dtype : {torch::kFloat64, torch::kFloat32}) {
+        INFO("flat " << flat << ", dtype " << dtype);
+        const LbsOptions options{flat};
+        const LbsOutput ops = lbs(rig, pose.to(dtype).view({1, kPoseDim}),
+                                  shape.to(dtype).view({1, kShapeDim}), trans.to(dtype).view({1, 3}), options);
+        const LbsOutput loops = lbs_one_pose(rig, pose.to(dtype), shape.to(dtype), trans.to(dtype), options);
+        // In double both are exact to rounding; in float lbs() rounds every op in float32 (values
+        // are ~0.1 m and transforms ~1), lbs_one_pose only its outputs.
+        const double tol = dtype == torch::kFloat64 ? 1e-12 : 2e-5;
+        const std::vector<std::pair<const char*, std::pair<torch::Tensor, torch::Tensor>>> fields = {
+            {"vertices", {ops.vertices, loops.vertices}},
+            {"joints", {ops.joints, loops.joints}},
+            {"rest_joints", {ops.rest_joints, loops.rest_joints}},
+            {"joint_transforms", {ops.joint_transforms, loops.joint_transforms}},
+            {"blend_offsets", {ops.blend_offsets, loops.blend_offsets}},
+            {"shape_offsets", {ops.shape_offsets, loops.shape_offsets}},
+            {"vertex_transforms", {ops.vertex_transforms, loops.vertex_transforms}}};
+        for (const auto& [name, pair] : fields) {
+          INFO(name);
+          REQUIRE(pair.second.sizes() == pair.first.sizes());
+          CHECK(pair.second.scalar_type() == dtype);
+          CHECK(max_abs(pair.first, pair.second) < tol);
+        }
+      }
 }
 
 TEST_CASE("lbs: zero pose returns the template") {

@@ -93,6 +93,27 @@ TEST_CASE("descriptor: continuous in position") {
   CHECK(c3 / c2 == Approx(0.1).margin(0.02));
 }
 
+TEST_CASE("descriptor: the one-pass static descriptor equals the LibTorch form") {
+  torch::manual_seed(5);
+  const auto topology = handscs::make_static_topology(handscs::ScsConfig{});
+  for (const auto dtype : {torch::kFloat64, torch::kFloat32}) {
+    auto joints = torch::randn({21, 3}, dtype) * 0.05;
+    joints[2] = joints[1].clone();  // a zero-length bone
+    // Random centres, some exactly on joints (the floored norms), 1,000 rows so the loop's
+    // parallel chunks are exercised.
+    auto x = torch::randn({1000, 3}, dtype) * 0.05;
+    x.slice(0, 0, 21).copy_(joints);
+    const auto ops = handscs::static_descriptor(x, joints, topology, 0.08, 1e-8);
+    const auto loop = handscs::static_descriptor_loop(x, joints, topology, 0.08, 1e-8);
+    REQUIRE(loop.sizes() == ops.sizes());
+    REQUIRE(loop.scalar_type() == dtype);
+    // Same operations in the same order; LibTorch's vectorised exp may differ by an ulp.
+    const double tol = dtype == torch::kFloat64 ? 1e-14 : 2e-7;
+    CHECK((loop - ops).abs().max().item<double>() <= tol);
+    CHECK(torch::isfinite(loop).all().item<bool>());
+  }
+}
+
 TEST_CASE("descriptor: Gaussians on joints and zero-length bones stay finite") {
   const auto topology = handscs::make_static_topology(handscs::ScsConfig{});
   auto joints = torch::randn({21, 3}, torch::kFloat64) * 0.05;
