@@ -1,6 +1,7 @@
 #include "metrics/ssim.h"
 
 #include <ATen/ATen.h>
+#include <ATen/Parallel.h>
 
 #include "core/error.h"
 #include "metrics/separable_blur.h"
@@ -39,6 +40,60 @@ torch::Tensor ssim_map_padded(const torch::Tensor& x, const torch::Tensor& y, in
   return ((2 * mu_xy + c1) * (2 * sigma_xy + c2)) / ((mu_xx + mu_yy + c1) * (sigma_xx + sigma_yy + c2));
 }
 
+// The same map without autograd (evaluation): the five moment images written in one pass, blurred
+// in one call, and the formula in one pass, with each value's operations in the order of
+// ssim_map_padded above (IEEE double or float, no contraction: bit-identical, tested). ~20 fewer
+// image-sized temporaries.
+template <class T>
+torch::Tensor ssim_map_padded_direct(const torch::Tensor& x_in, const torch::Tensor& y_in,
+                                     int64_t pad) {
+  const auto x = x_in.contiguous(), y = y_in.contiguous();
+  const int64_t batch = x.size(0), image = x[0].numel(), n = batch * image;
+  // [5B, C, H, W]: x, x x, x y, y, y y (the grouping of ssim_map_padded's two blur calls).
+  auto planes = at::empty({5 * batch, x.size(1), x.size(2), x.size(3)}, x.options());
+  const T* xp = x.data_ptr<T>();
+  const T* yp = y.data_ptr<T>();
+  T* pp = planes.data_ptr<T>();
+  at::parallel_for(0, n, 1 << 14, [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) {
+      const T a = xp[i], b = yp[i];
+      pp[i] = a;
+      pp[n + i] = a * a;
+      pp[2 * n + i] = a * b;
+      pp[3 * n + i] = b;
+      pp[4 * n + i] = b * b;
+    }
+  });
+  const auto moments = separable_blur(planes, gaussian_taps(kSsimWindow, kSsimSigma, x.scalar_type()), pad);
+  const int64_t m = moments[0].numel() * batch;  // values per moment after the blur
+  auto out = at::empty({batch, moments.size(1), moments.size(2), moments.size(3)}, x.options());
+  const T* mp = moments.data_ptr<T>();
+  T* op = out.data_ptr<T>();
+  const T c1 = static_cast<T>(kSsimK1 * kSsimK1);
+  const T c2 = static_cast<T>(kSsimK2 * kSsimK2);
+  at::parallel_for(0, m, 1 << 14, [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) {
+      const T mu_x = mp[i], mu_y = mp[3 * m + i];
+      const T mu_xx = mu_x * mu_x, mu_yy = mu_y * mu_y, mu_xy = mu_x * mu_y;
+      const T sigma_xx = mp[m + i] - mu_xx;
+      const T sigma_yy = mp[4 * m + i] - mu_yy;
+      const T sigma_xy = mp[2 * m + i] - mu_xy;
+      op[i] = ((T(2) * mu_xy + c1) * (T(2) * sigma_xy + c2)) /
+              ((mu_xx + mu_yy + c1) * (sigma_xx + sigma_yy + c2));
+    }
+  });
+  return out;
+}
+
+// ssim_map_padded, or its direct form when nothing needs a gradient.
+torch::Tensor ssim_map_any(const torch::Tensor& x, const torch::Tensor& y, int64_t pad) {
+  const bool graph = at::GradMode::is_enabled() && (x.requires_grad() || y.requires_grad());
+  if (graph) return ssim_map_padded(x, y, pad);
+  if (x.scalar_type() == at::kDouble) return ssim_map_padded_direct<double>(x, y, pad);
+  if (x.scalar_type() == at::kFloat) return ssim_map_padded_direct<float>(x, y, pad);
+  return ssim_map_padded(x, y, pad);  // separable_blur names the unsupported dtype
+}
+
 }  // namespace
 
 torch::Tensor rgb_to_gray_matlab(const torch::Tensor& rgb) {
@@ -57,12 +112,12 @@ torch::Tensor ssim_map(const torch::Tensor& x, const torch::Tensor& y, const Ssi
   check_pair(x, y, "ssim");
   switch (config.variant) {
     case SsimConfig::Variant::three_dgs:
-      return ssim_map_padded(x, y, kSsimWindow / 2);
+      return ssim_map_any(x, y, kSsimWindow / 2);
     case SsimConfig::Variant::valid:
-      return ssim_map_padded(x, y, 0);
+      return ssim_map_any(x, y, 0);
     case SsimConfig::Variant::matlab:
       // L = 255 on integer gray levels equals L = 1 on gray/255: C1, C2 scale with L^2.
-      return ssim_map_padded(rgb_to_gray_matlab(x), rgb_to_gray_matlab(y), 0).to(x.scalar_type());
+      return ssim_map_any(rgb_to_gray_matlab(x), rgb_to_gray_matlab(y), 0).to(x.scalar_type());
   }
   throw Error("ssim: unknown variant");
 }

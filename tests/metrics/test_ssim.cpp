@@ -69,6 +69,27 @@ TEST_CASE("ssim map equals the dense conv2d reference for both padded variants",
   CHECK(per_image[1].item<double>() == Approx(map_3dgs[1].mean().item<double>()).epsilon(1e-14));
 }
 
+TEST_CASE("ssim map without autograd is bit-identical to the differentiable one", "[ssim]") {
+  // Evaluation (no gradient needed) takes a direct path: one pass for the moment images, one blur
+  // call, one pass for the formula. It must not move any reported SSIM.
+  for (const auto dtype : {torch::kFloat64, torch::kFloat32}) {
+    const auto x = metrics_test::smooth_image({2, 3, 40, 57}, 31).to(dtype);
+    const auto y = metrics_test::smooth_image({2, 3, 40, 57}, 32).to(dtype);
+    for (const char* name : {"3dgs", "valid", "matlab"}) {
+      INFO(name << ", dtype " << dtype);
+      torch::Tensor direct;
+      {
+        torch::NoGradGuard no_grad;
+        direct = handscs::ssim_map(x, y, variant(name));
+      }
+      const auto graph = handscs::ssim_map(x.clone().requires_grad_(true), y, variant(name)).detach();
+      REQUIRE(direct.sizes() == graph.sizes());
+      CHECK(direct.scalar_type() == dtype);
+      CHECK(torch::equal(direct, graph));
+    }
+  }
+}
+
 TEST_CASE("ssim of an image with itself is 1 and the loss is 0", "[ssim]") {
   const auto x = metrics_test::smooth_image({1, 3, 16, 16}, 23);
   for (const char* name : {"3dgs", "valid", "matlab"})
