@@ -6,14 +6,45 @@
 
 #include <ATen/ATen.h>
 #include <ATen/Dispatch.h>
+#include <ATen/Parallel.h>
 #include <torch/csrc/autograd/custom_function.h>
+
+#include "core/simd_level.h"
 
 namespace handscs {
 
 namespace {
 
-// Below this many output values per pass, threads cost more than they save.
+// Output values per parallel task: below this, threads cost more than they save.
 constexpr int64_t kParallelThreshold = 1 << 15;
+
+// No contraction into FMAs anywhere in the kernels: each output must be the plain loop's value.
+#pragma GCC push_options
+#pragma GCC optimize("fp-contract=off")
+namespace generic {
+#include "metrics/separable_blur_rows.inc"
+}  // namespace generic
+
+#pragma GCC push_options
+#pragma GCC target("avx2")
+namespace avx2 {
+#include "metrics/separable_blur_rows.inc"
+}  // namespace avx2
+#pragma GCC pop_options
+
+#pragma GCC push_options
+#pragma GCC target("avx512f")
+namespace avx512 {
+#include "metrics/separable_blur_rows.inc"
+}  // namespace avx512
+#pragma GCC pop_options
+#pragma GCC pop_options  // fp-contract
+
+template <typename T>
+using RowsFn = void (*)(const T*, T*, int64_t, int64_t, int64_t, int64_t, const T*, int64_t, int64_t);
+template <typename T>
+using ColumnsFn = void (*)(const T*, T*, int64_t, int64_t, int64_t, int64_t, int64_t, const T*, int64_t,
+                           int64_t);
 
 // Raw kernel. Pass 1 filters each row of `input` into `temp` ([planes, H, out_w]); pass 2 filters
 // the columns of `temp` into `output` ([planes, out_h, out_w]). Zero padding is implicit: taps that
@@ -23,40 +54,28 @@ void separable_blur_kernel(const T* input, T* temp, T* output, int64_t planes, i
                            int64_t width, const T* taps, int64_t num_taps, int64_t pad) {
   const int64_t out_h = height + 2 * pad - num_taps + 1;
   const int64_t out_w = width + 2 * pad - num_taps + 1;
-
+  RowsFn<T> rows_fn = &generic::blur_rows<T>;
+  ColumnsFn<T> columns_fn = &generic::blur_columns<T>;
+  switch (active_simd_level()) {
+    case SimdLevel::avx512:
+      rows_fn = &avx512::blur_rows<T>;
+      columns_fn = &avx512::blur_columns<T>;
+      break;
+    case SimdLevel::avx2:
+      rows_fn = &avx2::blur_rows<T>;
+      columns_fn = &avx2::blur_columns<T>;
+      break;
+    default:
+      break;
+  }
   const int64_t rows = planes * height;
-#pragma omp parallel for schedule(static) if (rows * out_w > kParallelThreshold)
-  for (int64_t row = 0; row < rows; ++row) {
-    const T* in = input + row * width;
-    T* t = temp + row * out_w;
-    for (int64_t x = 0; x < out_w; ++x) t[x] = T(0);
-    for (int64_t k = 0; k < num_taps; ++k) {
-      const T w = taps[k];
-      // Output x reads input x + k - pad, which must lie in [0, width).
-      const int64_t lo = std::max<int64_t>(0, pad - k);
-      const int64_t hi = std::min<int64_t>(out_w, width + pad - k);
-      const int64_t shift = k - pad;
-#pragma omp simd
-      for (int64_t x = lo; x < hi; ++x) t[x] += w * in[x + shift];
-    }
-  }
-
-  const int64_t out_rows = planes * out_h;
-#pragma omp parallel for schedule(static) if (out_rows * out_w > kParallelThreshold)
-  for (int64_t out_row = 0; out_row < out_rows; ++out_row) {
-    const int64_t plane = out_row / out_h;
-    const int64_t y = out_row % out_h;
-    T* o = output + out_row * out_w;
-    for (int64_t x = 0; x < out_w; ++x) o[x] = T(0);
-    for (int64_t k = 0; k < num_taps; ++k) {
-      const int64_t src_y = y + k - pad;
-      if (src_y < 0 || src_y >= height) continue;
-      const T w = taps[k];
-      const T* t = temp + (plane * height + src_y) * out_w;
-#pragma omp simd
-      for (int64_t x = 0; x < out_w; ++x) o[x] += w * t[x];
-    }
-  }
+  at::parallel_for(0, rows, std::max<int64_t>(1, kParallelThreshold / out_w), [&](int64_t b, int64_t e) {
+    rows_fn(input, temp, b, e, width, out_w, taps, num_taps, pad);
+  });
+  at::parallel_for(0, planes * out_h, std::max<int64_t>(1, kParallelThreshold / out_w),
+                   [&](int64_t b, int64_t e) {
+                     columns_fn(temp, output, b, e, height, out_h, out_w, taps, num_taps, pad);
+                   });
 }
 
 torch::Tensor separable_blur_fwd(const torch::Tensor& input, const torch::Tensor& taps,

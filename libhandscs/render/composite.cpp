@@ -19,7 +19,7 @@
 
 
 #include "render/projection.h"
-#include "render/simd_level.h"
+#include "core/simd_level.h"
 
 namespace handscs {
 

@@ -25,7 +25,7 @@
 //
 // Execution: OpenMP over 16x16 tiles with the thread count of set_threads (core/threads.h); results are bitwise
 // identical for any thread count. The projection runs in double whatever the dtype. The tile kernels use AVX-512,
-// AVX2+FMA or baseline x86-64 code, chosen at run time (render/simd_level.h); in float32, o G is evaluated as one
+// AVX2+FMA or baseline x86-64 code, chosen at run time (core/simd_level.h); in float32, o G is evaluated as one
 // exp2 with a 2-ulp polynomial. Cost is proportional to the visible work: culled Gaussians, empty tiles, pixels
 // outside the ROI and pixels past the transmittance stop cost (next to) nothing.
 #pragma once

@@ -26,7 +26,7 @@
 #include "hand/rig.h"
 #include "render/raster_work.h"
 #include "render/rasterize.h"
-#include "render/simd_level.h"
+#include "core/simd_level.h"
 #include "bench_timing.h"
 
 namespace {

@@ -10,7 +10,7 @@
 
 #include "core/threads.h"
 #include "render/composite.h"
-#include "render/simd_level.h"
+#include "core/simd_level.h"
 #include "render_test_util.h"
 #include "test_support.h"
 

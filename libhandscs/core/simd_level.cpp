@@ -1,4 +1,4 @@
-#include "render/simd_level.h"
+#include "core/simd_level.h"
 
 #include <algorithm>
 #include <atomic>

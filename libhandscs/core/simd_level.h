@@ -1,5 +1,6 @@
-// Which instruction set the tile kernels run with: detected once at run time (AVX-512F, else AVX2+FMA, else the
-// x86-64 baseline), so one binary runs everywhere. Tests and benchmarks may force a lower level.
+// Which instruction set the SIMD kernels (the rasterizer's tiles, the SSIM blur) run with: detected
+// once at run time (AVX-512F, else AVX2+FMA, else the x86-64 baseline), so one binary runs
+// everywhere. Tests and benchmarks may force a lower level.
 #pragma once
 
 #include <string>
