@@ -3,6 +3,7 @@
 #include <ATen/ATen.h>
 
 #include "core/error.h"
+#include "metrics/max_pool.h"
 
 namespace handscs {
 
@@ -85,8 +86,7 @@ std::vector<torch::Tensor> Lpips::features(const torch::Tensor& images) const {
       TORCH_CHECK(h.size(2) >= stage.pool_kernel && h.size(3) >= stage.pool_kernel, "lpips: images ",
                   images.size(2), "x", images.size(3), " are too small for LPIPS net '", spec_.name,
                   "' (stage ", t + 1, " gets ", h.size(2), "x", h.size(3), ")");
-      h = at::max_pool2d(h, {stage.pool_kernel, stage.pool_kernel},
-                         {stage.pool_stride, stage.pool_stride});
+      h = max_pool_2d_any(h, stage.pool_kernel, stage.pool_stride);
     }
     for (size_t c = 0; c < stage.convs.size(); ++c) {
       const auto& conv = stage.convs[c];
