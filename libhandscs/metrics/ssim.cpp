@@ -42,8 +42,10 @@ torch::Tensor ssim_map_padded(const torch::Tensor& x, const torch::Tensor& y, in
 
 // The same map without autograd (evaluation): the five moment images written in one pass, blurred
 // in one call, and the formula in one pass, with each value's operations in the order of
-// ssim_map_padded above (IEEE double or float, no contraction: bit-identical, tested). ~20 fewer
-// image-sized temporaries.
+// ssim_map_padded above, so bit-identical to it (tested); ~20 fewer image-sized temporaries. FMA
+// contraction would round differently from LibTorch's separate kernels: off here, whatever -march.
+#pragma GCC push_options
+#pragma GCC optimize("fp-contract=off")
 template <class T>
 torch::Tensor ssim_map_padded_direct(const torch::Tensor& x_in, const torch::Tensor& y_in,
                                      int64_t pad) {
@@ -84,6 +86,7 @@ torch::Tensor ssim_map_padded_direct(const torch::Tensor& x_in, const torch::Ten
   });
   return out;
 }
+#pragma GCC pop_options
 
 // ssim_map_padded, or its direct form when nothing needs a gradient.
 torch::Tensor ssim_map_any(const torch::Tensor& x, const torch::Tensor& y, int64_t pad) {
