@@ -2,7 +2,7 @@
 
 #include <array>
 #include <cmath>
-#include <vector>
+#include <string>
 
 #include <ATen/Parallel.h>
 
@@ -46,7 +46,7 @@ torch::Tensor doubles(const torch::Tensor& t) { return t.to(torch::kFloat64).con
 
 // a . b in four independent running sums: one sum would wait on its own previous addition at every
 // term (the pose blend shapes' 135-term products were most of this file's time).
-double dot(const double* a, const double* b, int n) {
+double dot_n(const double* a, const double* b, int n) {
   double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
   int i = 0;
   for (; i + 4 <= n; i += 4) {
@@ -64,16 +64,39 @@ constexpr int64_t kVertexGrain = 64;
 
 }  // namespace
 
+namespace {
+
+// [n] or [1, n]: one pose's values.
+void check_vector(const torch::Tensor& t, int64_t n, const char* what) {
+  TORCH_CHECK(t.defined() && t.numel() == n && (t.dim() == 1 || (t.dim() == 2 && t.size(0) == 1)),
+              "lbs_one_pose: ", what, " must be [", n, "] or [1, ", n, "], got ",
+              t.defined() ? t.sizes() : torch::IntArrayRef{});
+  TORCH_CHECK(t.is_cpu(), "lbs_one_pose: ", what, " must be a CPU tensor");
+}
+
+// The rig's arrays are read through raw pointers: each must hold what its shape promises.
+void check_rig_array(const torch::Tensor& t, int64_t numel, const char* name) {
+  TORCH_CHECK(t.defined() && t.numel() == numel && t.is_cpu(), "lbs_one_pose: the rig's ", name,
+              " must hold ", numel, " values on the CPU, got ",
+              t.defined() ? std::to_string(t.numel()) : std::string("none"));
+}
+
+}  // namespace
+
 LbsOutput lbs_one_pose(const Rig& rig, const torch::Tensor& pose_in, const torch::Tensor& shape_in,
                        const torch::Tensor& trans_in, const LbsOptions& options) {
-  TORCH_CHECK(rig.v_template.defined() && rig.v_template.dim() == 2,
+  TORCH_CHECK(rig.v_template.defined() && rig.v_template.dim() == 2 && rig.v_template.size(1) == 3,
               "lbs_one_pose: the rig has no template (load it with load_rig or load_rig_source)");
-  TORCH_CHECK(pose_in.numel() == kPoseDim, "lbs_one_pose: expected 48 pose values, got ",
-              pose_in.numel());
-  TORCH_CHECK(shape_in.numel() == kShapeDim, "lbs_one_pose: expected 10 shape values, got ",
-              shape_in.numel());
-  TORCH_CHECK(trans_in.numel() == 3, "lbs_one_pose: expected 3 translation values, got ",
-              trans_in.numel());
+  check_vector(pose_in, kPoseDim, "pose");
+  check_vector(shape_in, kShapeDim, "shape");
+  check_vector(trans_in, 3, "trans");
+  const int64_t vertices_in_rig = rig.num_vertices();
+  check_rig_array(rig.v_template, vertices_in_rig * 3, "v_template");
+  check_rig_array(rig.shapedirs, vertices_in_rig * 3 * kShapeDim, "shapedirs");
+  check_rig_array(rig.posedirs, vertices_in_rig * 3 * kPoseFeatureDim, "posedirs");
+  check_rig_array(rig.weights, vertices_in_rig * kRigJoints, "weights");
+  check_rig_array(rig.j_regressor, kRigJoints * vertices_in_rig, "j_regressor");
+  if (!options.flat_hand_mean) check_rig_array(rig.hands_mean, kPoseDim - 3, "hands_mean");
   const auto dtype = pose_in.scalar_type();
   TORCH_CHECK(dtype == torch::kFloat32 || dtype == torch::kFloat64,
               "lbs_one_pose: expected a float32 or float64 pose, got ", dtype);
@@ -122,7 +145,7 @@ LbsOutput lbs_one_pose(const Rig& rig, const torch::Tensor& pose_in, const torch
         double shaped = tmp[row];
         for (int s = 0; s < kShapeDim; ++s) shaped += sdp[row * kShapeDim + s] * bp[s];
         vsp[row] = shaped;
-        vpp[row] = shaped + dot(pdp + row * kPoseFeatureDim, feature.data(), kPoseFeatureDim);
+        vpp[row] = shaped + dot_n(pdp + row * kPoseFeatureDim, feature.data(), kPoseFeatureDim);
       }
   });
 

@@ -1,8 +1,7 @@
 #include "metrics/max_pool.h"
 
-#include <cmath>
 #include <algorithm>
-#include <limits>
+#include <type_traits>
 #include <vector>
 
 #include <ATen/Parallel.h>
@@ -56,24 +55,24 @@ torch::Tensor max_pool_2d(const torch::Tensor& x_in, int64_t kernel, int64_t str
               x_in.size(3), " is smaller than the ", kernel, "x", kernel, " window");
   TORCH_CHECK(x_in.scalar_type() == torch::kFloat || x_in.scalar_type() == torch::kDouble,
               "max_pool_2d: float or double, got ", x_in.scalar_type());
+  TORCH_CHECK(x_in.is_cpu(), "max_pool_2d: CPU tensors only");
   torch::NoGradGuard no_grad;
   const auto x = x_in.contiguous();
   const int64_t planes = x.size(0) * x.size(1), height = x.size(2), width = x.size(3);
   const int64_t out_h = (height - kernel) / stride + 1, out_w = (width - kernel) / stride + 1;
   auto out = torch::empty({x.size(0), x.size(1), out_h, out_w}, x.options());
-  // A plane per task at least; small planes are grouped so that a task has some work.
+  // Planes per task: about 4,096 outputs of work (an AlexNet plane at 512x334 is ~2,600), at least one.
   const int64_t grain = std::max<int64_t>(1, 4096 / std::max<int64_t>(1, out_h * out_w));
-  if (x.scalar_type() == torch::kDouble) {
+  auto run = [&](auto* in, auto* result) {
+    using T = std::remove_pointer_t<decltype(result)>;
     at::parallel_for(0, planes, grain, [&](int64_t b, int64_t e) {
-      pool_planes<double>(x.data_ptr<double>(), out.data_ptr<double>(), b, e, height, width, out_h,
-                          out_w, kernel, stride);
+      pool_planes<T>(in, result, b, e, height, width, out_h, out_w, kernel, stride);
     });
-  } else {
-    at::parallel_for(0, planes, grain, [&](int64_t b, int64_t e) {
-      pool_planes<float>(x.data_ptr<float>(), out.data_ptr<float>(), b, e, height, width, out_h,
-                         out_w, kernel, stride);
-    });
-  }
+  };
+  if (x.scalar_type() == torch::kDouble)
+    run(x.data_ptr<double>(), out.data_ptr<double>());
+  else
+    run(x.data_ptr<float>(), out.data_ptr<float>());
   return out;
 }
 

@@ -18,9 +18,7 @@ namespace {
 // Output values per parallel task: below this, threads cost more than they save.
 constexpr int64_t kParallelThreshold = 1 << 15;
 
-// No contraction into FMAs anywhere in the kernels: each output must be the plain loop's value.
-#pragma GCC push_options
-#pragma GCC optimize("fp-contract=off")
+// One copy of the kernels per instruction set (FMA contraction is off for this library: CMakeLists).
 namespace generic {
 #include "metrics/separable_blur_rows.inc"
 }  // namespace generic
@@ -38,7 +36,6 @@ namespace avx512 {
 #include "metrics/separable_blur_rows.inc"
 }  // namespace avx512
 #pragma GCC pop_options
-#pragma GCC pop_options  // fp-contract
 
 template <typename T>
 using RowsFn = void (*)(const T*, T*, int64_t, int64_t, int64_t, int64_t, const T*, int64_t, int64_t);

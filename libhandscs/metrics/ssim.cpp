@@ -40,23 +40,26 @@ torch::Tensor ssim_map_padded(const torch::Tensor& x, const torch::Tensor& y, in
   return ((2 * mu_xy + c1) * (2 * sigma_xy + c2)) / ((mu_xx + mu_yy + c1) * (sigma_xx + sigma_yy + c2));
 }
 
+// Values per parallel task of the direct path's passes: a few microseconds of work each, so that
+// threads are only woken for images (a 512x334 RGB image is 31 tasks), not for tiny crops.
+constexpr int64_t kValuesPerTask = 1 << 14;
+
 // The same map without autograd (evaluation): the five moment images written in one pass, blurred
 // in one call, and the formula in one pass, with each value's operations in the order of
 // ssim_map_padded above, so bit-identical to it (tested); ~20 fewer image-sized temporaries. FMA
-// contraction would round differently from LibTorch's separate kernels: off here, whatever -march.
-#pragma GCC push_options
-#pragma GCC optimize("fp-contract=off")
+// contraction would round differently from LibTorch's separate kernels: it is off for this library
+// (CMakeLists), whatever -march.
 template <class T>
 torch::Tensor ssim_map_padded_direct(const torch::Tensor& x_in, const torch::Tensor& y_in,
                                      int64_t pad) {
   const auto x = x_in.contiguous(), y = y_in.contiguous();
-  const int64_t batch = x.size(0), image = x[0].numel(), n = batch * image;
+  const int64_t batch = x.size(0), n = x.numel();
   // [5B, C, H, W]: x, x x, x y, y, y y (the grouping of ssim_map_padded's two blur calls).
   auto planes = at::empty({5 * batch, x.size(1), x.size(2), x.size(3)}, x.options());
   const T* xp = x.data_ptr<T>();
   const T* yp = y.data_ptr<T>();
   T* pp = planes.data_ptr<T>();
-  at::parallel_for(0, n, 1 << 14, [&](int64_t begin, int64_t end) {
+  at::parallel_for(0, n, kValuesPerTask, [&](int64_t begin, int64_t end) {
     for (int64_t i = begin; i < end; ++i) {
       const T a = xp[i], b = yp[i];
       pp[i] = a;
@@ -67,13 +70,13 @@ torch::Tensor ssim_map_padded_direct(const torch::Tensor& x_in, const torch::Ten
     }
   });
   const auto moments = separable_blur(planes, gaussian_taps(kSsimWindow, kSsimSigma, x.scalar_type()), pad);
-  const int64_t m = moments[0].numel() * batch;  // values per moment after the blur
+  const int64_t m = moments.numel() / 5;  // values per moment after the blur
   auto out = at::empty({batch, moments.size(1), moments.size(2), moments.size(3)}, x.options());
   const T* mp = moments.data_ptr<T>();
   T* op = out.data_ptr<T>();
   const T c1 = static_cast<T>(kSsimK1 * kSsimK1);
   const T c2 = static_cast<T>(kSsimK2 * kSsimK2);
-  at::parallel_for(0, m, 1 << 14, [&](int64_t begin, int64_t end) {
+  at::parallel_for(0, m, kValuesPerTask, [&](int64_t begin, int64_t end) {
     for (int64_t i = begin; i < end; ++i) {
       const T mu_x = mp[i], mu_y = mp[3 * m + i];
       const T mu_xx = mu_x * mu_x, mu_yy = mu_y * mu_y, mu_xy = mu_x * mu_y;
@@ -86,7 +89,6 @@ torch::Tensor ssim_map_padded_direct(const torch::Tensor& x_in, const torch::Ten
   });
   return out;
 }
-#pragma GCC pop_options
 
 // ssim_map_padded, or its direct form when nothing needs a gradient.
 torch::Tensor ssim_map_any(const torch::Tensor& x, const torch::Tensor& y, int64_t pad) {

@@ -60,6 +60,7 @@ torch::Tensor static_descriptor_loop_typed(const torch::Tensor& x_in, const torc
   }
   auto out = torch::empty({n, edges}, x.options());
   T* op = out.data_ptr<T>();
+  // 256 Gaussians x 20 bones per task: enough work to wake a thread for.
   at::parallel_for(0, n, 256, [&](int64_t begin, int64_t end) {
     for (int64_t i = begin; i < end; ++i) {
       const T* xi = xp + 3 * i;
@@ -83,6 +84,11 @@ torch::Tensor static_descriptor_loop(const torch::Tensor& x, const torch::Tensor
   TORCH_CHECK(joints.dim() == 2 && joints.size(1) == 3 && joints.scalar_type() == x.scalar_type(),
               "static_descriptor_loop: joints must be [J, 3] of x's dtype, got ", joints.sizes(), " ",
               joints.scalar_type());
+  TORCH_CHECK(x.is_cpu() && joints.is_cpu(), "static_descriptor_loop: CPU tensors only");
+  for (const auto& edge : topology.edges)
+    TORCH_CHECK(edge[0] >= 0 && edge[1] >= 0 && edge[0] < joints.size(0) && edge[1] < joints.size(0),
+                "static_descriptor_loop: bone (", edge[0], ", ", edge[1], ") uses joint ",
+                std::max(edge[0], edge[1]), ", but only ", joints.size(0), " joints were given");
   torch::NoGradGuard no_grad;
   if (x.scalar_type() == torch::kDouble)
     return static_descriptor_loop_typed<double>(x, joints, topology, tau, eps);

@@ -69,9 +69,10 @@ TEST_CASE("lbs matches a plain-loop MANO reference (toy rig with pose and shape 
 }
 
 TEST_CASE("lbs_one_pose gives every output of lbs, in double and in float") {
-  // The toy rig has pose and shape blend shapes (the procedural hand's are zero); the poses include
-  // a zero one (every joint on the Taylor branch) and large angles.
-  const Rig rig = test::make_toy_rig(40, 7);
+  // The toy rig has pose and shape blend shapes (the procedural hand's are zero) and enough
+  // vertices for several parallel chunks; the poses include a zero one (every joint on the Taylor
+  // branch) and large angles.
+  const Rig rig = test::make_toy_rig(300, 7);
   torch::manual_seed(12);
   const std::vector<torch::Tensor> poses = {torch::zeros({kPoseDim}, f64),
                                             torch::randn({kPoseDim}, f64) * 0.7,
@@ -104,6 +105,19 @@ TEST_CASE("lbs_one_pose gives every output of lbs, in double and in float") {
           CHECK(max_abs(pair.first, pair.second) < tol);
         }
       }
+}
+
+TEST_CASE("lbs_one_pose names what is wrong with its inputs") {
+  const Rig rig = test::make_toy_rig(20, 3);
+  const auto f64 = torch::kFloat64;
+  CHECK_THROWS_WITH(lbs_one_pose(rig, torch::zeros({2, 24}, f64), torch::zeros({10}, f64), torch::zeros({3}, f64)),
+                    Catch::Contains("pose must be [48] or [1, 48]"));
+  CHECK_THROWS_WITH(lbs_one_pose(rig, torch::zeros({48}, f64), torch::zeros({9}, f64), torch::zeros({3}, f64)),
+                    Catch::Contains("shape must be [10]"));
+  Rig broken = rig;
+  broken.posedirs = broken.posedirs.narrow(2, 0, 100);
+  CHECK_THROWS_WITH(lbs_one_pose(broken, torch::zeros({48}, f64), torch::zeros({10}, f64), torch::zeros({3}, f64)),
+                    Catch::Contains("the rig's posedirs must hold 8100 values"));
 }
 
 TEST_CASE("lbs: zero pose returns the template") {

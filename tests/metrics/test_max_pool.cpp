@@ -56,3 +56,11 @@ TEST_CASE("max_pool_2d_any keeps autograd's pooling when a gradient is wanted", 
   CHECK_FALSE(handscs::max_pool_2d_any(x, 3, 2).requires_grad());
   CHECK(torch::equal(handscs::max_pool_2d_any(x, 3, 2), y.detach()));
 }
+
+TEST_CASE("max_pool_2d names what is wrong with its input", "[max_pool]") {
+  CHECK_THROWS_WITH(handscs::max_pool_2d(torch::zeros({1, 2, 2, 9}), 3, 2),
+                    Catch::Contains("2x9 is smaller than the 3x3 window"));
+  CHECK_THROWS_WITH(handscs::max_pool_2d(torch::zeros({2, 9, 9}), 3, 2), Catch::Contains("expected [B, C, H, W]"));
+  CHECK_THROWS_WITH(handscs::max_pool_2d(torch::zeros({1, 1, 9, 9}, torch::kInt32), 3, 2),
+                    Catch::Contains("float or double"));
+}

@@ -114,6 +114,13 @@ TEST_CASE("descriptor: the one-pass static descriptor equals the LibTorch form")
   }
 }
 
+TEST_CASE("descriptor: the one-pass form refuses joints its bones do not have") {
+  const auto topology = handscs::make_static_topology(handscs::ScsConfig{});
+  // 16 rig joints instead of MANO21's 21: the tip bones would read past them.
+  CHECK_THROWS_WITH(handscs::static_descriptor_loop(torch::zeros({4, 3}), torch::zeros({16, 3}), topology, 0.08, 1e-8),
+                    Catch::Contains("uses joint 16, but only 16 joints were given"));
+}
+
 TEST_CASE("descriptor: Gaussians on joints and zero-length bones stay finite") {
   const auto topology = handscs::make_static_topology(handscs::ScsConfig{});
   auto joints = torch::randn({21, 3}, torch::kFloat64) * 0.05;

@@ -135,7 +135,7 @@ TEST_CASE("cli: kill -9 during checkpoint writes leaves a loadable checkpoint") 
     }
     // Wait until this start has written a checkpoint of its own (it is writing one every step
     // then), then kill at an arbitrary moment.
-    for (int i = 0; i < 600 && handscs::latest_checkpoint(run_dir) == before; ++i)
+    for (int i = 0; i < 3000 && handscs::latest_checkpoint(run_dir) == before; ++i)  // <= 60 s
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
     kill(pid, SIGKILL);
