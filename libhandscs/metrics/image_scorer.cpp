@@ -20,15 +20,44 @@ std::string size_text(const torch::Tensor& image) {
   return std::to_string(image.size(1)) + "x" + std::to_string(image.size(0));  // W x H
 }
 
+// Float images can hold anything; every metric's constants assume the data range [0, 1].
+// The slack admits rounding in float renders, not real out-of-range values.
+constexpr double kRangeSlack = 1e-5;
+
+// The common case in one vectorised pass: every value finite and inside the range. (The counts
+// below take ~8 image-sized LibTorch kernels, 1.3 ms of every 512x334 score against 0.18 ms.)
+template <class T>
+bool plainly_valid(const torch::Tensor& image) {
+  const auto contiguous = image.contiguous();
+  const T* p = contiguous.data_ptr<T>();
+  const int64_t n = contiguous.numel();
+  T lowest = T(0), highest = T(0), non_finite = T(0);
+#pragma omp simd reduction(min : lowest) reduction(max : highest) reduction(+ : non_finite)
+  for (int64_t i = 0; i < n; ++i) {
+    const T v = p[i];
+    lowest = v < lowest ? v : lowest;
+    highest = v > highest ? v : highest;
+    non_finite += v - v;  // 0 for finite values, NaN for NaN and +-inf
+  }
+  // Bounds in the image's dtype, as LibTorch's lt / gt with a scalar compare them below.
+  return non_finite == T(0) && lowest >= static_cast<T>(-kRangeSlack) &&
+         highest <= static_cast<T>(1 + kRangeSlack);
+}
+
+bool plainly_valid_any(const torch::Tensor& image) {
+  if (image.scalar_type() == torch::kFloat) return plainly_valid<float>(image);
+  if (image.scalar_type() == torch::kDouble) return plainly_valid<double>(image);
+  return false;  // other dtypes: the counts below decide
+}
+
 void check_image(const torch::Tensor& image, const char* what) {
   require(image.defined() && image.dim() == 3 && image.size(2) == 3,
           std::string(what) + " must be [H, W, 3]");
+  if (image.is_cpu() && plainly_valid_any(image)) return;
+  // Something is off (or the dtype is unusual): count it for the message.
   const int64_t bad = image.numel() - image.isfinite().sum().item<int64_t>();
   require(bad == 0, std::string(what) + " has " + std::to_string(bad) +
                         " non-finite values (NaN or inf)");
-  // Float images can hold anything; every metric's constants assume the data range [0, 1].
-  // The slack admits rounding in float renders, not real out-of-range values.
-  constexpr double kRangeSlack = 1e-5;
   const int64_t outside =
       (image.lt(-kRangeSlack) | image.gt(1 + kRangeSlack)).sum().item<int64_t>();
   if (outside > 0) {

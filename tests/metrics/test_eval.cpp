@@ -2,6 +2,7 @@
 // entries for each kind of bad input, masks, the LPIPS-skipped path, and the JSON/CSV outputs.
 #include "metrics_test_utils.h"  // first: brings Catch2 in after torch (see there)
 
+#include <cmath>
 #include <fstream>
 
 #include <nlohmann/json.hpp>
@@ -9,6 +10,7 @@
 #include "core/atomic_file.h"
 #include "metrics/eval_cli.h"
 #include "metrics/folder_eval.h"
+#include "metrics/image_scorer.h"
 #include "metrics/psnr.h"
 
 using Catch::Matchers::WithinAbs;
@@ -146,6 +148,34 @@ TEST_CASE("folder eval turns each bad pair into a failure entry excluded from th
   CHECK(j["failed"][0]["error"] == "size mismatch: prediction 20x16, ground truth 24x16");
   const auto table = handscs::format_eval_table(report);
   CHECK(table.find("8 of 9 images failed and are excluded from the means:") != std::string::npos);
+}
+
+TEST_CASE("image checks: the range's edges, infinities and dtypes", "[eval]") {
+  // The checks' one-pass common case must accept and refuse exactly what the counting path does:
+  // values at the slack's edge in the image's dtype pass, the next value up or down fails, +-inf
+  // and NaN fail as non-finite; float and double alike.
+  const handscs::ImageScorer scorer(handscs::EvalConfig{});
+  const auto gt = torch::full({16, 20, 3}, 0.5f);
+  for (const auto dtype : {torch::kFloat32, torch::kFloat64}) {
+    INFO("dtype " << dtype);
+    const double hi = dtype == torch::kFloat32 ? double(float(1 + 1e-5)) : 1 + 1e-5;
+    const double lo = dtype == torch::kFloat32 ? double(float(-1e-5)) : -1e-5;
+    auto with = [&](double value) {
+      auto image = torch::full({16, 20, 3}, 0.5, dtype);
+      image[3][4][1] = value;
+      return image;
+    };
+    const auto g = gt.to(dtype);
+    CHECK_NOTHROW(scorer.score(with(hi), g));
+    CHECK_NOTHROW(scorer.score(with(lo), g));
+    const double above = dtype == torch::kFloat32 ? double(std::nextafter(float(hi), 2.0f)) : std::nextafter(hi, 2.0);
+    const double below = dtype == torch::kFloat32 ? double(std::nextafter(float(lo), -2.0f)) : std::nextafter(lo, -2.0);
+    CHECK_THROWS_WITH(scorer.score(with(above), g), Catch::Contains("has 1 values outside [0, 1]"));
+    CHECK_THROWS_WITH(scorer.score(with(below), g), Catch::Contains("has 1 values outside [0, 1]"));
+    for (const double bad : {double(INFINITY), -double(INFINITY), double(NAN)})
+      CHECK_THROWS_WITH(scorer.score(with(bad), g), Catch::Contains("prediction has 1 non-finite values"));
+    CHECK_THROWS_WITH(scorer.score(g, with(INFINITY)), Catch::Contains("ground truth has 1 non-finite values"));
+  }
 }
 
 TEST_CASE("folder eval composites the ground truth with the mask", "[eval]") {
