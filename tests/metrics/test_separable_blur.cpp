@@ -29,25 +29,22 @@ torch::Tensor blur_scalar(const torch::Tensor& input, const torch::Tensor& taps_
   auto out = torch::empty({in.size(0), in.size(1), out_h, out_w}, in.options());
   const T* ip = in.data_ptr<T>();
   T* op = out.data_ptr<T>();
+  // Output `at` of a line of `length` values `stride` apart: taps inside the line, ascending k.
+  auto tap_sum = [&](const T* line, int64_t stride, int64_t length, int64_t at) {
+    T acc = T(0);
+    for (int64_t k = 0; k < k_n; ++k) {
+      const int64_t src = at + k - pad;
+      if (src >= 0 && src < length) acc += taps[k] * line[src * stride];
+    }
+    return acc;
+  };
   for (int64_t p = 0; p < planes; ++p) {
-    for (int64_t r = 0; r < h; ++r)
-      for (int64_t x = 0; x < out_w; ++x) {
-        T acc = T(0);
-        for (int64_t k = 0; k < k_n; ++k) {
-          const int64_t src = x + k - pad;
-          if (src >= 0 && src < w) acc += taps[k] * ip[(p * h + r) * w + src];
-        }
-        temp[(p * h + r) * out_w + x] = acc;
-      }
-    for (int64_t y = 0; y < out_h; ++y)
-      for (int64_t x = 0; x < out_w; ++x) {
-        T acc = T(0);
-        for (int64_t k = 0; k < k_n; ++k) {
-          const int64_t src = y + k - pad;
-          if (src >= 0 && src < h) acc += taps[k] * temp[(p * h + src) * out_w + x];
-        }
-        op[(p * out_h + y) * out_w + x] = acc;
-      }
+    for (int64_t r = 0; r < h; ++r)  // rows
+      for (int64_t x = 0; x < out_w; ++x)
+        temp[(p * h + r) * out_w + x] = tap_sum(ip + (p * h + r) * w, 1, w, x);
+    for (int64_t y = 0; y < out_h; ++y)  // then columns
+      for (int64_t x = 0; x < out_w; ++x)
+        op[(p * out_h + y) * out_w + x] = tap_sum(temp.data() + p * h * out_w + x, out_w, h, y);
   }
   return out;
 }
