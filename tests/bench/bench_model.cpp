@@ -7,7 +7,10 @@
 //                       [--threads 2] [--repeats 10] [--decoder-hidden 256]
 //                       [--decoder-precision auto|float|bf16] [--lpips-weights FILE]
 //                       [--lpips-every 1] [--views-per-pose 1] [--no-train-step]
-//                       [--work-dir /tmp/handscs-bench-model]
+//                       [--work-dir /tmp/handscs-bench-model] [--profile-ops TRACE]
+// --profile-ops writes LibTorch's op trace of `repeats` further forward + backward steps per count
+// to TRACE_<count>.json and of `repeats` further novel-pose renders to TRACE_<count>_render.json
+// (Chrome trace format; scripts/profile_ops.py totals self time per op).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -15,6 +18,7 @@
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
+#include <torch/csrc/autograd/profiler_legacy.h>
 #include <torch/types.h>
 
 #include "avatar/avatar.h"
@@ -92,6 +96,11 @@ int main(int argc, char** argv) {
   app.add_flag("--no-train-step", no_train_step, "skip train_step_ms (saves generating a capture)");
   app.add_option("--work-dir", work_dir, "where the training step's synthetic capture is written")
       ->capture_default_str();
+  std::string profile_ops;
+  app.add_option("--profile-ops", profile_ops,
+                 "after the timed runs, write LibTorch's op trace of `repeats` more forward + backward "
+                 "steps per count to TRACE_<count>.json and of as many renders to "
+                 "TRACE_<count>_render.json (scripts/profile_ops.py sums them)");
   CLI11_PARSE(app, argc, argv);
   handscs::set_threads(threads);
   train_step.decoder_hidden = decoder_hidden;
@@ -135,23 +144,28 @@ int main(int argc, char** argv) {
       for (auto& p : avatar.decoders()->parameters())
         if (p.numel() == 1) p.fill_(0.05);  // open gates: realistic, non-zero offsets
     }
-    std::vector<double> t_lbs, t_scs, t_dec, t_raster_fwd, t_forward, t_backward, t_raster_bwd;
-    for (int r = 0; r < repeats + 2; ++r) {  // two warm-up runs
-      // Full step, timed as a whole.
+    // One forward + backward of the full step (no losses), timed as a whole; gradients cleared.
+    const auto forward_backward = [&](double& fwd, double& bwd) {
       auto t0 = Clock::now();
       auto out = avatar.forward(pose, shape, trans, camera, {});
-      const double fwd = ms_since(t0);
+      fwd = ms_since(t0);
       const auto cotangent = torch::rand_like(out.render.rgb);
       t0 = Clock::now();
       ((out.render.rgb * cotangent).sum() + out.render.alpha.sum()).backward();
-      const double bwd = ms_since(t0);
+      bwd = ms_since(t0);
       for (auto& [name, tensor] : avatar.gaussians().learnable())
         if (tensor->grad().defined()) tensor->mutable_grad().reset();
       avatar.decoders()->zero_grad();
       if (avatar.generator()) avatar.generator()->zero_grad();
+      return cotangent;
+    };
+    std::vector<double> t_lbs, t_scs, t_dec, t_raster_fwd, t_forward, t_backward, t_raster_bwd;
+    for (int r = 0; r < repeats + 2; ++r) {  // two warm-up runs
+      double fwd = 0.0, bwd = 0.0;
+      const auto cotangent = forward_backward(fwd, bwd);
 
       // Stages, each timed on its own with the same inputs.
-      t0 = Clock::now();
+      auto t0 = Clock::now();
       const auto l = handscs::lbs(avatar.rig(), pose.view({1, 48}), shape.view({1, 10}),
                                   trans.view({1, 3}));
       const double lbs_ms = ms_since(t0);
@@ -200,18 +214,29 @@ int main(int argc, char** argv) {
       t_raster_fwd.push_back(raster_ms);
       t_raster_bwd.push_back(raster_bwd_ms);
     }
+    if (!profile_ops.empty()) {
+      torch::autograd::profiler::RecordProfile record(profile_ops + "_" + std::to_string(n) + ".json");
+      double fwd = 0.0, bwd = 0.0;
+      for (int r = 0; r < repeats; ++r) (void)forward_backward(fwd, bwd);
+    }
     // What handscs-render does for a new pose: the whole forward under inference mode (no autograd
     // graph), a new random pose every frame so nothing pose-dependent can be reused.
     std::vector<double> t_render;
     {
       c10::InferenceMode guard;
-      for (int r = 0; r < repeats + 2; ++r) {
+      const auto render_novel_pose = [&] {
         const auto novel_pose = torch::randn({48}) * 0.2;
         const auto t0 = Clock::now();
-        const auto out = avatar.forward(novel_pose, shape, trans, camera, {});
-        const double ms = ms_since(t0);
-        (void)out;
+        (void)avatar.forward(novel_pose, shape, trans, camera, {});
+        return ms_since(t0);
+      };
+      for (int r = 0; r < repeats + 2; ++r) {
+        const double ms = render_novel_pose();
         if (r >= 2) t_render.push_back(ms);
+      }
+      if (!profile_ops.empty()) {
+        torch::autograd::profiler::RecordProfile record(profile_ops + "_" + std::to_string(n) + "_render.json");
+        for (int r = 0; r < repeats; ++r) (void)render_novel_pose();
       }
     }
     // The decoders alone at inference, alternating in one process (so that the machine's slow and
