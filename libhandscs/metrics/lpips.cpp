@@ -3,14 +3,12 @@
 #include <ATen/ATen.h>
 
 #include "core/error.h"
+#include "metrics/lpips_tap_distance.h"
 #include "metrics/max_pool.h"
 
 namespace handscs {
 
 namespace {
-
-// LPIPS's normalisation epsilon (lpips.normalize_tensor): keeps n(f) finite for zero features.
-constexpr double kNormEps = 1e-10;
 
 // LPIPS ScalingLayer constants: the ImageNet mean/std expressed for inputs in [-1, 1].
 const double kShift[3] = {-0.030, -0.088, -0.188};
@@ -27,7 +25,7 @@ torch::Tensor unit_normalize_channels(const torch::Tensor& features) {
   const auto norm =
       at::where(nonzero, at::where(nonzero, sum_sq, at::ones_like(sum_sq)).sqrt(),
                 at::zeros_like(sum_sq));
-  return features / (norm + kNormEps);
+  return features / (norm + kLpipsNormEps);
 }
 
 Lpips::Lpips(const LpipsConfig& config)
@@ -145,8 +143,17 @@ std::vector<torch::Tensor> Lpips::layer_distances(const torch::Tensor& x, const 
   }
   std::vector<torch::Tensor> layers;
   for (size_t t = 0; t < taps_x.size(); ++t) {
-    const auto diff = (unit_normalize_channels(taps_x[t]) - unit_normalize_channels(taps_y[t])).square();
-    layers.push_back(at::conv2d(diff, lins_[t]));  // 1x1 lin
+    const auto& fx = taps_x[t];
+    const auto& fy = taps_y[t];
+    // LibTorch's form when a gradient is wanted (max_pool_2d_any's rule), the fused map otherwise.
+    const bool graph =
+        at::GradMode::is_enabled() && (fx.requires_grad() || fy.requires_grad() || lins_[t].requires_grad());
+    if (graph) {
+      const auto diff = (unit_normalize_channels(fx) - unit_normalize_channels(fy)).square();
+      layers.push_back(at::conv2d(diff, lins_[t]));  // 1x1 lin
+    } else {
+      layers.push_back(lpips_tap_distance(fx, fy, lins_[t].reshape({-1})));
+    }
   }
   return layers;
 }

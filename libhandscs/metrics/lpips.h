@@ -33,6 +33,9 @@ struct LpipsConfig {
   }
 };
 
+// LPIPS's normalisation epsilon (lpips.normalize_tensor): keeps n(f) finite for zero features.
+constexpr double kLpipsNormEps = 1e-10;
+
 // Channel unit-normalisation f / (|f|_c + 1e-10) for [B, C, H, W]. Where a feature vector is all
 // zero the norm's gradient is taken as 0 (the true derivative of |f| there is undefined and autograd
 // would give NaN), so the gradient is the finite f-direction term 1/1e-10.
@@ -53,7 +56,8 @@ class Lpips {
                          const torch::Tensor& y) const;  // [B, 3, H, W]
 
   // Per-tap distance maps w_t . (n(f_t(x)) - n(f_t(y)))^2 at each tap's resolution:
-  // [B, 1, h_t, w_t] for the five taps (lpips_spatial.h brings them to image resolution).
+  // [B, 1, h_t, w_t] for the five taps (lpips_spatial.h brings them to image resolution). When no
+  // gradient is wanted they come from lpips_tap_distance (one fused pass, lpips_tap_distance.h).
   std::vector<torch::Tensor> layer_distances(const torch::Tensor& x,         // [B, 3, H, W]
                                              const torch::Tensor& y) const;  // [B, 3, H, W]
 
