@@ -221,7 +221,7 @@ int main(int argc, char** argv) {
     }
     // What handscs-render does for a new pose: the whole forward under inference mode (no autograd
     // graph), a new random pose every frame so nothing pose-dependent can be reused.
-    std::vector<double> t_render;
+    std::vector<double> t_render, t_render_pose, t_render_raster;
     {
       c10::InferenceMode guard;
       const auto render_novel_pose = [&] {
@@ -233,6 +233,20 @@ int main(int argc, char** argv) {
       for (int r = 0; r < repeats + 2; ++r) {
         const double ms = render_novel_pose();
         if (r >= 2) t_render.push_back(ms);
+      }
+      // The same frame in its two parts, wall-clock: posing (skinning, descriptor, decoders, 3x3
+      // chain) and the rasterizer.
+      for (int r = 0; r < repeats + 2; ++r) {
+        const auto novel_pose = torch::randn({48}) * 0.2;
+        auto t0 = Clock::now();
+        const auto state = avatar.pose(novel_pose, shape, trans);
+        const double pose_ms = ms_since(t0);
+        t0 = Clock::now();
+        (void)handscs::render_posed(state.posed, camera, {});
+        const double raster_ms = ms_since(t0);
+        if (r < 2) continue;
+        t_render_pose.push_back(pose_ms);
+        t_render_raster.push_back(raster_ms);
       }
       if (!profile_ops.empty()) {
         torch::autograd::profiler::RecordProfile record(profile_ops + "_" + std::to_string(n) + "_render.json");
@@ -327,6 +341,7 @@ int main(int argc, char** argv) {
                                     {"frozen", median(t_decoders_frozen)}};
     row["render_ms"] = median(t_render);
     row["render_fps"] = 1000.0 / median(t_render);
+    row["render_stage_ms"] = {{"pose", median(t_render_pose)}, {"rasterizer", median(t_render_raster)}};
     row["forward_ms"] = median(t_forward);
     row["backward_ms"] = median(t_backward);
     row["forward_backward_ms"] = median(t_forward) + median(t_backward);
