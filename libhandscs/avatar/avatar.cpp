@@ -127,18 +127,14 @@ AvatarState Avatar::pose(const torch::Tensor& pose_in, const torch::Tensor& shap
   const auto descriptor_in =
       use_descriptor ? s.descriptor : torch::zeros({g.size(), 0}, s.lbs_means.options());
   const auto transform_in = transforms.slice(1, 0, 3).reshape({-1, 12});
-  CovarianceChain chain;
-  if (torch::GradMode::is_enabled()) {
-    s.offsets = decoders_->forward(descriptor_in, g.embed_geometry, g.embed_appearance, transform_in);
-    chain = covariance_chain_ops(g.rotations, g.log_scales, s.offsets.dsigma, s.offsets.dsigma_f, linear);
-  } else {
-    // Inference: frozen decoders, and the same 3x3 chain in one pass (avatar/covariance_chain.h).
-    const auto raw = frozen_decoders().outputs(descriptor_in, transform_in);
-    chain = covariance_chain(g.rotations, g.log_scales, spd_raw(raw.geometry), spd_raw(raw.fusion),
-                             linear);
-    s.offsets = offsets_from_outputs(raw.geometry, raw.appearance, raw.fusion, chain.dsigma,
-                                     chain.dsigma_f);
-  }
+  // The decoders (frozen at inference: avatar/frozen_decoders.h), then the 3x3 chain in one pass,
+  // with its own backward under autograd (avatar/covariance_chain.h).
+  const auto raw = torch::GradMode::is_enabled()
+                       ? decoders_->outputs(descriptor_in, g.embed_geometry, g.embed_appearance, transform_in)
+                       : frozen_decoders().outputs(descriptor_in, transform_in);
+  const auto chain =
+      covariance_chain(g.rotations, g.log_scales, spd_raw(raw.geometry), spd_raw(raw.fusion), linear);
+  s.offsets = offsets_from_outputs(raw.geometry, raw.appearance, raw.fusion, chain.dsigma, chain.dsigma_f);
   s.canonical_covariances = chain.canonical;
   s.posed.covariances = chain.posed_upper;
   s.canonical_means = g.means + s.offsets.dx + s.offsets.dx_f;

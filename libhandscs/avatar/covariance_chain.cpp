@@ -1,7 +1,10 @@
 #include "avatar/covariance_chain.h"
 
 #include <cmath>
+#include <tuple>
+#include <vector>
 
+#include <torch/csrc/autograd/custom_function.h>
 #include <torch/types.h>
 
 #include "avatar/avatar.h"
@@ -37,13 +40,88 @@ void sandwich(const M3<T>& a, const M3<T>& b, M3<T>& out) {
 }
 
 // SPD factor of 7 raw values (decoders' spd_from_raw): R(q) diag(exp(s)) R(q)^T, q = (1, 0, 0, 0)
-// + raw[3..7]; `stride` between the raw values.
+// + raw[3..7]; `stride` between the raw values. r and e receive R(q) and exp(s).
+template <class T>
+void spd(const T* raw, int64_t stride, M3<T>& out, M3<T>& r, T e[3]) {
+  quaternion_to_matrix<T>(1 + raw[3 * stride], raw[4 * stride], raw[5 * stride], raw[6 * stride], r);
+  for (int i = 0; i < 3; ++i) e[i] = std::exp(raw[i * stride]);
+  rotated_diagonal(r, e, out);
+}
+
 template <class T>
 void spd(const T* raw, int64_t stride, M3<T>& out) {
   M3<T> r;
-  quaternion_to_matrix<T>(1 + raw[3 * stride], raw[4 * stride], raw[5 * stride], raw[6 * stride], r);
-  const T e[3] = {std::exp(raw[0]), std::exp(raw[stride]), std::exp(raw[2 * stride])};
-  rotated_diagonal(r, e, out);
+  T e[3];
+  spd(raw, stride, out, r, e);
+}
+
+template <class T>
+void transpose(const M3<T>& a, M3<T>& out) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) out[i][j] = a[j][i];
+}
+
+template <class T>
+void add_to(const M3<T>& a, M3<T>& out) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) out[i][j] += a[i][j];
+}
+
+// The gradient with respect to the unnormalised quaternion (w, x, y, z) of render/rotation.h's
+// R(q / |q|), given the gradient g of R; |q|^2 below the floor is a constant there, as in autograd.
+template <class T>
+void quaternion_to_matrix_backward(T w, T x, T y, T z, const M3<T>& g, T out[4]) {
+  const T sq = w * w + x * x + y * y + z * z;
+  const T floor = T(kQuaternionNormSquaredFloor);
+  const T norm = std::sqrt(std::max<T>(sq, floor));
+  w /= norm;
+  x /= norm;
+  y /= norm;
+  z /= norm;
+  // d R / d (w, x, y, z) of the normalised quaternion, term by term from quaternion_to_matrix.
+  const T gw = 2 * (-z * g[0][1] + y * g[0][2] + z * g[1][0] - x * g[1][2] - y * g[2][0] + x * g[2][1]);
+  const T gx = 2 * (y * g[0][1] + z * g[0][2] + y * g[1][0] - 2 * x * g[1][1] - w * g[1][2] + z * g[2][0] +
+                    w * g[2][1] - 2 * x * g[2][2]);
+  const T gy = 2 * (-2 * y * g[0][0] + x * g[0][1] + w * g[0][2] + x * g[1][0] + z * g[1][2] - w * g[2][0] +
+                    z * g[2][1] - 2 * y * g[2][2]);
+  const T gz = 2 * (-2 * z * g[0][0] - w * g[0][1] + x * g[0][2] + w * g[1][0] - 2 * z * g[1][1] + y * g[1][2] +
+                    x * g[2][0] + y * g[2][1]);
+  // Through q / |q|: (g - q_hat (q_hat . g)) / |q|, or g / |q| where the floor holds |q| fixed.
+  const T dot = sq >= floor ? w * gw + x * gx + y * gy + z * gz : T(0);
+  out[0] = (gw - w * dot) / norm;
+  out[1] = (gx - x * dot) / norm;
+  out[2] = (gy - y * dot) / norm;
+  out[3] = (gz - z * dot) / norm;
+}
+
+// The gradient of M M^T with M = R diag(e) (both spd_from_raw's R diag(e) R^T, written as N R^T,
+// and Sigma = (R diag(exp(s))) (R diag(exp(s)))^T): given the gradient `g_r` already collected for
+// R elsewhere, adds d/dR, and writes d/d(log e) = e * d/de.
+template <class T>
+void scaled_rotation_backward(const M3<T>& r, const T e[3], const M3<T>& g_m, M3<T>& g_r, T g_log_e[3]) {
+  for (int j = 0; j < 3; ++j) {
+    T g_e = 0;
+    for (int i = 0; i < 3; ++i) {
+      g_r[i][j] += g_m[i][j] * e[j];
+      g_e += g_m[i][j] * r[i][j];
+    }
+    g_log_e[j] = g_e * e[j];
+  }
+}
+
+// spd_from_raw's backward: D = N R^T with N = R diag(e), e = exp(raw[0..3]), R = R(q), q = (1, 0,
+// 0, 0) + raw[3..7]. Writes the 7 raw values' gradient (contiguous) from D's gradient g_d.
+template <class T>
+void spd_backward(const T* raw, int64_t stride, const M3<T>& r, const T e[3], const M3<T>& g_d, T* g_raw) {
+  M3<T> n, g_n, g_r, g_dt;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) n[i][j] = r[i][j] * e[j];
+  product(g_d, r, g_n);  // d/dN of N R^T
+  transpose(g_d, g_dt);
+  product(g_dt, n, g_r);  // d/dR through R^T
+  scaled_rotation_backward(r, e, g_n, g_r, g_raw);
+  quaternion_to_matrix_backward<T>(1 + raw[3 * stride], raw[4 * stride], raw[5 * stride], raw[6 * stride], g_r,
+                                   g_raw + 3);
 }
 
 template <class T>
@@ -98,6 +176,132 @@ CovarianceChain run(const torch::Tensor& rotations, const torch::Tensor& log_sca
   return out;
 }
 
+// The chain's backward, the forward recomputed per Gaussian. Incoming gradients: g_dsigma,
+// g_dsigma_f, g_canonical [N, 3, 3], g_upper [N, 6] (contiguous). Outgoing: rotations [N, 4],
+// log_scales [N, 3], geometry_raw and fusion_raw [N, 7], linear [N, 3, 3] (contiguous).
+template <class T>
+std::vector<torch::Tensor> run_backward(const torch::Tensor& rotations, const torch::Tensor& log_scales,
+                                        const torch::Tensor& geometry_raw, const torch::Tensor& fusion_raw,
+                                        const torch::Tensor& linear, const torch::Tensor& g_dsigma_in,
+                                        const torch::Tensor& g_dsigma_f_in, const torch::Tensor& g_canonical_in,
+                                        const torch::Tensor& g_upper_in) {
+  const int64_t n = rotations.size(0);
+  const auto opts = rotations.options();
+  auto g_rotations = torch::empty({n, 4}, opts), g_log_scales = torch::empty({n, 3}, opts);
+  auto g_geometry = torch::empty({n, 7}, opts), g_fusion = torch::empty({n, 7}, opts);
+  auto g_linear = torch::empty({n, 3, 3}, opts);
+  const auto q = rotations.contiguous(), s = log_scales.contiguous(), l = linear.contiguous();
+  const auto gds = g_dsigma_in.contiguous(), gdf = g_dsigma_f_in.contiguous();
+  const auto gc = g_canonical_in.contiguous(), gu = g_upper_in.contiguous();
+  const T *qp = q.data_ptr<T>(), *sp = s.data_ptr<T>(), *lp = l.data_ptr<T>();
+  const T *gp = geometry_raw.data_ptr<T>(), *fp = fusion_raw.data_ptr<T>();
+  const int64_t g_row = geometry_raw.stride(0), g_col = geometry_raw.stride(1);
+  const int64_t f_row = fusion_raw.stride(0), f_col = fusion_raw.stride(1);
+  const T *gdsp = gds.data_ptr<T>(), *gdfp = gdf.data_ptr<T>(), *gcp = gc.data_ptr<T>(), *gup = gu.data_ptr<T>();
+  T *oq = g_rotations.data_ptr<T>(), *os = g_log_scales.data_ptr<T>(), *ol = g_linear.data_ptr<T>();
+  T *og = g_geometry.data_ptr<T>(), *of = g_fusion.data_ptr<T>();
+  const auto load = [](const T* p, M3<T>& m) {
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) m[i][j] = p[3 * i + j];
+  };
+  at::parallel_for(0, n, 256, [&](int64_t begin, int64_t end) {
+    for (int64_t k = begin; k < end; ++k) {
+      // Forward again: D, F with their rotations and scales, M = R diag(e), Sigma, A, C, L.
+      M3<T> ds, df, rg, rf, r, m, mt, sigma, a, at, c, lin, lint;
+      T eg[3], ef[3], e[3];
+      spd<T>(gp + k * g_row, g_col, ds, rg, eg);
+      spd<T>(fp + k * f_row, f_col, df, rf, ef);
+      quaternion_to_matrix<T>(qp[4 * k], qp[4 * k + 1], qp[4 * k + 2], qp[4 * k + 3], r);
+      for (int j = 0; j < 3; ++j) e[j] = std::exp(sp[3 * k + j]);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) m[i][j] = r[i][j] * e[j];
+      transpose(m, mt);
+      product(m, mt, sigma);
+      product(df, ds, a);
+      transpose(a, at);
+      sandwich(a, sigma, c);
+      load(lp + 9 * k, lin);
+      transpose(lin, lint);
+
+      // posed = L C L^T, its upper triangle taken entry by entry (avatar.cpp's symmetric_upper).
+      const T* u = gup + 6 * k;
+      const M3<T> g_p = {{u[0], u[1], u[2]}, {0, u[3], u[4]}, {0, 0, u[5]}};
+      M3<T> g_pt, tmp, tmp2, g_l, g_c, g_a, g_sigma, g_d, g_f;
+      transpose(g_p, g_pt);
+      // dL = G_P L C^T + G_P^T L C (C symmetric up to rounding; both terms kept as autograd has them).
+      M3<T> ct;
+      transpose(c, ct);
+      product(g_p, lin, tmp);
+      product(tmp, ct, g_l);
+      product(g_pt, lin, tmp);
+      product(tmp, c, tmp2);
+      add_to(tmp2, g_l);
+      // dC = G_C + L^T G_P L.
+      load(gcp + 9 * k, g_c);
+      product(lint, g_p, tmp);
+      product(tmp, lin, tmp2);
+      add_to(tmp2, g_c);
+      // C = A Sigma A^T: dA = G_C A Sigma^T + G_C^T A Sigma, dSigma = A^T G_C A.
+      M3<T> g_ct, sigmat;
+      transpose(g_c, g_ct);
+      transpose(sigma, sigmat);
+      product(g_c, a, tmp);
+      product(tmp, sigmat, g_a);
+      product(g_ct, a, tmp);
+      product(tmp, sigma, tmp2);
+      add_to(tmp2, g_a);
+      product(at, g_c, tmp);
+      product(tmp, a, g_sigma);
+      // A = F D: dF = G_F + G_A D^T, dD = G_D + F^T G_A.
+      M3<T> dst, dft;
+      transpose(ds, dst);
+      transpose(df, dft);
+      load(gdfp + 9 * k, g_f);
+      product(g_a, dst, tmp);
+      add_to(tmp, g_f);
+      load(gdsp + 9 * k, g_d);
+      product(dft, g_a, tmp);
+      add_to(tmp, g_d);
+      spd_backward<T>(gp + k * g_row, g_col, rg, eg, g_d, og + 7 * k);
+      spd_backward<T>(fp + k * f_row, f_col, rf, ef, g_f, of + 7 * k);
+      // Sigma = M M^T: dM = (G_Sigma + G_Sigma^T) M, then M = R diag(exp(s)).
+      M3<T> g_sym, g_m, g_r = {};
+      transpose(g_sigma, g_sym);
+      add_to(g_sigma, g_sym);
+      product(g_sym, m, g_m);
+      scaled_rotation_backward(r, e, g_m, g_r, os + 3 * k);
+      quaternion_to_matrix_backward<T>(qp[4 * k], qp[4 * k + 1], qp[4 * k + 2], qp[4 * k + 3], g_r, oq + 4 * k);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) ol[9 * k + 3 * i + j] = g_l[i][j];
+    }
+  });
+  return {g_rotations, g_log_scales, g_geometry, g_fusion, g_linear};
+}
+
+using torch::autograd::AutogradContext;
+using torch::autograd::variable_list;
+
+struct CovarianceChainFunction : public torch::autograd::Function<CovarianceChainFunction> {
+  static variable_list forward(AutogradContext* ctx, const torch::Tensor& rotations, const torch::Tensor& log_scales,
+                               const torch::Tensor& geometry_raw, const torch::Tensor& fusion_raw,
+                               const torch::Tensor& linear) {
+    ctx->save_for_backward({rotations, log_scales, geometry_raw, fusion_raw, linear});
+    const auto out = rotations.scalar_type() == torch::kDouble
+                         ? run<double>(rotations, log_scales, geometry_raw, fusion_raw, linear)
+                         : run<float>(rotations, log_scales, geometry_raw, fusion_raw, linear);
+    return {out.dsigma, out.dsigma_f, out.canonical, out.posed_upper};
+  }
+
+  static variable_list backward(AutogradContext* ctx, variable_list grads) {
+    const auto saved = ctx->get_saved_variables();
+    const auto& rotations = saved[0];
+    const auto args = std::make_tuple(saved[0], saved[1], saved[2], saved[3], saved[4], grads[0], grads[1],
+                                      grads[2], grads[3]);
+    return rotations.scalar_type() == torch::kDouble ? std::apply(run_backward<double>, args)
+                                                     : std::apply(run_backward<float>, args);
+  }
+};
+
 }  // namespace
 
 CovarianceChain covariance_chain_ops(const torch::Tensor& rotations, const torch::Tensor& log_scales,
@@ -118,6 +322,13 @@ CovarianceChain covariance_chain_ops(const torch::Tensor& rotations, const torch
 CovarianceChain covariance_chain(const torch::Tensor& rotations, const torch::Tensor& log_scales,
                                  const torch::Tensor& geometry_raw, const torch::Tensor& fusion_raw,
                                  const torch::Tensor& linear) {
+  const bool graph = torch::GradMode::is_enabled() &&
+                     (rotations.requires_grad() || log_scales.requires_grad() || geometry_raw.requires_grad() ||
+                      fusion_raw.requires_grad() || linear.requires_grad());
+  if (graph) {
+    const auto out = CovarianceChainFunction::apply(rotations, log_scales, geometry_raw, fusion_raw, linear);
+    return {out[0], out[1], out[2], out[3]};
+  }
   torch::NoGradGuard no_grad;
   if (rotations.scalar_type() == torch::kDouble)
     return run<double>(rotations, log_scales, geometry_raw, fusion_raw, linear);

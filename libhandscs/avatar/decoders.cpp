@@ -57,15 +57,22 @@ torch::Tensor spd_from_raw(const torch::Tensor& raw) {
   return scaled.matmul(rot.transpose(1, 2));
 }
 
-DecodedOffsets OffsetDecodersImpl::forward(const torch::Tensor& descriptor,
+DecoderOutputs OffsetDecodersImpl::outputs(const torch::Tensor& descriptor,
                                            const torch::Tensor& embed_geometry,
                                            const torch::Tensor& embed_appearance,
                                            const torch::Tensor& transforms) {
   const auto geometry_in = torch::cat({descriptor, embed_geometry, transforms}, 1);
   const auto appearance_in = torch::cat({descriptor, embed_appearance, transforms}, 1);
   const auto fusion_in = torch::cat({descriptor, embed_geometry, embed_appearance, transforms}, 1);
-  return offsets_from_outputs(geometry->forward(geometry_in), appearance->forward(appearance_in),
-                              fusion->forward(fusion_in));
+  return {geometry->forward(geometry_in), appearance->forward(appearance_in), fusion->forward(fusion_in)};
+}
+
+DecodedOffsets OffsetDecodersImpl::forward(const torch::Tensor& descriptor,
+                                           const torch::Tensor& embed_geometry,
+                                           const torch::Tensor& embed_appearance,
+                                           const torch::Tensor& transforms) {
+  const auto raw = outputs(descriptor, embed_geometry, embed_appearance, transforms);
+  return offsets_from_outputs(raw.geometry, raw.appearance, raw.fusion);
 }
 
 torch::Tensor spd_raw(const torch::Tensor& output) { return output.slice(1, 3, 3 + kSpdRaw); }

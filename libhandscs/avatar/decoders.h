@@ -35,6 +35,11 @@ struct DecodedOffsets {
   torch::Tensor dc_f;      // [N, 3] fusion colour offset
 };
 
+// The three decoders' raw outputs: geometry [N, 10], appearance [N, 3], fusion [N, 13].
+struct DecoderOutputs {
+  torch::Tensor geometry, appearance, fusion;
+};
+
 class OffsetDecodersImpl : public torch::nn::Module {
  public:
   // descriptor_dim = |P| (0 without SCS), embedding_dim = d (0 without embeddings), bf16 as in
@@ -43,6 +48,11 @@ class OffsetDecodersImpl : public torch::nn::Module {
 
   // descriptor [N, |P|] (may be empty), e_g, e_a [N, d], transforms [N, 12] = vec of the 3x4 T.
   DecodedOffsets forward(const torch::Tensor& descriptor, const torch::Tensor& embed_geometry,
+                         const torch::Tensor& embed_appearance, const torch::Tensor& transforms);
+
+  // The raw outputs forward() builds its offsets from (for callers that compute dSigma and
+  // dSigma^f themselves, avatar/covariance_chain.h).
+  DecoderOutputs outputs(const torch::Tensor& descriptor, const torch::Tensor& embed_geometry,
                          const torch::Tensor& embed_appearance, const torch::Tensor& transforms);
 
   GatedMlp geometry{nullptr}, appearance{nullptr}, fusion{nullptr};

@@ -65,7 +65,7 @@ torch::Tensor FrozenDecoders::run(const Mlp& mlp, const torch::Tensor& x) const 
   return torch::addmm(mlp.b3, h, mlp.w3.t());
 }
 
-FrozenDecoders::Outputs FrozenDecoders::outputs(const torch::Tensor& descriptor,
+DecoderOutputs FrozenDecoders::outputs(const torch::Tensor& descriptor,
                                                 const torch::Tensor& transforms) const {
   torch::NoGradGuard no_grad;
   const auto dtype = transforms.scalar_type();

@@ -25,12 +25,9 @@ class FrozenDecoders {
   // descriptor [N, |P|] (may be empty), transforms [N, 12]; as OffsetDecoders::forward.
   DecodedOffsets forward(const torch::Tensor& descriptor, const torch::Tensor& transforms) const;
 
-  // The three decoders' raw outputs (geometry [N, 10], appearance [N, 3], fusion [N, 13]) in the
-  // transforms' dtype, for callers that build the offsets themselves (avatar/covariance_chain.h).
-  struct Outputs {
-    torch::Tensor geometry, appearance, fusion;
-  };
-  Outputs outputs(const torch::Tensor& descriptor, const torch::Tensor& transforms) const;
+  // The three decoders' raw outputs in the transforms' dtype, for callers that build the offsets
+  // themselves (avatar/covariance_chain.h).
+  DecoderOutputs outputs(const torch::Tensor& descriptor, const torch::Tensor& transforms) const;
 
   // Whether decoders and embeddings are still the tensors, with the values, this was built from.
   bool current(OffsetDecodersImpl& decoders, const torch::Tensor& embed_geometry,

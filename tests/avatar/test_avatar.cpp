@@ -34,7 +34,7 @@ torch::Tensor small_pose(uint64_t seed) {
 
 }  // namespace
 
-TEST_CASE("avatar: with zero gates the render equals LBS of the canonical Gaussians exactly") {
+TEST_CASE("avatar: with zero gates the render equals LBS of the canonical Gaussians") {
   handscs::AvatarConfig config;
   handscs::Avatar avatar(config, handscs::load_rig_source("builtin"));
   const auto pose = small_pose(1);
@@ -58,8 +58,13 @@ TEST_CASE("avatar: with zero gates the render equals LBS of the canonical Gaussi
       means, handscs::symmetric_upper(cov), g.colors, torch::sigmoid(g.opacity_logits), camera,
       settings);
   CHECK(torch::equal(out.state.posed.means, means));
-  CHECK(torch::equal(out.render.rgb, expected.rgb));
-  CHECK(torch::equal(out.render.alpha, expected.alpha));
+  // The covariances come from the one-pass 3x3 chain (avatar/covariance_chain.h), whose products
+  // round in another order than these matmuls: equal to float rounding of their scale.
+  const auto upper = handscs::symmetric_upper(cov);
+  const double scale = upper.abs().max().item<double>();
+  CHECK((out.state.posed.covariances - upper).abs().max().item<double>() <= 1e-6 * scale);
+  CHECK((out.render.rgb - expected.rgb).abs().max().item<double>() <= 1e-5);
+  CHECK((out.render.alpha - expected.alpha).abs().max().item<double>() <= 1e-5);
   CHECK(out.render.alpha.max().item<float>() > 0.5f);  // the hand is in view
 }
 

@@ -275,6 +275,51 @@ int main(int argc, char** argv) {
         t_decoders_frozen.push_back(fast);
       }
     }
+    // Training-side stages forward + backward, wall clock, each on detached inputs that require
+    // grad and a random cotangent: the three decoders, and the 3x3 chain (with spd_from_raw) in
+    // LibTorch ops against the one-op chain Avatar::pose runs under autograd, alternating.
+    std::vector<double> t_train_decoders, t_train_chain, t_train_chain_fused;
+    {
+      const auto state = avatar.pose(pose, shape, trans);
+      const auto leaf = [](const torch::Tensor& t) { return t.detach().clone().requires_grad_(true); };
+      const auto descriptor = leaf(state.descriptor.defined() ? state.descriptor : torch::zeros({n, 0}));
+      const auto transforms = leaf(torch::randn({n, 12}));
+      const auto& g = avatar.gaussians();
+      const auto eg = leaf(g.embed_geometry), ea = leaf(g.embed_appearance);
+      const auto raw_g = leaf(torch::randn({n, 10}) * 0.1), raw_f = leaf(torch::randn({n, 13}) * 0.1);
+      const auto rotations = leaf(g.rotations), log_scales = leaf(g.log_scales);
+      const auto linear = leaf(torch::randn({n, 3, 3}));
+      const auto cot_posed = torch::randn({n, 6}), cot_dx = torch::randn({n, 3});
+      for (int r = 0; r < repeats + 2; ++r) {
+        auto t0 = Clock::now();
+        {
+          const auto out = avatar.decoders()->forward(descriptor, eg, ea, transforms);
+          ((out.dx * cot_dx).sum() + (out.dc * cot_dx).sum() + out.dsigma.sum() + out.dsigma_f.sum())
+              .backward();
+        }
+        const double decoders_ms = ms_since(t0);
+        avatar.decoders()->zero_grad();
+        t0 = Clock::now();
+        {
+          const auto offsets = handscs::offsets_from_outputs(raw_g, torch::zeros({n, 3}), raw_f);
+          const auto chain = handscs::covariance_chain_ops(rotations, log_scales, offsets.dsigma,
+                                                           offsets.dsigma_f, linear);
+          ((chain.posed_upper * cot_posed).sum() + chain.dsigma.sum()).backward();
+        }
+        const double chain_ms = ms_since(t0);
+        t0 = Clock::now();
+        {
+          const auto chain = handscs::covariance_chain(rotations, log_scales, handscs::spd_raw(raw_g),
+                                                       handscs::spd_raw(raw_f), linear);
+          ((chain.posed_upper * cot_posed).sum() + chain.dsigma.sum()).backward();
+        }
+        const double chain_fused_ms = ms_since(t0);
+        if (r < 2) continue;
+        t_train_decoders.push_back(decoders_ms);
+        t_train_chain.push_back(chain_ms);
+        t_train_chain_fused.push_back(chain_fused_ms);
+      }
+    }
     // The per-Gaussian 3x3 chain at inference, alternating in one process: LibTorch ops as the
     // training path runs them against avatar/covariance_chain.h.
     std::vector<double> t_chain_ops, t_chain_fused;
@@ -350,6 +395,9 @@ int main(int argc, char** argv) {
                                {"decoders", median(t_dec)},
                                {"rasterizer", median(t_raster_fwd)}};
     row["rasterizer_backward_ms"] = median(t_raster_bwd);
+    row["training_forward_backward_ms"] = {
+        {"decoders", median(t_train_decoders)},
+        {"covariance_chain", {{"ops", median(t_train_chain)}, {"fused", median(t_train_chain_fused)}}}};
     row["other_backward_ms"] = median(t_backward) - median(t_raster_bwd);
     if (!no_train_step) {
       row["train_step"] = bench::time_train_steps(n, train_step);

@@ -1,0 +1,124 @@
+// avatar/covariance_chain.h under autograd: the one-op chain's values and gradients (written out by
+// hand) against covariance_chain_ops + spd_from_raw differentiated by LibTorch, in double and float,
+// with strided decoder outputs and transforms, a quaternion below the norm floor, and against
+// central finite differences of a scalar loss.
+#include "catch_torch.h"
+
+#include <torch/csrc/autograd/autograd.h>
+#include <torch/types.h>
+
+#include "avatar/covariance_chain.h"
+#include "avatar/decoders.h"
+
+namespace {
+
+struct ChainInputs {
+  torch::Tensor rotations, log_scales, geometry_out, fusion_out, transforms;  // leaves
+  torch::Tensor geometry_raw() const { return handscs::spd_raw(geometry_out); }
+  torch::Tensor fusion_raw() const { return handscs::spd_raw(fusion_out); }
+  torch::Tensor linear() const { return transforms.slice(1, 0, 3).slice(2, 0, 3); }
+  std::vector<torch::Tensor> leaves() const { return {rotations, log_scales, geometry_out, fusion_out, transforms}; }
+};
+
+ChainInputs random_inputs(int64_t n, torch::Dtype dtype) {
+  const auto o = torch::TensorOptions().dtype(dtype);
+  ChainInputs in;
+  auto rotations = torch::randn({n, 4}, o);
+  rotations[0].zero_();  // below the floor: R = I, gradient through a fixed |q|
+  rotations[1] *= 1e-3;
+  in.rotations = rotations.requires_grad_(true);
+  in.log_scales = (torch::randn({n, 3}, o) * 0.5 - 4.0).requires_grad_(true);
+  // Decoder outputs as the decoders give them; the chain reads the strided 7-column slices.
+  in.geometry_out = (torch::randn({n, 10}, o) * 0.3).requires_grad_(true);
+  in.fusion_out = (torch::randn({n, 13}, o) * 0.3).requires_grad_(true);
+  in.transforms = torch::randn({n, 4, 4}, o).requires_grad_(true);  // L is its strided 3x3 block
+  return in;
+}
+
+std::vector<torch::Tensor> chain_outputs(const handscs::CovarianceChain& c) {
+  return {c.dsigma, c.dsigma_f, c.canonical, c.posed_upper};
+}
+
+handscs::CovarianceChain reference(const ChainInputs& in) {
+  return handscs::covariance_chain_ops(in.rotations, in.log_scales, handscs::spd_from_raw(in.geometry_raw()),
+                                       handscs::spd_from_raw(in.fusion_raw()), in.linear());
+}
+
+handscs::CovarianceChain fused(const ChainInputs& in) {
+  return handscs::covariance_chain(in.rotations, in.log_scales, in.geometry_raw(), in.fusion_raw(), in.linear());
+}
+
+torch::Tensor loss(const handscs::CovarianceChain& c, const std::vector<torch::Tensor>& cotangents) {
+  const auto outs = chain_outputs(c);
+  auto total = torch::zeros({}, outs[0].options());
+  for (size_t k = 0; k < outs.size(); ++k) total = total + (outs[k] * cotangents[k]).sum();
+  return total;
+}
+
+}  // namespace
+
+TEST_CASE("covariance chain under autograd: values and gradients equal the LibTorch ops") {
+  torch::manual_seed(3);
+  for (const auto dtype : {torch::kDouble, torch::kFloat}) {
+    const bool is_double = dtype == torch::kDouble;
+    INFO((is_double ? "double" : "float"));
+    const int64_t n = 515;  // three parallel chunks of 256 and a partial one
+    const auto in = random_inputs(n, dtype);
+    const auto mine = fused(in);
+    const auto ref = reference(in);
+    REQUIRE(mine.posed_upper.requires_grad());
+    const auto outs = chain_outputs(mine), ref_outs = chain_outputs(ref);
+    for (size_t k = 0; k < outs.size(); ++k) {
+      // Relative to the output's largest value: L C L^T cancels, so small entries carry float
+      // rounding of the large ones (the forward is the inference loop's, tested since 2026-11-25).
+      const double scale = ref_outs[k].abs().max().item<double>();
+      CHECK((outs[k] - ref_outs[k]).abs().max().item<double>() <= (is_double ? 1e-13 : 1e-6) * scale);
+    }
+
+    std::vector<torch::Tensor> cotangents;
+    for (const auto& o : ref_outs) cotangents.push_back(torch::randn_like(o));
+    const auto grads = torch::autograd::grad({loss(mine, cotangents)}, in.leaves());
+    const auto ref_grads = torch::autograd::grad({loss(ref, cotangents)}, in.leaves());
+    const char* names[] = {"rotations", "log_scales", "geometry output", "fusion output", "transforms"};
+    for (size_t k = 0; k < grads.size(); ++k) {
+      INFO(names[k]);
+      // Relative to each tensor's scale: the zero quaternion's gradient is ~1e12 (1 / the floor's root).
+      const double scale = ref_grads[k].abs().max().item<double>();
+      REQUIRE(scale > 0);
+      const double diff = (grads[k] - ref_grads[k]).abs().max().item<double>();
+      CHECK(diff <= (is_double ? 1e-11 : 2e-4) * scale);
+      // Row by row too, so that a wrong small row is not hidden by the zero quaternion's large one.
+      const auto rows = (grads[k] - ref_grads[k]).abs().flatten(1).amax(1);
+      const auto row_scale = ref_grads[k].abs().flatten(1).amax(1);
+      CHECK((rows <= (is_double ? 1e-10 : 1e-3) * (row_scale + 1e-6)).all().item<bool>());
+    }
+  }
+}
+
+TEST_CASE("covariance chain under autograd: central finite differences in double") {
+  torch::manual_seed(11);
+  const auto in = random_inputs(6, torch::kDouble);
+  std::vector<torch::Tensor> cotangents;
+  for (const auto& o : chain_outputs(reference(in))) cotangents.push_back(torch::randn_like(o));
+  const auto grads = torch::autograd::grad({loss(fused(in), cotangents)}, in.leaves());
+  const double h = 1e-6;
+  const auto leaves = in.leaves();
+  for (size_t k = 0; k < grads.size(); ++k) {
+    const auto flat = leaves[k].detach().view({-1});
+    // Rows 2.. only: row 0's quaternion sits on the floor, where the derivative is one-sided.
+    for (int64_t i = flat.numel() / 3; i < flat.numel(); i += 5) {
+      const double saved = flat[i].item<double>();
+      double value[2];
+      for (int side = 0; side < 2; ++side) {
+        flat[i] = saved + (side == 0 ? h : -h);
+        torch::NoGradGuard no_grad;
+        value[side] = loss(fused(in), cotangents).item<double>();
+      }
+      flat[i] = saved;
+      const double numeric = (value[0] - value[1]) / (2 * h);
+      const double analytic = grads[k].view({-1})[i].item<double>();
+      INFO("leaf " << k << " element " << i);
+      CHECK(analytic == Approx(numeric).epsilon(1e-5).margin(1e-7));
+    }
+  }
+}
