@@ -63,9 +63,9 @@ torch::Tensor Avatar::compute_descriptor(const torch::Tensor& pose, const LbsOut
   const auto posed_joints = lbs.joints[0];      // [21, 3]
   const auto canonical_joints = lbs.rest_joints[0];
   if (uses_static_bones()) {
-    // Inference: the same arithmetic in one pass (scs/descriptor.h).
-    const auto descriptor = torch::GradMode::is_enabled() ? static_descriptor : static_descriptor_loop;
-    parts.push_back(descriptor(lbs_means, posed_joints, topology_, config_.scs.tau, config_.scs.norm_eps));
+    // One pass over the Gaussians, with its own backward under autograd (scs/descriptor.h).
+    parts.push_back(
+        static_descriptor_loop(lbs_means, posed_joints, topology_, config_.scs.tau, config_.scs.norm_eps));
   }
   if (generator_) {
     const bool posed_space = config_.scs.virtual_space == ScsConfig::VirtualSpace::posed;

@@ -67,6 +67,24 @@ void add_to(const M3<T>& a, M3<T>& out) {
     for (int j = 0; j < 3; ++j) out[i][j] += a[i][j];
 }
 
+// The backward of out = a b a^T: g_a = g a b^T + g^T a b (both terms, as autograd has them, b
+// being symmetric only up to rounding), and g_b += a^T g a.
+template <class T>
+void sandwich_backward(const M3<T>& a, const M3<T>& b, const M3<T>& g, M3<T>& g_a, M3<T>& g_b) {
+  M3<T> at, bt, gt, tmp, tmp2;
+  transpose(a, at);
+  transpose(b, bt);
+  transpose(g, gt);
+  product(g, a, tmp);
+  product(tmp, bt, g_a);
+  product(gt, a, tmp);
+  product(tmp, b, tmp2);
+  add_to(tmp2, g_a);
+  product(at, g, tmp);
+  product(tmp, a, tmp2);
+  add_to(tmp2, g_b);
+}
+
 // The gradient with respect to the unnormalised quaternion (w, x, y, z) of render/rotation.h's
 // R(q / |q|), given the gradient g of R; |q|^2 below the floor is a constant there, as in autograd.
 template <class T>
@@ -207,7 +225,7 @@ std::vector<torch::Tensor> run_backward(const torch::Tensor& rotations, const to
   at::parallel_for(0, n, 256, [&](int64_t begin, int64_t end) {
     for (int64_t k = begin; k < end; ++k) {
       // Forward again: D, F with their rotations and scales, M = R diag(e), Sigma, A, C, L.
-      M3<T> ds, df, rg, rf, r, m, mt, sigma, a, at, c, lin, lint;
+      M3<T> ds, df, rg, rf, r, m, mt, sigma, a, c, lin;
       T eg[3], ef[3], e[3];
       spd<T>(gp + k * g_row, g_col, ds, rg, eg);
       spd<T>(fp + k * f_row, f_col, df, rf, ef);
@@ -218,40 +236,17 @@ std::vector<torch::Tensor> run_backward(const torch::Tensor& rotations, const to
       transpose(m, mt);
       product(m, mt, sigma);
       product(df, ds, a);
-      transpose(a, at);
       sandwich(a, sigma, c);
       load(lp + 9 * k, lin);
-      transpose(lin, lint);
 
-      // posed = L C L^T, its upper triangle taken entry by entry (avatar.cpp's symmetric_upper).
+      // posed = L C L^T, its upper triangle taken entry by entry (avatar.cpp's symmetric_upper);
+      // C's gradient adds to the one it receives as an output.
       const T* u = gup + 6 * k;
       const M3<T> g_p = {{u[0], u[1], u[2]}, {0, u[3], u[4]}, {0, 0, u[5]}};
-      M3<T> g_pt, tmp, tmp2, g_l, g_c, g_a, g_sigma, g_d, g_f;
-      transpose(g_p, g_pt);
-      // dL = G_P L C^T + G_P^T L C (C symmetric up to rounding; both terms kept as autograd has them).
-      M3<T> ct;
-      transpose(c, ct);
-      product(g_p, lin, tmp);
-      product(tmp, ct, g_l);
-      product(g_pt, lin, tmp);
-      product(tmp, c, tmp2);
-      add_to(tmp2, g_l);
-      // dC = G_C + L^T G_P L.
+      M3<T> tmp, g_l, g_c, g_a, g_sigma = {}, g_d, g_f;
       load(gcp + 9 * k, g_c);
-      product(lint, g_p, tmp);
-      product(tmp, lin, tmp2);
-      add_to(tmp2, g_c);
-      // C = A Sigma A^T: dA = G_C A Sigma^T + G_C^T A Sigma, dSigma = A^T G_C A.
-      M3<T> g_ct, sigmat;
-      transpose(g_c, g_ct);
-      transpose(sigma, sigmat);
-      product(g_c, a, tmp);
-      product(tmp, sigmat, g_a);
-      product(g_ct, a, tmp);
-      product(tmp, sigma, tmp2);
-      add_to(tmp2, g_a);
-      product(at, g_c, tmp);
-      product(tmp, a, g_sigma);
+      sandwich_backward(lin, c, g_p, g_l, g_c);
+      sandwich_backward(a, sigma, g_c, g_a, g_sigma);  // C = A Sigma A^T
       // A = F D: dF = G_F + G_A D^T, dD = G_D + F^T G_A.
       M3<T> dst, dft;
       transpose(ds, dst);

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include <ATen/Parallel.h>
+#include <torch/csrc/autograd/custom_function.h>
 #include <torch/types.h>
 
 namespace handscs {
@@ -36,6 +37,35 @@ torch::Tensor static_descriptor(const torch::Tensor& x, const torch::Tensor& joi
 }
 
 namespace {
+
+// Per bone: j_u, b = j_v - j_u, |b|^2 and the floored norm, in the dtype and order of the LibTorch
+// form.
+template <class T>
+struct BoneArrays {
+  std::vector<T> ju, b, b_sq, b_norm;
+  BoneArrays(const T* jp, const BoneTopology& topology, T eps_sq) {
+    const int64_t edges = topology.size();
+    ju.resize(3 * edges);
+    b.resize(3 * edges);
+    b_sq.resize(edges);
+    b_norm.resize(edges);
+    for (int64_t e = 0; e < edges; ++e) {
+      const T* u = jp + 3 * topology.edges[e][0];
+      const T* v = jp + 3 * topology.edges[e][1];
+      for (int c = 0; c < 3; ++c) {
+        ju[3 * e + c] = u[c];
+        b[3 * e + c] = v[c] - u[c];
+      }
+      b_sq[e] = b[3 * e] * b[3 * e] + b[3 * e + 1] * b[3 * e + 1] + b[3 * e + 2] * b[3 * e + 2];
+      b_norm[e] = std::sqrt(std::max(b_sq[e], eps_sq));
+    }
+  }
+};
+
+// Gaussians per parallel task: 256 Gaussians x 20 bones is enough work to wake a thread for; the
+// joints' gradient is summed per task in task order, so it does not depend on the thread count.
+constexpr int64_t kGaussiansPerTask = 256;
+
 template <class T>
 torch::Tensor static_descriptor_loop_typed(const torch::Tensor& x_in, const torch::Tensor& joints_in,
                                            const BoneTopology& topology, double tau, double eps) {
@@ -43,25 +73,13 @@ torch::Tensor static_descriptor_loop_typed(const torch::Tensor& x_in, const torc
   const auto joints = joints_in.contiguous();
   const int64_t n = x.size(0), edges = topology.size();
   const T* xp = x.data_ptr<T>();
-  const T* jp = joints.data_ptr<T>();
-  // Per bone: j_u, b = j_v - j_u and its floored norm, in the dtype and order of the LibTorch form.
   const T eps_sq = static_cast<T>(eps * eps);
   const T tau_sq = static_cast<T>(tau * tau);
-  std::vector<T> ju(3 * edges), b(3 * edges), b_norm(edges);
-  for (int64_t e = 0; e < edges; ++e) {
-    const T* u = jp + 3 * topology.edges[e][0];
-    const T* v = jp + 3 * topology.edges[e][1];
-    for (int c = 0; c < 3; ++c) {
-      ju[3 * e + c] = u[c];
-      b[3 * e + c] = v[c] - u[c];
-    }
-    const T sq = b[3 * e] * b[3 * e] + b[3 * e + 1] * b[3 * e + 1] + b[3 * e + 2] * b[3 * e + 2];
-    b_norm[e] = std::sqrt(std::max(sq, eps_sq));
-  }
+  const BoneArrays<T> bones(joints.data_ptr<T>(), topology, eps_sq);
+  const T *ju = bones.ju.data(), *b = bones.b.data(), *b_norm = bones.b_norm.data();
   auto out = torch::empty({n, edges}, x.options());
   T* op = out.data_ptr<T>();
-  // 256 Gaussians x 20 bones per task: enough work to wake a thread for.
-  at::parallel_for(0, n, 256, [&](int64_t begin, int64_t end) {
+  at::parallel_for(0, n, kGaussiansPerTask, [&](int64_t begin, int64_t end) {
     for (int64_t i = begin; i < end; ++i) {
       const T* xi = xp + 3 * i;
       for (int64_t e = 0; e < edges; ++e) {
@@ -75,6 +93,105 @@ torch::Tensor static_descriptor_loop_typed(const torch::Tensor& x_in, const torc
   });
   return out;
 }
+
+// The backward of static_descriptor_loop_typed given grad [N, E]: d/dx [N, 3] and d/djoints [J, 3].
+// With r = j_u - x, P = d rho, d = exp(-|r|^2 / tau^2), rho = r.b / (|r|_f |b|_f) (norms floored at
+// eps, constant below it as clamp_min makes them):
+//   dP/dr = d (b / (|r|_f |b|_f) - rho r / |r|_f^2 [|r|^2 >= eps^2]) - 2 P r / tau^2,
+//   dP/db = d (r / (|r|_f |b|_f) - rho b / |b|_f^2 [|b|^2 >= eps^2]),
+// and x receives -dP/dr, j_u dP/dr - dP/db, j_v dP/db.
+template <class T>
+std::vector<torch::Tensor> static_descriptor_backward_typed(const torch::Tensor& x_in, const torch::Tensor& joints_in,
+                                                            const torch::Tensor& grad_in, const BoneTopology& topology,
+                                                            double tau, double eps) {
+  const auto x = x_in.contiguous(), joints = joints_in.contiguous(), grad = grad_in.contiguous();
+  const int64_t n = x.size(0), edges = topology.size();
+  const T* xp = x.data_ptr<T>();
+  const T* gp = grad.data_ptr<T>();
+  const T eps_sq = static_cast<T>(eps * eps);
+  const T tau_sq = static_cast<T>(tau * tau);
+  const BoneArrays<T> bones(joints.data_ptr<T>(), topology, eps_sq);
+  const T *ju = bones.ju.data(), *b = bones.b.data(), *b_norm = bones.b_norm.data();
+  auto grad_x = torch::empty({n, 3}, x.options());
+  T* gxp = grad_x.data_ptr<T>();
+  const int64_t tasks = (n + kGaussiansPerTask - 1) / kGaussiansPerTask;
+  // Per task and bone: the sums of dP/dr and dP/db (weighted by the incoming gradient).
+  std::vector<T> sum_r(size_t(tasks * edges * 3), T(0)), sum_b(size_t(tasks * edges * 3), T(0));
+  at::parallel_for(0, tasks, 1, [&](int64_t first, int64_t last) {
+    for (int64_t task = first; task < last; ++task) {
+      T* sr = sum_r.data() + task * edges * 3;
+      T* sb = sum_b.data() + task * edges * 3;
+      const int64_t end = std::min(n, (task + 1) * kGaussiansPerTask);
+      for (int64_t i = task * kGaussiansPerTask; i < end; ++i) {
+        const T* xi = xp + 3 * i;
+        T gx[3] = {0, 0, 0};
+        for (int64_t e = 0; e < edges; ++e) {
+          const T g = gp[i * edges + e];
+          const T* be = b + 3 * e;
+          const T r[3] = {ju[3 * e] - xi[0], ju[3 * e + 1] - xi[1], ju[3 * e + 2] - xi[2]};
+          const T r_sq = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+          const T r_norm = std::sqrt(std::max(r_sq, eps_sq));
+          const T denom = r_norm * b_norm[e];
+          const T rho = (r[0] * be[0] + r[1] * be[1] + r[2] * be[2]) / denom;
+          const T d = std::exp(-r_sq / tau_sq);
+          const T r_term = r_sq >= eps_sq ? rho / (r_norm * r_norm) : T(0);
+          const T b_term = bones.b_sq[e] >= eps_sq ? rho / (b_norm[e] * b_norm[e]) : T(0);
+          for (int c = 0; c < 3; ++c) {
+            const T dr = g * (d * (be[c] / denom - r_term * r[c]) - 2 * d * rho * r[c] / tau_sq);
+            const T db = g * d * (r[c] / denom - b_term * be[c]);
+            gx[c] -= dr;
+            sr[3 * e + c] += dr;
+            sb[3 * e + c] += db;
+          }
+        }
+        for (int c = 0; c < 3; ++c) gxp[3 * i + c] = gx[c];
+      }
+    }
+  });
+  auto grad_joints = torch::zeros(joints.sizes(), joints.options());
+  T* gjp = grad_joints.data_ptr<T>();
+  for (int64_t task = 0; task < tasks; ++task)
+    for (int64_t e = 0; e < edges; ++e) {
+      T* gu = gjp + 3 * topology.edges[e][0];
+      T* gv = gjp + 3 * topology.edges[e][1];
+      for (int c = 0; c < 3; ++c) {
+        const T dr = sum_r[(task * edges + e) * 3 + c], db = sum_b[(task * edges + e) * 3 + c];
+        gu[c] += dr - db;
+        gv[c] += db;
+      }
+    }
+  return {grad_x, grad_joints};
+}
+
+using torch::autograd::AutogradContext;
+using torch::autograd::variable_list;
+
+struct StaticDescriptorFunction : public torch::autograd::Function<StaticDescriptorFunction> {
+  static torch::Tensor forward(AutogradContext* ctx, const torch::Tensor& x, const torch::Tensor& joints,
+                               const BoneTopology& topology, double tau, double eps) {
+    ctx->save_for_backward({x, joints});
+    ctx->saved_data["tau"] = tau;
+    ctx->saved_data["eps"] = eps;
+    std::vector<int64_t> edges;
+    for (const auto& edge : topology.edges) edges.insert(edges.end(), {edge[0], edge[1]});
+    ctx->saved_data["edges"] = edges;
+    return x.scalar_type() == torch::kDouble ? static_descriptor_loop_typed<double>(x, joints, topology, tau, eps)
+                                             : static_descriptor_loop_typed<float>(x, joints, topology, tau, eps);
+  }
+
+  static variable_list backward(AutogradContext* ctx, variable_list grads) {
+    const auto saved = ctx->get_saved_variables();
+    BoneTopology topology;  // the bones only: the loops read nothing else
+    const auto edges = ctx->saved_data["edges"].toIntVector();
+    for (size_t k = 0; k + 1 < edges.size(); k += 2) topology.edges.push_back({int(edges[k]), int(edges[k + 1])});
+    const double tau = ctx->saved_data["tau"].toDouble(), eps = ctx->saved_data["eps"].toDouble();
+    auto g = saved[0].scalar_type() == torch::kDouble
+                 ? static_descriptor_backward_typed<double>(saved[0], saved[1], grads[0], topology, tau, eps)
+                 : static_descriptor_backward_typed<float>(saved[0], saved[1], grads[0], topology, tau, eps);
+    return {g[0], g[1], torch::Tensor(), torch::Tensor(), torch::Tensor()};
+  }
+};
+
 }  // namespace
 
 torch::Tensor static_descriptor_loop(const torch::Tensor& x, const torch::Tensor& joints,
@@ -85,15 +202,17 @@ torch::Tensor static_descriptor_loop(const torch::Tensor& x, const torch::Tensor
               "static_descriptor_loop: joints must be [J, 3] of x's dtype, got ", joints.sizes(), " ",
               joints.scalar_type());
   TORCH_CHECK(x.is_cpu() && joints.is_cpu(), "static_descriptor_loop: CPU tensors only");
+  TORCH_CHECK(x.scalar_type() == torch::kFloat || x.scalar_type() == torch::kDouble,
+              "static_descriptor_loop: float or double, got ", x.scalar_type());
   for (const auto& edge : topology.edges)
     TORCH_CHECK(edge[0] >= 0 && edge[1] >= 0 && edge[0] < joints.size(0) && edge[1] < joints.size(0),
                 "static_descriptor_loop: bone (", edge[0], ", ", edge[1], ") uses joint ",
                 std::max(edge[0], edge[1]), ", but only ", joints.size(0), " joints were given");
+  if (torch::GradMode::is_enabled() && (x.requires_grad() || joints.requires_grad()))
+    return StaticDescriptorFunction::apply(x, joints, topology, tau, eps);
   torch::NoGradGuard no_grad;
   if (x.scalar_type() == torch::kDouble)
     return static_descriptor_loop_typed<double>(x, joints, topology, tau, eps);
-  TORCH_CHECK(x.scalar_type() == torch::kFloat, "static_descriptor_loop: float or double, got ",
-              x.scalar_type());
   return static_descriptor_loop_typed<float>(x, joints, topology, tau, eps);
 }
 

@@ -15,9 +15,10 @@ namespace handscs {
 torch::Tensor static_descriptor(const torch::Tensor& x, const torch::Tensor& joints,
                                 const BoneTopology& topology, double tau, double eps);
 
-// The same static descriptor in one pass over the Gaussians (inference, no autograd): the LibTorch
-// form above builds ~15 [N, E, 3]- and [N, E]-sized temporaries. Float or double; equal to it to
-// rounding (tests/scs/test_descriptor.cpp).
+// The same static descriptor in one pass over the Gaussians: the LibTorch form above builds ~15
+// [N, E, 3]- and [N, E]-sized temporaries. Under autograd (grad mode on, x or joints requiring grad)
+// it is one op whose backward is written out (descriptor.cpp). Float or double; equal to the LibTorch
+// form to rounding, values and gradients (tests/scs/test_descriptor.cpp).
 torch::Tensor static_descriptor_loop(const torch::Tensor& x, const torch::Tensor& joints,
                                      const BoneTopology& topology, double tau, double eps);
 

@@ -187,7 +187,7 @@ int main(int argc, char** argv) {
       {
         handscs::VirtualBones bones;
         const auto x = state.lbs_means.detach();
-        descriptor = handscs::static_descriptor(x, state.lbs.joints[0].detach(), avatar.topology(),
+        descriptor = handscs::static_descriptor_loop(x, state.lbs.joints[0].detach(), avatar.topology(),
                                                 config.scs.tau, config.scs.norm_eps);
         if (avatar.generator()) {
           bones = avatar.generator()->forward(pose, state.lbs.rest_joints[0].detach(),
@@ -276,9 +276,11 @@ int main(int argc, char** argv) {
       }
     }
     // Training-side stages forward + backward, wall clock, each on detached inputs that require
-    // grad and a random cotangent: the three decoders, and the 3x3 chain (with spd_from_raw) in
-    // LibTorch ops against the one-op chain Avatar::pose runs under autograd, alternating.
-    std::vector<double> t_train_decoders, t_train_chain, t_train_chain_fused;
+    // grad and a random cotangent: the three decoders, the 3x3 chain (with spd_from_raw) in
+    // LibTorch ops against the one-op chain Avatar::pose runs under autograd, and the static
+    // descriptor in LibTorch ops against its one-op loop, alternating.
+    std::vector<double> t_train_decoders, t_train_chain, t_train_chain_fused, t_train_descriptor_ops,
+        t_train_descriptor_loop;
     {
       const auto state = avatar.pose(pose, shape, trans);
       const auto leaf = [](const torch::Tensor& t) { return t.detach().clone().requires_grad_(true); };
@@ -290,12 +292,12 @@ int main(int argc, char** argv) {
       const auto rotations = leaf(g.rotations), log_scales = leaf(g.log_scales);
       const auto linear = leaf(torch::randn({n, 3, 3}));
       const auto cot_posed = torch::randn({n, 6}), cot_dx = torch::randn({n, 3});
+      const auto lbs_means = leaf(state.lbs_means), joints = leaf(state.lbs.joints[0]);
       for (int r = 0; r < repeats + 2; ++r) {
         auto t0 = Clock::now();
         {
-          const auto out = avatar.decoders()->forward(descriptor, eg, ea, transforms);
-          ((out.dx * cot_dx).sum() + (out.dc * cot_dx).sum() + out.dsigma.sum() + out.dsigma_f.sum())
-              .backward();
+          const auto out = avatar.decoders()->outputs(descriptor, eg, ea, transforms);
+          (out.geometry.sum() + (out.appearance * cot_dx).sum() + out.fusion.sum()).backward();
         }
         const double decoders_ms = ms_since(t0);
         avatar.decoders()->zero_grad();
@@ -314,7 +316,19 @@ int main(int argc, char** argv) {
           ((chain.posed_upper * cot_posed).sum() + chain.dsigma.sum()).backward();
         }
         const double chain_fused_ms = ms_since(t0);
+        t0 = Clock::now();
+        handscs::static_descriptor(lbs_means, joints, avatar.topology(), config.scs.tau, config.scs.norm_eps)
+            .sum()
+            .backward();
+        const double descriptor_ops_ms = ms_since(t0);
+        t0 = Clock::now();
+        handscs::static_descriptor_loop(lbs_means, joints, avatar.topology(), config.scs.tau, config.scs.norm_eps)
+            .sum()
+            .backward();
+        const double descriptor_loop_ms = ms_since(t0);
         if (r < 2) continue;
+        t_train_descriptor_ops.push_back(descriptor_ops_ms);
+        t_train_descriptor_loop.push_back(descriptor_loop_ms);
         t_train_decoders.push_back(decoders_ms);
         t_train_chain.push_back(chain_ms);
         t_train_chain_fused.push_back(chain_fused_ms);
@@ -397,7 +411,8 @@ int main(int argc, char** argv) {
     row["rasterizer_backward_ms"] = median(t_raster_bwd);
     row["training_forward_backward_ms"] = {
         {"decoders", median(t_train_decoders)},
-        {"covariance_chain", {{"ops", median(t_train_chain)}, {"fused", median(t_train_chain_fused)}}}};
+        {"covariance_chain", {{"ops", median(t_train_chain)}, {"fused", median(t_train_chain_fused)}}},
+        {"static_descriptor", {{"ops", median(t_train_descriptor_ops)}, {"loop", median(t_train_descriptor_loop)}}}};
     row["other_backward_ms"] = median(t_backward) - median(t_raster_bwd);
     if (!no_train_step) {
       row["train_step"] = bench::time_train_steps(n, train_step);

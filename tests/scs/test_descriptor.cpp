@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include <torch/csrc/autograd/autograd.h>
 #include <torch/types.h>
 
 #include "hand/lbs.h"
@@ -232,4 +233,63 @@ TEST_CASE("descriptor: touching fingers of different bones get distinct coordina
   // neighbours on one finger (measured: 0.088 vs 0.044 per mm, median 0.032), with a 1.5x margin.
   CHECK(cross_per_mm > 1.5 * p95);
   CHECK(cross_per_mm > 2.5 * median);
+}
+
+TEST_CASE("descriptor: the one-pass static descriptor's gradients equal the LibTorch form's") {
+  torch::manual_seed(6);
+  const auto topology = handscs::make_static_topology(handscs::ScsConfig{});
+  for (const auto dtype : {torch::kFloat64, torch::kFloat32}) {
+    const bool is_double = dtype == torch::kFloat64;
+    INFO((is_double ? "double" : "float"));
+    auto joints_data = torch::randn({21, 3}, dtype) * 0.05;
+    joints_data[2] = joints_data[1].clone();  // a zero-length bone: |b| on the floor
+    auto x_data = torch::randn({700, 3}, dtype) * 0.05;
+    x_data.slice(0, 0, 21).copy_(joints_data);  // |r| = 0, on the floor, for some bones
+    // 0 < |r| < eps: on the floor with r != 0, where the norm's gradient must be cut.
+    x_data.slice(0, 21, 42).copy_(joints_data + 3e-9);
+    const auto x = x_data.clone().requires_grad_(true), joints = joints_data.clone().requires_grad_(true);
+    const auto x_ref = x_data.clone().requires_grad_(true), joints_ref = joints_data.clone().requires_grad_(true);
+    const auto loop = handscs::static_descriptor_loop(x, joints, topology, 0.08, 1e-8);
+    const auto ops = handscs::static_descriptor(x_ref, joints_ref, topology, 0.08, 1e-8);
+    REQUIRE(loop.requires_grad());
+    const auto cotangent = torch::randn_like(ops);
+    const auto g = torch::autograd::grad({(loop * cotangent).sum()}, {x, joints});
+    const auto g_ref = torch::autograd::grad({(ops * cotangent).sum()}, {x_ref, joints_ref});
+    for (int k = 0; k < 2; ++k) {
+      INFO((k == 0 ? "x" : "joints"));
+      // Row by row against each row's own scale: rows on the floor carry gradients ~1 / eps.
+      const auto diff = (g[k] - g_ref[k]).abs().amax(1);
+      const auto scale = g_ref[k].abs().amax(1);
+      CHECK((diff <= (is_double ? 1e-10 : 1e-4) * (scale + 1e-6)).all().item<bool>());
+      CHECK(scale.max().item<double>() > 0);
+    }
+  }
+}
+
+TEST_CASE("descriptor: the one-pass static descriptor against central finite differences") {
+  torch::manual_seed(8);
+  const auto topology = handscs::make_static_topology(handscs::ScsConfig{});
+  const auto joints = (torch::randn({21, 3}, torch::kFloat64) * 0.05).requires_grad_(true);
+  const auto x = (torch::randn({5, 3}, torch::kFloat64) * 0.05).requires_grad_(true);
+  const auto cotangent = torch::randn({5, topology.size()}, torch::kFloat64);
+  const auto value = [&] {
+    return (handscs::static_descriptor_loop(x, joints, topology, 0.08, 1e-8) * cotangent).sum();
+  };
+  const auto g = torch::autograd::grad({value()}, {x, joints});
+  const double h = 1e-6;
+  for (int k = 0; k < 2; ++k) {
+    const auto flat = (k == 0 ? x : joints).detach().view({-1});
+    for (int64_t i = 0; i < flat.numel(); i += (k == 0 ? 1 : 4)) {
+      const double saved = flat[i].item<double>();
+      double side[2];
+      for (int s = 0; s < 2; ++s) {
+        flat[i] = saved + (s == 0 ? h : -h);
+        torch::NoGradGuard no_grad;
+        side[s] = value().item<double>();
+      }
+      flat[i] = saved;
+      INFO((k == 0 ? "x " : "joints ") << i);
+      CHECK(g[k].view({-1})[i].item<double>() == Approx((side[0] - side[1]) / (2 * h)).epsilon(1e-5).margin(1e-7));
+    }
+  }
 }
