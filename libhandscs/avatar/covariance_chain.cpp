@@ -317,6 +317,32 @@ CovarianceChain covariance_chain_ops(const torch::Tensor& rotations, const torch
 CovarianceChain covariance_chain(const torch::Tensor& rotations, const torch::Tensor& log_scales,
                                  const torch::Tensor& geometry_raw, const torch::Tensor& fusion_raw,
                                  const torch::Tensor& linear) {
+  const int64_t n = rotations.dim() == 2 ? rotations.size(0) : -1;
+  const auto rows_of = [n](const torch::Tensor& t, std::initializer_list<int64_t> tail) {
+    if (t.dim() != int64_t(tail.size()) + 1 || t.size(0) != n) return false;
+    int64_t d = 1;
+    for (const int64_t size : tail)
+      if (t.size(d++) != size) return false;
+    return true;
+  };
+  TORCH_CHECK(rows_of(rotations, {4}), "covariance_chain: rotations must be [N, 4], got ", rotations.sizes());
+  TORCH_CHECK(rows_of(log_scales, {3}), "covariance_chain: log_scales must be [", n, ", 3], got ",
+              log_scales.sizes());
+  TORCH_CHECK(rows_of(geometry_raw, {7}), "covariance_chain: geometry_raw must be [", n, ", 7], got ",
+              geometry_raw.sizes());
+  TORCH_CHECK(rows_of(fusion_raw, {7}), "covariance_chain: fusion_raw must be [", n, ", 7], got ",
+              fusion_raw.sizes());
+  TORCH_CHECK(rows_of(linear, {3, 3}), "covariance_chain: linear must be [", n, ", 3, 3], got ", linear.sizes());
+  const auto dtype = rotations.scalar_type();
+  TORCH_CHECK((dtype == torch::kFloat || dtype == torch::kDouble) && log_scales.scalar_type() == dtype &&
+                  geometry_raw.scalar_type() == dtype && fusion_raw.scalar_type() == dtype &&
+                  linear.scalar_type() == dtype,
+              "covariance_chain: one dtype, float or double, for every input; got rotations ", dtype,
+              ", log_scales ", log_scales.scalar_type(), ", geometry_raw ", geometry_raw.scalar_type(),
+              ", fusion_raw ", fusion_raw.scalar_type(), ", linear ", linear.scalar_type());
+  TORCH_CHECK(rotations.is_cpu() && log_scales.is_cpu() && geometry_raw.is_cpu() && fusion_raw.is_cpu() &&
+                  linear.is_cpu(),
+              "covariance_chain: CPU tensors only");
   const bool graph = torch::GradMode::is_enabled() &&
                      (rotations.requires_grad() || log_scales.requires_grad() || geometry_raw.requires_grad() ||
                       fusion_raw.requires_grad() || linear.requires_grad());

@@ -27,8 +27,8 @@ CovarianceChain covariance_chain(const torch::Tensor& rotations, const torch::Te
                                  const torch::Tensor& geometry_raw, const torch::Tensor& fusion_raw,
                                  const torch::Tensor& linear);
 
-// The same chain in LibTorch ops from dSigma and dSigma^f (differentiable: the training path, and
-// the reference covariance_chain is measured and tested against).
+// The same chain in LibTorch ops from dSigma and dSigma^f, differentiable by autograd: the reference
+// covariance_chain is measured and tested against.
 CovarianceChain covariance_chain_ops(const torch::Tensor& rotations, const torch::Tensor& log_scales,
                                      const torch::Tensor& dsigma, const torch::Tensor& dsigma_f,
                                      const torch::Tensor& linear);

@@ -188,7 +188,9 @@ struct StaticDescriptorFunction : public torch::autograd::Function<StaticDescrip
     auto g = saved[0].scalar_type() == torch::kDouble
                  ? static_descriptor_backward_typed<double>(saved[0], saved[1], grads[0], topology, tau, eps)
                  : static_descriptor_backward_typed<float>(saved[0], saved[1], grads[0], topology, tau, eps);
-    return {g[0], g[1], torch::Tensor(), torch::Tensor(), torch::Tensor()};
+    // The joints usually come from a fixed pose; their gradient is only returned when asked for.
+    return {g[0], ctx->needs_input_grad(1) ? g[1] : torch::Tensor(), torch::Tensor(), torch::Tensor(),
+            torch::Tensor()};
   }
 };
 

@@ -24,7 +24,8 @@ ChainInputs random_inputs(int64_t n, torch::Dtype dtype) {
   const auto o = torch::TensorOptions().dtype(dtype);
   ChainInputs in;
   auto rotations = torch::randn({n, 4}, o);
-  rotations[0].zero_();  // below the floor: R = I, gradient through a fixed |q|
+  // |q|^2 ~ 1e-26, below the 1e-24 floor: the gradient goes through a fixed |q| (~1e12 in size).
+  rotations[0] = torch::randn({4}, o) * 1e-13;
   rotations[1] *= 1e-3;
   in.rotations = rotations.requires_grad_(true);
   in.log_scales = (torch::randn({n, 3}, o) * 0.5 - 4.0).requires_grad_(true);
@@ -62,7 +63,7 @@ TEST_CASE("covariance chain under autograd: values and gradients equal the LibTo
   for (const auto dtype : {torch::kDouble, torch::kFloat}) {
     const bool is_double = dtype == torch::kDouble;
     INFO((is_double ? "double" : "float"));
-    const int64_t n = 515;  // three parallel chunks of 256 and a partial one
+    const int64_t n = 515;  // more than two parallel tasks of at least 256 Gaussians
     const auto in = random_inputs(n, dtype);
     const auto mine = fused(in);
     const auto ref = reference(in);
@@ -91,6 +92,8 @@ TEST_CASE("covariance chain under autograd: values and gradients equal the LibTo
       const auto rows = (grads[k] - ref_grads[k]).abs().flatten(1).amax(1);
       const auto row_scale = ref_grads[k].abs().flatten(1).amax(1);
       CHECK((rows <= (is_double ? 1e-10 : 1e-3) * (row_scale + 1e-6)).all().item<bool>());
+      // The floored quaternion's row is not trivially zero (so its branch is exercised).
+      if (k == 0) CHECK(row_scale[0].item<double>() > 1e6);
     }
   }
 }
@@ -121,4 +124,36 @@ TEST_CASE("covariance chain under autograd: central finite differences in double
       CHECK(analytic == Approx(numeric).epsilon(1e-5).margin(1e-7));
     }
   }
+}
+
+TEST_CASE("covariance chain under autograd: unused outputs and broadcast gradients") {
+  torch::manual_seed(4);
+  const auto in = random_inputs(300, torch::kDouble);
+  // Only the posed covariances used, through a sum (a stride-0 gradient); the other three outputs
+  // get zero gradients.
+  const auto grads = torch::autograd::grad({fused(in).posed_upper.sum()}, in.leaves());
+  const auto ref_grads = torch::autograd::grad({reference(in).posed_upper.sum()}, in.leaves());
+  for (size_t k = 0; k < grads.size(); ++k) {
+    INFO("leaf " << k);
+    const auto rows = (grads[k] - ref_grads[k]).abs().flatten(1).amax(1);
+    const auto row_scale = ref_grads[k].abs().flatten(1).amax(1);
+    CHECK((rows <= 1e-10 * (row_scale + 1e-6)).all().item<bool>());
+  }
+}
+
+TEST_CASE("covariance chain: inputs of the wrong shape or dtype are refused with their sizes") {
+  const auto in = random_inputs(4, torch::kFloat);
+  torch::NoGradGuard no_grad;
+  CHECK_THROWS_WITH(handscs::covariance_chain(in.rotations.slice(0, 0, 3), in.log_scales, in.geometry_raw(),
+                                              in.fusion_raw(), in.linear()),
+                    Catch::Contains("covariance_chain: log_scales must be [3, 3], got [4, 3]"));
+  CHECK_THROWS_WITH(handscs::covariance_chain(in.rotations, in.log_scales, in.geometry_out, in.fusion_raw(),
+                                              in.linear()),
+                    Catch::Contains("geometry_raw"));
+  CHECK_THROWS_WITH(handscs::covariance_chain(in.rotations, in.log_scales, in.geometry_raw(), in.fusion_raw(),
+                                              in.transforms),
+                    Catch::Contains("linear"));
+  CHECK_THROWS_WITH(handscs::covariance_chain(in.rotations.to(torch::kDouble), in.log_scales, in.geometry_raw(),
+                                              in.fusion_raw(), in.linear()),
+                    Catch::Contains("dtype"));
 }

@@ -243,6 +243,8 @@ TEST_CASE("descriptor: the one-pass static descriptor's gradients equal the LibT
     INFO((is_double ? "double" : "float"));
     auto joints_data = torch::randn({21, 3}, dtype) * 0.05;
     joints_data[2] = joints_data[1].clone();  // a zero-length bone: |b| on the floor
+    // 0 < |b| < eps (in double; float cannot hold the offset): the floor with b != 0.
+    if (is_double) joints_data[6] = joints_data[5] + 3e-9;
     auto x_data = torch::randn({700, 3}, dtype) * 0.05;
     x_data.slice(0, 0, 21).copy_(joints_data);  // |r| = 0, on the floor, for some bones
     // 0 < |r| < eps: on the floor with r != 0, where the norm's gradient must be cut.
