@@ -48,11 +48,18 @@ void spd(const T* raw, int64_t stride, M3<T>& out, M3<T>& r, T e[3]) {
   rotated_diagonal(r, e, out);
 }
 
+// m = r diag(e): column j of r scaled by e[j].
 template <class T>
-void spd(const T* raw, int64_t stride, M3<T>& out) {
-  M3<T> r;
-  T e[3];
-  spd(raw, stride, out, r, e);
+void scale_columns(const M3<T>& r, const T e[3], M3<T>& m) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) m[i][j] = r[i][j] * e[j];
+}
+
+// A row-major 3x3 from memory.
+template <class T>
+void load(const T* p, M3<T>& m) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) m[i][j] = p[3 * i + j];
 }
 
 template <class T>
@@ -132,14 +139,40 @@ void scaled_rotation_backward(const M3<T>& r, const T e[3], const M3<T>& g_m, M3
 template <class T>
 void spd_backward(const T* raw, int64_t stride, const M3<T>& r, const T e[3], const M3<T>& g_d, T* g_raw) {
   M3<T> n, g_n, g_r, g_dt;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) n[i][j] = r[i][j] * e[j];
+  scale_columns(r, e, n);
   product(g_d, r, g_n);  // d/dN of N R^T
   transpose(g_d, g_dt);
   product(g_dt, n, g_r);  // d/dR through R^T
   scaled_rotation_backward(r, e, g_n, g_r, g_raw);
   quaternion_to_matrix_backward<T>(1 + raw[3 * stride], raw[4 * stride], raw[5 * stride], raw[6 * stride], g_r,
                                    g_raw + 3);
+}
+
+// One Gaussian's chain, forward: what it outputs and what its backward needs again.
+template <class T>
+struct ChainTerms {
+  M3<T> ds, df;      // dSigma, dSigma^f
+  M3<T> rg, rf, r;   // their rotations, and the Gaussian's own
+  T eg[3], ef[3], e[3];  // exp of their log-scales, and of the Gaussian's
+  M3<T> sigma, a, canonical, lin;  // Sigma, A = dSigma^f dSigma, A Sigma A^T, L
+};
+
+// q [4], s [3], L [9] of Gaussian k; the raw values with their column strides.
+template <class T>
+void chain_terms(const T* q, const T* s, const T* graw, int64_t g_col, const T* fraw, int64_t f_col, const T* l,
+                 ChainTerms<T>& t) {
+  spd<T>(graw, g_col, t.ds, t.rg, t.eg);
+  spd<T>(fraw, f_col, t.df, t.rf, t.ef);
+  quaternion_to_matrix<T>(q[0], q[1], q[2], q[3], t.r);
+  T e2[3];  // diag(exp(s))^2
+  for (int i = 0; i < 3; ++i) {
+    t.e[i] = std::exp(s[i]);
+    e2[i] = t.e[i] * t.e[i];
+  }
+  rotated_diagonal(t.r, e2, t.sigma);
+  product(t.df, t.ds, t.a);
+  sandwich(t.a, t.sigma, t.canonical);
+  load(l, t.lin);
 }
 
 template <class T>
@@ -164,23 +197,15 @@ CovarianceChain run(const torch::Tensor& rotations, const torch::Tensor& log_sca
   T* up = out.posed_upper.data_ptr<T>();
   at::parallel_for(0, n, 256, [&](int64_t begin, int64_t end) {
     for (int64_t k = begin; k < end; ++k) {
-      M3<T> ds, df, r, sigma, a, canonical, posed, lin;
-      spd<T>(gp + k * g_row, g_col, ds);
-      spd<T>(fp + k * f_row, f_col, df);
-      quaternion_to_matrix<T>(qp[4 * k], qp[4 * k + 1], qp[4 * k + 2], qp[4 * k + 3], r);
-      T e2[3];  // diag(exp(s))^2
-      for (int i = 0; i < 3; ++i) e2[i] = std::exp(sp[3 * k + i]) * std::exp(sp[3 * k + i]);
-      rotated_diagonal(r, e2, sigma);
-      product(df, ds, a);
-      sandwich(a, sigma, canonical);
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) lin[i][j] = lp[9 * k + 3 * i + j];
-      sandwich(lin, canonical, posed);
+      ChainTerms<T> t;
+      chain_terms<T>(qp + 4 * k, sp + 3 * k, gp + k * g_row, g_col, fp + k * f_row, f_col, lp + 9 * k, t);
+      M3<T> posed;
+      sandwich(t.lin, t.canonical, posed);
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) {
-          dsp[9 * k + 3 * i + j] = ds[i][j];
-          dfp[9 * k + 3 * i + j] = df[i][j];
-          cp[9 * k + 3 * i + j] = canonical[i][j];
+          dsp[9 * k + 3 * i + j] = t.ds[i][j];
+          dfp[9 * k + 3 * i + j] = t.df[i][j];
+          cp[9 * k + 3 * i + j] = t.canonical[i][j];
         }
       T* u = up + 6 * k;
       u[0] = posed[0][0];
@@ -218,26 +243,12 @@ std::vector<torch::Tensor> run_backward(const torch::Tensor& rotations, const to
   const T *gdsp = gds.data_ptr<T>(), *gdfp = gdf.data_ptr<T>(), *gcp = gc.data_ptr<T>(), *gup = gu.data_ptr<T>();
   T *oq = g_rotations.data_ptr<T>(), *os = g_log_scales.data_ptr<T>(), *ol = g_linear.data_ptr<T>();
   T *og = g_geometry.data_ptr<T>(), *of = g_fusion.data_ptr<T>();
-  const auto load = [](const T* p, M3<T>& m) {
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) m[i][j] = p[3 * i + j];
-  };
   at::parallel_for(0, n, 256, [&](int64_t begin, int64_t end) {
     for (int64_t k = begin; k < end; ++k) {
-      // Forward again: D, F with their rotations and scales, M = R diag(e), Sigma, A, C, L.
-      M3<T> ds, df, rg, rf, r, m, mt, sigma, a, c, lin;
-      T eg[3], ef[3], e[3];
-      spd<T>(gp + k * g_row, g_col, ds, rg, eg);
-      spd<T>(fp + k * f_row, f_col, df, rf, ef);
-      quaternion_to_matrix<T>(qp[4 * k], qp[4 * k + 1], qp[4 * k + 2], qp[4 * k + 3], r);
-      for (int j = 0; j < 3; ++j) e[j] = std::exp(sp[3 * k + j]);
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) m[i][j] = r[i][j] * e[j];
-      transpose(m, mt);
-      product(m, mt, sigma);
-      product(df, ds, a);
-      sandwich(a, sigma, c);
-      load(lp + 9 * k, lin);
+      // Forward again.
+      ChainTerms<T> t;
+      chain_terms<T>(qp + 4 * k, sp + 3 * k, gp + k * g_row, g_col, fp + k * f_row, f_col, lp + 9 * k, t);
+      const auto &ds = t.ds, &df = t.df, &r = t.r, &sigma = t.sigma, &a = t.a, &c = t.canonical, &lin = t.lin;
 
       // posed = L C L^T, its upper triangle taken entry by entry (avatar.cpp's symmetric_upper);
       // C's gradient adds to the one it receives as an output.
@@ -257,14 +268,15 @@ std::vector<torch::Tensor> run_backward(const torch::Tensor& rotations, const to
       load(gdsp + 9 * k, g_d);
       product(dft, g_a, tmp);
       add_to(tmp, g_d);
-      spd_backward<T>(gp + k * g_row, g_col, rg, eg, g_d, og + 7 * k);
-      spd_backward<T>(fp + k * f_row, f_col, rf, ef, g_f, of + 7 * k);
+      spd_backward<T>(gp + k * g_row, g_col, t.rg, t.eg, g_d, og + 7 * k);
+      spd_backward<T>(fp + k * f_row, f_col, t.rf, t.ef, g_f, of + 7 * k);
       // Sigma = M M^T: dM = (G_Sigma + G_Sigma^T) M, then M = R diag(exp(s)).
-      M3<T> g_sym, g_m, g_r = {};
+      M3<T> m, g_sym, g_m, g_r = {};
+      scale_columns(r, t.e, m);
       transpose(g_sigma, g_sym);
       add_to(g_sigma, g_sym);
       product(g_sym, m, g_m);
-      scaled_rotation_backward(r, e, g_m, g_r, os + 3 * k);
+      scaled_rotation_backward(r, t.e, g_m, g_r, os + 3 * k);
       quaternion_to_matrix_backward<T>(qp[4 * k], qp[4 * k + 1], qp[4 * k + 2], qp[4 * k + 3], g_r, oq + 4 * k);
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) ol[9 * k + 3 * i + j] = g_l[i][j];

@@ -237,12 +237,9 @@ int main(int argc, char** argv) {
       // chain) and the rasterizer.
       for (int r = 0; r < repeats + 2; ++r) {
         const auto novel_pose = torch::randn({48}) * 0.2;
-        auto t0 = Clock::now();
-        const auto state = avatar.pose(novel_pose, shape, trans);
-        const double pose_ms = ms_since(t0);
-        t0 = Clock::now();
-        (void)handscs::render_posed(state.posed, camera, {});
-        const double raster_ms = ms_since(t0);
+        handscs::AvatarState state;
+        const double pose_ms = bench::ms_of([&] { state = avatar.pose(novel_pose, shape, trans); });
+        const double raster_ms = bench::ms_of([&] { (void)handscs::render_posed(state.posed, camera, {}); });
         if (r < 2) continue;
         t_render_pose.push_back(pose_ms);
         t_render_raster.push_back(raster_ms);
@@ -292,45 +289,35 @@ int main(int argc, char** argv) {
       const auto linear = leaf(torch::randn({n, 3, 3}));
       const auto cot_posed = torch::randn({n, 6}), cot_dx = torch::randn({n, 3});
       const auto lbs_means = leaf(state.lbs_means), joints = leaf(state.lbs.joints[0]);
+      const auto backward_chain = [&](const handscs::CovarianceChain& chain) {
+        ((chain.posed_upper * cot_posed).sum() + chain.dsigma.sum()).backward();
+      };
+      const auto& topology = avatar.topology();
+      const double tau = config.scs.tau, eps = config.scs.norm_eps;
       for (int r = 0; r < repeats + 2; ++r) {
-        auto t0 = Clock::now();
-        {
+        const double decoders_ms = bench::ms_of([&] {
           const auto out = avatar.decoders()->outputs(descriptor, eg, ea, transforms);
           (out.geometry.sum() + (out.appearance * cot_dx).sum() + out.fusion.sum()).backward();
-        }
-        const double decoders_ms = ms_since(t0);
+        });
         avatar.decoders()->zero_grad();
-        t0 = Clock::now();
-        {
+        const double chain_ms = bench::ms_of([&] {
           const auto offsets = handscs::offsets_from_outputs(raw_g, torch::zeros({n, 3}), raw_f);
-          const auto chain = handscs::covariance_chain_ops(rotations, log_scales, offsets.dsigma,
-                                                           offsets.dsigma_f, linear);
-          ((chain.posed_upper * cot_posed).sum() + chain.dsigma.sum()).backward();
-        }
-        const double chain_ms = ms_since(t0);
-        t0 = Clock::now();
-        {
-          const auto chain = handscs::covariance_chain(rotations, log_scales, handscs::spd_raw(raw_g),
-                                                       handscs::spd_raw(raw_f), linear);
-          ((chain.posed_upper * cot_posed).sum() + chain.dsigma.sum()).backward();
-        }
-        const double chain_fused_ms = ms_since(t0);
-        t0 = Clock::now();
-        handscs::static_descriptor(lbs_means, joints, avatar.topology(), config.scs.tau, config.scs.norm_eps)
-            .sum()
-            .backward();
-        const double descriptor_ops_ms = ms_since(t0);
-        t0 = Clock::now();
-        handscs::static_descriptor_loop(lbs_means, joints, avatar.topology(), config.scs.tau, config.scs.norm_eps)
-            .sum()
-            .backward();
-        const double descriptor_loop_ms = ms_since(t0);
+          backward_chain(handscs::covariance_chain_ops(rotations, log_scales, offsets.dsigma, offsets.dsigma_f, linear));
+        });
+        const double chain_fused_ms = bench::ms_of([&] {
+          backward_chain(handscs::covariance_chain(rotations, log_scales, handscs::spd_raw(raw_g),
+                                                   handscs::spd_raw(raw_f), linear));
+        });
+        const double descriptor_ops_ms = bench::ms_of(
+            [&] { handscs::static_descriptor(lbs_means, joints, topology, tau, eps).sum().backward(); });
+        const double descriptor_loop_ms = bench::ms_of(
+            [&] { handscs::static_descriptor_loop(lbs_means, joints, topology, tau, eps).sum().backward(); });
         if (r < 2) continue;
-        t_train_descriptor_ops.push_back(descriptor_ops_ms);
-        t_train_descriptor_loop.push_back(descriptor_loop_ms);
         t_train_decoders.push_back(decoders_ms);
         t_train_chain.push_back(chain_ms);
         t_train_chain_fused.push_back(chain_fused_ms);
+        t_train_descriptor_ops.push_back(descriptor_ops_ms);
+        t_train_descriptor_loop.push_back(descriptor_loop_ms);
       }
     }
     // The per-Gaussian 3x3 chain at inference, alternating in one process: the LibTorch ops (the

@@ -18,6 +18,14 @@ inline double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
+// Milliseconds that f() takes.
+template <class F>
+double ms_of(F&& f) {
+  const auto start = Clock::now();
+  f();
+  return ms_since(start);
+}
+
 // The middle value (the upper one of an even count); 0 for none.
 inline double median(std::vector<double> values) {
   if (values.empty()) return 0.0;
