@@ -21,6 +21,7 @@ Avatar::Avatar(const AvatarConfig& config, Rig rig)
     : config_(config), rig_(std::move(rig)), topology_(make_static_topology(config.scs)) {
   torch::manual_seed(static_cast<uint64_t>(config.seed));
   gaussians_ = init_gaussians_from_rig(rig_, config_);
+  rest_normals_ = rest_vertex_normals(rig_);
   if (config_.scs.enabled && config_.scs.virtual_bones > 0)
     generator_ = VirtualBoneGenerator(config_.scs, topology_);
   const int64_t embedding = config_.embeddings ? config_.embedding_dim : 0;
@@ -89,7 +90,8 @@ const FrozenDecoders& Avatar::frozen_decoders() {
 }
 
 AvatarState Avatar::pose(const torch::Tensor& pose_in, const torch::Tensor& shape_in,
-                         const torch::Tensor& trans_in, bool need_descriptor) {
+                         const torch::Tensor& trans_in, bool need_descriptor,
+                         const FacingCull* cull) {
   require(pose_in.numel() == kPoseDim, "avatar: pose must have 48 values, got " +
                                            std::to_string(pose_in.numel()));
   require(shape_in.numel() == kShapeDim, "avatar: shape must have 10 values, got " +
@@ -127,11 +129,24 @@ AvatarState Avatar::pose(const torch::Tensor& pose_in, const torch::Tensor& shap
   const auto descriptor_in =
       use_descriptor ? s.descriptor : torch::zeros({g.size(), 0}, s.lbs_means.options());
   const auto transform_in = transforms.slice(1, 0, 3).reshape({-1, 12});
+  if (cull) {
+    const auto normals = rest_normals_.index_select(0, g.vertex_ids).to(dtype);
+    const auto rows = facing_rows(linear, normals, s.lbs_means, *cull);
+    if (rows.numel() < g.size()) s.decoded_rows = rows;
+  }
+  const bool culled = s.decoded_rows.defined();
+  // Culled: the decoders see the kept rows only, and the others' outputs are zeros.
+  const auto kept = [&](const torch::Tensor& t) { return culled ? t.index_select(0, s.decoded_rows) : t; };
+  const auto all_rows = [&](const torch::Tensor& t) {
+    return culled ? torch::zeros({g.size(), t.size(1)}, t.options()).index_copy(0, s.decoded_rows, t) : t;
+  };
   // The decoders (frozen at inference: avatar/frozen_decoders.h), then the 3x3 chain in one pass,
   // with its own backward under autograd (avatar/covariance_chain.h).
-  const auto raw = torch::GradMode::is_enabled()
-                       ? decoders_->outputs(descriptor_in, g.embed_geometry, g.embed_appearance, transform_in)
-                       : frozen_decoders().outputs(descriptor_in, transform_in);
+  auto raw = torch::GradMode::is_enabled()
+                 ? decoders_->outputs(kept(descriptor_in), kept(g.embed_geometry),
+                                      kept(g.embed_appearance), kept(transform_in))
+                 : frozen_decoders().outputs(kept(descriptor_in), kept(transform_in), s.decoded_rows);
+  if (culled) raw = {all_rows(raw.geometry), all_rows(raw.appearance), all_rows(raw.fusion)};
   const auto chain =
       covariance_chain(g.rotations, g.log_scales, spd_raw(raw.geometry), spd_raw(raw.fusion), linear);
   s.offsets = offsets_from_outputs(raw.geometry, raw.appearance, raw.fusion, chain.dsigma, chain.dsigma_f);
@@ -142,6 +157,9 @@ AvatarState Avatar::pose(const torch::Tensor& pose_in, const torch::Tensor& shap
   s.posed.means = apply(s.canonical_means);
   s.posed.colors = s.canonical_colors;
   s.posed.opacities = torch::sigmoid(g.opacity_logits);
+  if (culled)
+    s.posed.opacities = s.posed.opacities *
+                        torch::zeros_like(s.posed.opacities).index_fill_(0, s.decoded_rows, 1.0);
   return s;
 }
 

@@ -10,6 +10,7 @@
 
 #include "avatar/avatar_config.h"
 #include "avatar/decoders.h"
+#include "avatar/facing_cull.h"
 #include "avatar/frozen_decoders.h"
 #include "avatar/gaussians.h"
 #include "core/camera.h"
@@ -43,6 +44,9 @@ struct AvatarState {
   torch::Tensor canonical_covariances;  // [N, 3, 3] Sigma'
   torch::Tensor canonical_colors;       // [N, 3] c'
   VirtualBones virtual_bones;     // undefined tensors when M = 0 or SCS is off
+  // With a FacingCull: the rows [K] int64 decoded and rendered; the others' decoder outputs are 0
+  // and their opacities 0 (the rasterizer skips them). Undefined: every row (no cull, or none culled).
+  torch::Tensor decoded_rows;
 };
 
 struct AvatarOutput {
@@ -58,8 +62,11 @@ class Avatar {
   // non-finite input. need_descriptor forces P even when the decoders do not use it (for L_con).
   // Without autograd (inference mode or no-grad) the decoders run in their frozen form
   // (avatar/frozen_decoders.h), rebuilt whenever a weight or an embedding has changed.
+  // cull: decode and render only the Gaussians facing one of its cameras (avatar/facing_cull.h);
+  // the descriptor is still computed for every Gaussian.
   AvatarState pose(const torch::Tensor& pose, const torch::Tensor& shape,
-                   const torch::Tensor& trans, bool need_descriptor = false);
+                   const torch::Tensor& trans, bool need_descriptor = false,
+                   const FacingCull* cull = nullptr);
 
   AvatarOutput forward(const torch::Tensor& pose, const torch::Tensor& shape,
                        const torch::Tensor& trans, const Camera& camera,
@@ -94,6 +101,7 @@ class Avatar {
   VirtualBoneGenerator generator_{nullptr};
   OffsetDecoders decoders_{nullptr};
   std::optional<FrozenDecoders> frozen_;
+  torch::Tensor rest_normals_;  // [V, 3] float64 outward normals of the rig's template vertices
 };
 
 // Upper triangle [N, 6] of symmetric matrices [N, 3, 3].

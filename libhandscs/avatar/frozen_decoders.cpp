@@ -59,19 +59,21 @@ FrozenDecoders::Mlp FrozenDecoders::freeze(GatedMlpImpl& mlp, const torch::Tenso
   return out;
 }
 
-torch::Tensor FrozenDecoders::run(const Mlp& mlp, const torch::Tensor& x) const {
-  auto h = torch::addmm(mlp.per_gaussian1, x, mlp.w1.t()).relu_();
+torch::Tensor FrozenDecoders::run(const Mlp& mlp, const torch::Tensor& x,
+                                  const torch::Tensor& rows) const {
+  const auto constant = rows.defined() ? mlp.per_gaussian1.index_select(0, rows) : mlp.per_gaussian1;
+  auto h = torch::addmm(constant, x, mlp.w1.t()).relu_();
   h = torch::addmm(mlp.b2, h, mlp.w2.t()).relu_();
   return torch::addmm(mlp.b3, h, mlp.w3.t());
 }
 
-DecoderOutputs FrozenDecoders::outputs(const torch::Tensor& descriptor,
-                                                const torch::Tensor& transforms) const {
+DecoderOutputs FrozenDecoders::outputs(const torch::Tensor& descriptor, const torch::Tensor& transforms,
+                                       const torch::Tensor& rows) const {
   torch::NoGradGuard no_grad;
   const auto dtype = transforms.scalar_type();
   auto x = torch::cat({descriptor, transforms}, 1);
   if (geometry_.w1.scalar_type() != dtype) x = x.to(geometry_.w1.scalar_type());
-  auto output = [&](const Mlp& mlp) { return run(mlp, x).to(dtype); };
+  auto output = [&](const Mlp& mlp) { return run(mlp, x, rows).to(dtype); };
   return {output(geometry_), output(appearance_), output(fusion_)};
 }
 

@@ -26,8 +26,10 @@ class FrozenDecoders {
   DecodedOffsets forward(const torch::Tensor& descriptor, const torch::Tensor& transforms) const;
 
   // The three decoders' raw outputs in the transforms' dtype, for callers that build the offsets
-  // themselves (avatar/covariance_chain.h).
-  DecoderOutputs outputs(const torch::Tensor& descriptor, const torch::Tensor& transforms) const;
+  // themselves (avatar/covariance_chain.h). rows [K] int64: descriptor and transforms are those
+  // Gaussians' rows only (a cull, avatar/facing_cull.h); undefined: every Gaussian, in order.
+  DecoderOutputs outputs(const torch::Tensor& descriptor, const torch::Tensor& transforms,
+                         const torch::Tensor& rows = {}) const;
 
   // Whether decoders and embeddings are still the tensors, with the values, this was built from.
   bool current(OffsetDecodersImpl& decoders, const torch::Tensor& embed_geometry,
@@ -40,7 +42,7 @@ class FrozenDecoders {
   };
   // descriptor_dim: |P|, the first columns of layer 1 (then the embeddings, then vec(T)).
   static Mlp freeze(GatedMlpImpl& mlp, const torch::Tensor& embeddings, int64_t descriptor_dim);
-  torch::Tensor run(const Mlp& mlp, const torch::Tensor& x) const;
+  torch::Tensor run(const Mlp& mlp, const torch::Tensor& x, const torch::Tensor& rows) const;
 
   Mlp geometry_, appearance_, fusion_;
   // (tensor, version) of every input the frozen values were computed from.

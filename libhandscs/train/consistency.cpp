@@ -129,4 +129,11 @@ torch::Tensor consistency_distances(const torch::Tensor& attributes, const torch
   return total;
 }
 
+torch::Tensor pairs_decoded_at_both_steps(const torch::Tensor& decoded_now,
+                                          const torch::Tensor& decoded_prev, const torch::Tensor& match) {
+  auto both = decoded_now.defined() ? decoded_now : torch::ones({match.size(0)}, torch::kBool);
+  if (decoded_prev.defined()) both = both.logical_and(decoded_prev.index_select(0, match));
+  return both.nonzero().squeeze(1);
+}
+
 }  // namespace handscs

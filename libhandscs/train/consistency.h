@@ -42,4 +42,10 @@ torch::Tensor consistency_distances(const torch::Tensor& attributes, const torch
                                     const torch::Tensor& covariances,  // [N, 3, 3] Sigma'
                                     ConsistencyConfig::Normalize normalize);
 
+// train.cull: the rows i [K] int64 (increasing) whose Gaussian was decoded at this step and whose
+// match match[i] at the previous one; decoded_now [N], decoded_prev [N'] bool, either undefined when
+// every Gaussian was decoded; match [N] int64 into the previous step's rows.
+torch::Tensor pairs_decoded_at_both_steps(const torch::Tensor& decoded_now,
+                                          const torch::Tensor& decoded_prev, const torch::Tensor& match);
+
 }  // namespace handscs

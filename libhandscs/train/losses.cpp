@@ -25,13 +25,14 @@ std::vector<std::pair<std::string, torch::Tensor>> offset_norms(const DecodedOff
           {"dsigma_f", smooth_norm(o.dsigma_f - eye, 1)}, {"dc_f", smooth_norm(o.dc_f, 1)}};
 }
 
-torch::Tensor offset_regularizer(const DecodedOffsets& o, LossWeights::RegTerms terms) {
+torch::Tensor offset_regularizer(const DecodedOffsets& o, LossWeights::RegTerms terms,
+                                 const torch::Tensor& rows) {
   const auto norms = offset_norms(o);
   // The paper's terms are the first three (geometry and appearance offsets).
   const size_t count = terms == LossWeights::RegTerms::paper ? 3 : norms.size();
   auto per_gaussian = norms[0].second;
   for (size_t k = 1; k < count; ++k) per_gaussian = per_gaussian + norms[k].second;
-  return per_gaussian.mean();
+  return (rows.defined() ? per_gaussian.index_select(0, rows) : per_gaussian).mean();
 }
 
 Objective::Objective(const LossWeights& weights, std::shared_ptr<const Lpips> lpips)
@@ -55,7 +56,7 @@ LossResult Objective::compute(const LossInputs& in) const {
       add("lpips", weights_.lpips * static_cast<double>(weights_.lpips_every),
           lpips_loss(*lpips_, pred, target));
   }
-  if (weights_.reg > 0 && in.offsets) add("reg", weights_.reg, offset_regularizer(*in.offsets, weights_.reg_terms));
+  if (weights_.reg > 0 && in.offsets) add("reg", weights_.reg, offset_regularizer(*in.offsets, weights_.reg_terms, in.decoded_rows));
   if (weights_.consistency > 0 && in.consistency.defined())
     add("consistency", weights_.consistency, in.consistency);
   result.total = parts.empty() ? torch::zeros({}, in.rgb.options()) : parts[0];

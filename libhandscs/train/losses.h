@@ -25,6 +25,7 @@ struct LossInputs {
   torch::Tensor target;  // [h, w, 3] ground truth composited on the same background
   torch::Tensor mask;    // [h, w] in {0, 1}
   const DecodedOffsets* offsets = nullptr;
+  torch::Tensor decoded_rows;  // AvatarState::decoded_rows: L_reg averages over these (undefined: all)
   torch::Tensor consistency;  // scalar L_con (already weighted by pose similarity), or undefined
   bool lpips_step = true;     // a step that takes LPIPS (train.loss.lpips_every)
 };
@@ -52,7 +53,9 @@ class Objective {
 std::vector<std::pair<std::string, torch::Tensor>> offset_norms(const DecodedOffsets& offsets);
 
 // L_reg of one set of decoded offsets (mean over Gaussians); terms "paper" (dx, dSigma, dc) or "all"
-// (the fusion offsets as well).
-torch::Tensor offset_regularizer(const DecodedOffsets& offsets, LossWeights::RegTerms terms);
+// (the fusion offsets as well). With rows ([K] int64, AvatarState::decoded_rows), the mean over
+// those Gaussians only: the others were not decoded this step.
+torch::Tensor offset_regularizer(const DecodedOffsets& offsets, LossWeights::RegTerms terms,
+                                 const torch::Tensor& rows = {});
 
 }  // namespace handscs

@@ -181,6 +181,22 @@ struct PoseRefineConfig {
   }
 };
 
+// Back-facing Gaussians skipped in training (issue 13, beyond the paper; avatar/facing_cull.h): a
+// Gaussian whose rig-vertex normal, carried by its blend transform, faces away from every camera of
+// the step is neither decoded nor rasterised; L_reg and L_con then average over the decoded ones.
+struct CullConfig {
+  bool enabled = false;
+  // Kept while cos(normal, view ray) <= max_cos: 0.3 (~17 degrees past the silhouette), the value
+  // of the inference experiment of 2026-11-26 (4), fixed before training was measured with it.
+  double max_cos = 0.3;
+
+  template <class V>
+  void visit(V& v) {
+    v.field("enabled", enabled, "skip Gaussians facing away from the step's cameras");
+    v.field("max_cos", max_cos, "kept while cos(normal, view ray) <= this (1 = keep all)", -1.0, 1.0);
+  }
+};
+
 struct TrainConfig {
   int64_t iterations = 3000;        // optimisation steps
   int64_t seed = 0;                 // frame order, backgrounds
@@ -206,6 +222,7 @@ struct TrainConfig {
   DensifyConfig densify;
   ConsistencyConfig consistency;
   PoseRefineConfig pose_refine;
+  CullConfig cull;
 
   template <class V>
   void visit(V& v) {
@@ -230,6 +247,7 @@ struct TrainConfig {
     v.section("densify", densify, "densification and pruning");
     v.section("consistency", consistency, "inter-pose consistency");
     v.section("pose_refine", pose_refine, "training-pose refinement (beyond the paper)");
+    v.section("cull", cull, "back-facing Gaussians skipped in training (beyond the paper)");
   }
 };
 

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <random>
 
 #include <opencv2/imgproc.hpp>
@@ -22,6 +23,7 @@
 #include "io/png.h"
 #include "metrics/image_tensor.h"
 #include "metrics/psnr.h"
+#include "render/projected_radii.h"
 #include "train/avatar_state_io.h"
 #include "train/consistency.h"
 #include "train/descriptor_tree.h"
@@ -54,7 +56,8 @@ const char* kMetricsColumns[] = {"iteration", "seconds", "loss", "rgb", "mask", 
 const char* kDiagnosticColumns[] = {"gate_geometry", "gate_appearance", "gate_fusion",
                                     "offset_dx", "offset_dsigma", "offset_dc",
                                     "offset_dx_f", "offset_dsigma_f", "offset_dc_f",
-                                    "pose_refine_deg", "pose_refine_global_deg", "pose_refine_mm"};
+                                    "pose_refine_deg", "pose_refine_global_deg", "pose_refine_mm",
+                                    "decoded_fraction"};
 
 
 
@@ -218,6 +221,10 @@ torch::Tensor Trainer::consistency_loss(const AvatarState& state, const torch::T
   const auto attributes =
       consistency_attributes(state.canonical_means, state.canonical_covariances,
                              state.canonical_colors, g.embed_geometry, g.embed_appearance);
+  const torch::Tensor decoded =
+      state.decoded_rows.defined()
+          ? torch::zeros({g.size()}, torch::kBool).index_fill_(0, state.decoded_rows, true)
+          : torch::Tensor();
   torch::Tensor loss;
   const double weight = prev.descriptor.defined()
                             ? pose_similarity(feature, prev.pose_feature, cc.delta)
@@ -242,12 +249,17 @@ torch::Tensor Trainer::consistency_loss(const AvatarState& state, const torch::T
       match = DescriptorTree(prev.descriptor).nearest(state.descriptor,
                                                        torch::arange(g.size(), torch::kInt64));
     }
-    const auto diff = consistency_distances(attributes, prev.attributes.index_select(0, match),
-                                            state.canonical_covariances, cc.normalize);
-    loss = weight * (cc.reduction == ConsistencyConfig::Reduction::sum ? diff.sum() : diff.mean());
+    auto diff = consistency_distances(attributes, prev.attributes.index_select(0, match),
+                                      state.canonical_covariances, cc.normalize);
+    // train.cull: a pair counts only when both of its Gaussians were decoded (the others carry
+    // no offsets at their step).
+    if (decoded.defined() || prev.decoded.defined())
+      diff = diff.index_select(0, pairs_decoded_at_both_steps(decoded, prev.decoded, match));
+    if (diff.numel() > 0)
+      loss = weight * (cc.reduction == ConsistencyConfig::Reduction::sum ? diff.sum() : diff.mean());
   }
   // Kept for the next step (M_0 = M_1 on the first step: no loss).
-  next_chains_[chain] = {state.descriptor.detach(), attributes.detach(), feature};
+  next_chains_[chain] = {state.descriptor.detach(), attributes.detach(), feature, decoded};
   return loss;
 }
 
@@ -322,7 +334,14 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
   }
   const bool learn_pose = corrected.delta.defined() && corrected.delta.requires_grad();
   // The pose is decoded once; each view rasterises the same posed Gaussians.
-  const AvatarState state = avatar_->pose(pose, float_vector(current.shape), trans, consistency);
+  std::optional<FacingCull> cull;
+  if (config_.train.cull.enabled) {
+    cull.emplace();
+    cull->max_cos = config_.train.cull.max_cos;
+    for (const auto& view : views) cull->camera_centres.push_back(view.camera.centre());
+  }
+  const AvatarState state = avatar_->pose(pose, float_vector(current.shape), trans, consistency,
+                                          cull ? &*cull : nullptr);
   std::vector<torch::Tensor> probes;
   std::vector<RasterOutput> renders;
   for (const auto& view : views) {
@@ -348,6 +367,7 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
     in.target = views[k].target;
     in.mask = views[k].mask;
     in.offsets = &state.offsets;
+    in.decoded_rows = state.decoded_rows;
     in.lpips_step = (iteration_ + 1) % config_.train.loss.lpips_every == 0;
     in.consistency = consistency_term;
     auto loss = objective_->compute(in);
@@ -371,8 +391,13 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
     result.diagnostics["gate_geometry"] = decoders->geometry->gate.item<double>();
     result.diagnostics["gate_appearance"] = decoders->appearance->gate.item<double>();
     result.diagnostics["gate_fusion"] = decoders->fusion->gate.item<double>();
-    for (const auto& [name, norms] : offset_norms(state.offsets))
-      result.diagnostics["offset_" + name] = norms.mean().item<double>();
+    for (const auto& [name, norms] : offset_norms(state.offsets)) {
+      const auto decoded = state.decoded_rows.defined() ? norms.index_select(0, state.decoded_rows) : norms;
+      result.diagnostics["offset_" + name] = decoded.mean().item<double>();
+    }
+    if (cull)  // train.cull: the share of Gaussians decoded and rendered
+      result.diagnostics["decoded_fraction"] =
+          state.decoded_rows.defined() ? double(state.decoded_rows.numel()) / double(g.size()) : 1.0;
     if (pose_corrections_)
       for (const auto& [name, value] : pose_corrections_->summary()) result.diagnostics[name] = value;
   }
@@ -395,9 +420,22 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
   if (densify) {
     // The densification threshold is per view: undo the 1/(entries x views) of the means.
     const double weight = double(entries * count);
+    // train.cull: a skipped Gaussian counts as seen, with no gradient, by every view whose exact
+    // render would have projected it (its un-offset geometry and own opacity): it is on the hand's
+    // far side, where the exact render's gradient is that of an occluded Gaussian. Counting it as
+    // unseen raised the mean gradient of the back's Gaussians and densified 60% more of them.
+    torch::Tensor decoded;
+    if (state.decoded_rows.defined())
+      decoded = torch::zeros({g.size()}, torch::kBool).index_fill_(0, state.decoded_rows, true);
     for (int64_t k = 0; k < count; ++k) {
       const auto grad = probes[k].grad().defined() ? probes[k].grad() : torch::zeros_like(probes[k]);
-      const auto s = Densifier::view_statistics(weight == 1 ? grad : grad * weight, renders[k].radii);
+      const auto radii =
+          decoded.defined()
+              ? torch::where(decoded, renders[k].radii,
+                             projected_radii(state.posed.means, state.posed.covariances,
+                                             torch::sigmoid(g.opacity_logits), views[k].camera, {}))
+              : renders[k].radii;
+      const auto s = Densifier::view_statistics(weight == 1 ? grad : grad * weight, radii);
       outcome.densify.grad_norm = k == 0 ? s.grad_norm : outcome.densify.grad_norm + s.grad_norm;
       outcome.densify.visible = k == 0 ? s.visible : outcome.densify.visible + s.visible;
     }
@@ -623,6 +661,7 @@ Checkpoint Trainer::make_checkpoint() {
     put(prefix + "descriptor", prev_chains_[i].descriptor);
     put(prefix + "attributes", prev_chains_[i].attributes);
     put(prefix + "pose_feature", prev_chains_[i].pose_feature);
+    put(prefix + "decoded", prev_chains_[i].decoded);
   }
   put("consistency/candidates", candidates_);
   if (pose_corrections_)
@@ -674,7 +713,7 @@ void Trainer::load_from(const Checkpoint& ckpt, const std::string& source) {
   for (size_t i = 0; i < prev_chains_.size(); ++i) {
     const std::string prefix = chain_prefix(first_entry() + static_cast<int64_t>(i));
     prev_chains_[i] = {get(prefix + "descriptor"), get(prefix + "attributes"),
-                       get(prefix + "pose_feature")};
+                       get(prefix + "pose_feature"), get(prefix + "decoded")};
   }
   candidates_ = get("consistency/candidates");
   if (pose_corrections_) {

@@ -99,6 +99,7 @@ class Trainer {
   // The inter-pose state one entry leaves for the same entry of the next step (detached).
   struct ConsistencyChain {
     torch::Tensor descriptor, attributes, pose_feature;
+    torch::Tensor decoded;  // [N] bool: rows decoded at that step (train.cull); undefined: all
   };
   // What a view is trained against: its ROI crop (scaled by train.resolution_scale) composited on
   // its background.

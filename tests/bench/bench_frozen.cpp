@@ -2,7 +2,9 @@
 // avatar renders held-out frames of its own capture twice, through the training path (autograd on:
 // the decoders as trained) and through the inference path handscs-eval and handscs-render take
 // (frozen decoders); prints PSNR of one against the other and each one's PSNR / SSIM / LPIPS
-// against the ground truth, with the per-frame forward time of both. Prints one JSON object. Usage:
+// against the ground truth, with the per-frame forward time of both. The same for the inference
+// path with the back-facing Gaussians culled (avatar/facing_cull.h, handscs-render --cull) against
+// the frozen path. Prints one JSON object. Usage:
 //   handscs-bench-frozen --checkpoint RUN [--max-images 150] [--lpips-weights FILE] [--threads 2]
 #include <cmath>
 #include <cstdio>
@@ -79,9 +81,10 @@ int main(int argc, char** argv) {
   const auto bg_tensor = torch::tensor({float(bg[0]), float(bg[1]), float(bg[2])});
   handscs::RasterSettings settings;
   settings.background = {float(bg[0]), float(bg[1]), float(bg[2])};
-  Sums exact_sums, frozen_sums;
-  double mse_sum = 0, worst_psnr = INFINITY;
-  std::vector<double> exact_ms, frozen_ms;
+  Sums exact_sums, frozen_sums, culled_sums;
+  double mse_sum = 0, worst_psnr = INFINITY, culled_mse_sum = 0, culled_worst_psnr = INFINITY;
+  double decoded_share = 0;
+  std::vector<double> exact_ms, frozen_ms, culled_ms;
   for (const auto& frame : frames) {
     auto sample = capture.load(frame, /*full_image=*/true);
     const auto mask = sample.mask.to(torch::kFloat32).unsqueeze(2);
@@ -89,7 +92,7 @@ int main(int argc, char** argv) {
     const auto pose = torch::tensor(std::vector<float>(frame.pose.begin(), frame.pose.end()));
     const auto shape = torch::tensor(std::vector<float>(frame.shape.begin(), frame.shape.end()));
     const auto trans = torch::tensor(std::vector<float>(frame.trans.begin(), frame.trans.end()));
-    torch::Tensor exact, frozen;
+    torch::Tensor exact, frozen, culled;
     {
       torch::AutoGradMode grad(true);  // the decoders as trained
       const auto t0 = Clock::now();
@@ -102,13 +105,30 @@ int main(int argc, char** argv) {
       frozen = avatar.forward(pose, shape, trans, sample.camera, settings).render.rgb;
       frozen_ms.push_back(ms_since(t0));
     }
+    {
+      c10::InferenceMode guard;
+      handscs::FacingCull cull;
+      cull.camera_centres = {sample.camera.centre()};
+      const auto t0 = Clock::now();
+      const auto state = avatar.pose(pose, shape, trans, false, &cull);
+      culled = handscs::render_posed(state.posed, sample.camera, settings).rgb;
+      culled_ms.push_back(ms_since(t0));
+      decoded_share += state.decoded_rows.defined()
+                           ? double(state.decoded_rows.numel()) / double(avatar.gaussians().size())
+                           : 1.0;
+    }
     exact = exact.clamp(0, 1);
     frozen = frozen.clamp(0, 1);
     const double mse = (frozen - exact).pow(2).mean().item<double>();
     mse_sum += mse;
     worst_psnr = std::min(worst_psnr, handscs::psnr_from_mse(mse));
+    culled = culled.clamp(0, 1);
+    const double culled_mse = (culled - frozen).pow(2).mean().item<double>();
+    culled_mse_sum += culled_mse;
+    culled_worst_psnr = std::min(culled_worst_psnr, handscs::psnr_from_mse(culled_mse));
     exact_sums.add(scorer.score(exact, gt));
     frozen_sums.add(scorer.score(frozen, gt));
+    culled_sums.add(scorer.score(culled, gt));
   }
   const auto n = static_cast<int64_t>(frames.size());
   const bool lpips_on = scorer.has_lpips();
@@ -121,7 +141,11 @@ int main(int argc, char** argv) {
                             {"worst_frame_psnr", worst_psnr}};
   out["exact_vs_gt"] = exact_sums.mean(n, lpips_on);
   out["frozen_vs_gt"] = frozen_sums.mean(n, lpips_on);
-  out["forward_ms"] = {{"exact", median(exact_ms)}, {"frozen", median(frozen_ms)}};
+  out["culled_vs_frozen"] = {{"psnr_of_mean_mse", handscs::psnr_from_mse(culled_mse_sum / n)},
+                              {"worst_frame_psnr", culled_worst_psnr},
+                              {"decoded_share", decoded_share / n}};
+  out["culled_vs_gt"] = culled_sums.mean(n, lpips_on);
+  out["forward_ms"] = {{"exact", median(exact_ms)}, {"frozen", median(frozen_ms)}, {"culled", median(culled_ms)}};
   std::printf("%s\n", out.dump(2).c_str());
   return 0;
 }

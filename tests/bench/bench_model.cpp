@@ -93,6 +93,7 @@ int main(int argc, char** argv) {
   app.add_option("--views-per-pose", train_step.views_per_pose,
                  "train.views_per_pose of the training step (cameras of one pose sharing a decoding)")
       ->check(CLI::Range(1, 4));
+  app.add_flag("--cull", train_step.cull, "train.cull.enabled in the training step (back-facing Gaussians skipped)");
   app.add_flag("--no-train-step", no_train_step, "skip train_step_ms (saves generating a capture)");
   app.add_option("--work-dir", work_dir, "where the training step's synthetic capture is written")
       ->capture_default_str();
@@ -120,6 +121,7 @@ int main(int argc, char** argv) {
   result["train_step_lpips"] = !no_train_step && !train_step.lpips_weights.empty();
   result["train_step_lpips_every"] = train_step.lpips_every;
   result["train_step_views_per_pose"] = train_step.views_per_pose;
+  result["train_step_cull"] = train_step.cull;
   const auto camera = capture_camera(width, height);
   const auto pose = torch::randn({48}) * 0.2;
   const auto shape = torch::zeros({10});
@@ -145,13 +147,20 @@ int main(int argc, char** argv) {
         if (p.numel() == 1) p.fill_(0.05);  // open gates: realistic, non-zero offsets
     }
     // One forward + backward of the full step (no losses), timed as a whole; gradients cleared.
-    const auto forward_backward = [&](double& fwd, double& bwd) {
+    // With cull: what training does with train.cull (the Gaussians facing away from the camera are
+    // neither decoded nor rasterised).
+    handscs::FacingCull facing;
+    facing.camera_centres = {camera.centre()};
+    int64_t decoded_rows = n;
+    const auto forward_backward = [&](double& fwd, double& bwd, const handscs::FacingCull* cull) {
       auto t0 = Clock::now();
-      auto out = avatar.forward(pose, shape, trans, camera, {});
+      const auto state = avatar.pose(pose, shape, trans, false, cull);
+      const auto render = handscs::render_posed(state.posed, camera, {});
       fwd = ms_since(t0);
-      const auto cotangent = torch::rand_like(out.render.rgb);
+      if (state.decoded_rows.defined()) decoded_rows = state.decoded_rows.numel();
+      const auto cotangent = torch::rand_like(render.rgb);
       t0 = Clock::now();
-      ((out.render.rgb * cotangent).sum() + out.render.alpha.sum()).backward();
+      ((render.rgb * cotangent).sum() + render.alpha.sum()).backward();
       bwd = ms_since(t0);
       for (auto& [name, tensor] : avatar.gaussians().learnable())
         if (tensor->grad().defined()) tensor->mutable_grad().reset();
@@ -159,10 +168,12 @@ int main(int argc, char** argv) {
       if (avatar.generator()) avatar.generator()->zero_grad();
       return cotangent;
     };
-    std::vector<double> t_lbs, t_scs, t_dec, t_raster_fwd, t_forward, t_backward, t_raster_bwd;
+    std::vector<double> t_lbs, t_scs, t_dec, t_raster_fwd, t_forward, t_backward, t_raster_bwd,
+        t_culled;
     for (int r = 0; r < repeats + 2; ++r) {  // two warm-up runs
-      double fwd = 0.0, bwd = 0.0;
-      const auto cotangent = forward_backward(fwd, bwd);
+      double fwd = 0.0, bwd = 0.0, culled_fwd = 0.0, culled_bwd = 0.0;
+      (void)forward_backward(culled_fwd, culled_bwd, &facing);
+      const auto cotangent = forward_backward(fwd, bwd, nullptr);
 
       // Stages, each timed on its own with the same inputs.
       auto t0 = Clock::now();
@@ -207,6 +218,7 @@ int main(int argc, char** argv) {
       if (r < 2) continue;
       t_forward.push_back(fwd);
       t_backward.push_back(bwd);
+      t_culled.push_back(culled_fwd + culled_bwd);
       t_lbs.push_back(lbs_ms);
       t_scs.push_back(scs_ms);
       t_dec.push_back(dec_ms);
@@ -216,22 +228,26 @@ int main(int argc, char** argv) {
     if (!profile_ops.empty()) {
       torch::autograd::profiler::RecordProfile record(profile_ops + "_" + std::to_string(n) + ".json");
       double fwd = 0.0, bwd = 0.0;
-      for (int r = 0; r < repeats; ++r) (void)forward_backward(fwd, bwd);
+      for (int r = 0; r < repeats; ++r) (void)forward_backward(fwd, bwd, nullptr);
     }
     // What handscs-render does for a new pose: the whole forward under inference mode (no autograd
     // graph), a new random pose every frame so nothing pose-dependent can be reused.
-    std::vector<double> t_render, t_render_pose, t_render_raster;
+    // Alternated with the same under a FacingCull of the camera (handscs-render --cull).
+    std::vector<double> t_render, t_render_culled, t_render_pose, t_render_raster;
     {
       c10::InferenceMode guard;
-      const auto render_novel_pose = [&] {
+      const auto render_novel_pose = [&](const handscs::FacingCull* cull) {
         const auto novel_pose = torch::randn({48}) * 0.2;
         const auto t0 = Clock::now();
-        (void)avatar.forward(novel_pose, shape, trans, camera, {});
+        (void)handscs::render_posed(avatar.pose(novel_pose, shape, trans, false, cull).posed, camera, {});
         return ms_since(t0);
       };
       for (int r = 0; r < repeats + 2; ++r) {
-        const double ms = render_novel_pose();
-        if (r >= 2) t_render.push_back(ms);
+        const double ms = render_novel_pose(nullptr);
+        const double culled_ms = render_novel_pose(&facing);
+        if (r < 2) continue;
+        t_render.push_back(ms);
+        t_render_culled.push_back(culled_ms);
       }
       // The same frame in its two parts, wall-clock: posing (skinning, descriptor, decoders, 3x3
       // chain) and the rasterizer.
@@ -246,7 +262,7 @@ int main(int argc, char** argv) {
       }
       if (!profile_ops.empty()) {
         torch::autograd::profiler::RecordProfile record(profile_ops + "_" + std::to_string(n) + "_render.json");
-        for (int r = 0; r < repeats; ++r) (void)render_novel_pose();
+        for (int r = 0; r < repeats; ++r) (void)render_novel_pose(nullptr);
       }
     }
     // The decoders alone at inference, alternating in one process (so that the machine's slow and
@@ -387,10 +403,14 @@ int main(int argc, char** argv) {
                                     {"frozen", median(t_decoders_frozen)}};
     row["render_ms"] = median(t_render);
     row["render_fps"] = 1000.0 / median(t_render);
+    row["render_culled_ms"] = median(t_render_culled);
     row["render_stage_ms"] = {{"pose", median(t_render_pose)}, {"rasterizer", median(t_render_raster)}};
     row["forward_ms"] = median(t_forward);
     row["backward_ms"] = median(t_backward);
     row["forward_backward_ms"] = median(t_forward) + median(t_backward);
+    // train.cull's forward + backward (alternated with the above) and the share it decodes.
+    row["forward_backward_culled_ms"] = median(t_culled);
+    row["culled_decoded_fraction"] = double(decoded_rows) / double(n);
     row["stage_forward_ms"] = {{"lbs", median(t_lbs)},
                                {"scs", median(t_scs)},
                                {"decoders", median(t_dec)},

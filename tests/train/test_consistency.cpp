@@ -146,3 +146,14 @@ TEST_CASE("consistency: attribute distances, raw and per group normalised, match
     CHECK_THAT(x.grad()[2][k].item<double>(), Catch::Matchers::WithinRel(fd, 1e-6));
   }
 }
+
+TEST_CASE("consistency: with train.cull a pair counts only when both of its Gaussians were decoded") {
+  const auto match = torch::tensor({3, 0, 0, 2, 1}, torch::kInt64);
+  const auto now = torch::tensor({true, true, false, true, true});
+  const auto prev = torch::tensor({true, false, true, false});  // previous step: 4 Gaussians
+  // By hand: i = 0 (3: not decoded before), 1 (0: yes), 2 (not now), 3 (2: yes), 4 (1: no).
+  CHECK(torch::equal(handscs::pairs_decoded_at_both_steps(now, prev, match), torch::tensor({1, 3}, torch::kInt64)));
+  CHECK(torch::equal(handscs::pairs_decoded_at_both_steps(now, {}, match), torch::tensor({0, 1, 3, 4}, torch::kInt64)));
+  CHECK(torch::equal(handscs::pairs_decoded_at_both_steps({}, prev, match), torch::tensor({1, 2, 3}, torch::kInt64)));
+  CHECK(torch::equal(handscs::pairs_decoded_at_both_steps({}, {}, match), torch::arange(5, torch::kInt64)));
+}

@@ -55,6 +55,24 @@ TEST_CASE("losses: L_reg has the paper's terms by default and the fusion offsets
   CHECK_THAT(norms[5].second[2].item<double>(), Catch::Matchers::WithinAbs(frobenius(o.dc_f[2]), 1e-6));
 }
 
+TEST_CASE("losses: with decoded rows (train.cull) L_reg is the mean over those rows only") {
+  const int64_t n = 7;
+  const auto o = random_offsets(n);
+  const auto eye = torch::eye(3, torch::kFloat64);
+  const std::vector<int64_t> rows{1, 4, 5};
+  double paper = 0;
+  for (const int64_t i : rows)
+    paper += frobenius(o.dx[i]) + frobenius(o.dsigma[i] - eye) + frobenius(o.dc[i]);
+  paper /= double(rows.size());
+  const auto value = handscs::offset_regularizer(o, handscs::LossWeights::RegTerms::paper,
+                                                 torch::tensor(rows, torch::kInt64));
+  CHECK_THAT(value.item<double>(), Catch::Matchers::WithinAbs(paper, 1e-5));
+  // Every row given: the mean over all, bit for bit.
+  CHECK(torch::equal(handscs::offset_regularizer(o, handscs::LossWeights::RegTerms::all,
+                                                 torch::arange(n, torch::kInt64)),
+                     handscs::offset_regularizer(o, handscs::LossWeights::RegTerms::all)));
+}
+
 TEST_CASE("losses: L_reg is finite with zero gradient at zero offsets") {
   handscs::DecodedOffsets o;
   const int64_t n = 4;

@@ -1,0 +1,36 @@
+// Back-facing Gaussians (issue 13, beyond the paper; train.cull in training): the Gaussians whose rig vertex
+// faces away from every camera of a step lie on the far side of the hand's closed surface, behind
+// its front side, so they are neither decoded nor rasterised. Each Gaussian's normal is its rig
+// vertex's rest normal (area-weighted face normals of the template) carried by the Gaussian's own
+// blend transform T; a Gaussian is kept when n.(x - c) / (|n| |x - c|) <= max_cos for at least one
+// camera centre c (x its LBS-posed centre, offsets not applied). max_cos > 0 keeps a band of
+// Gaussians just past the silhouette: the normal is the rig's, not the Gaussian's, and the decoded
+// offsets move Gaussians after the test.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include <torch/types.h>
+
+#include "hand/rig.h"
+
+namespace handscs {
+
+struct FacingCull {
+  std::vector<std::array<double, 3>> camera_centres;  // world, metres; at least one
+  double max_cos = 0.3;  // kept while the cosine between normal and view ray is at most this
+};
+
+// Unit outward normal of each template vertex [V, 3] float64: the sum of its faces' cross
+// products (each twice the face's area; faces counter-clockwise seen from outside), normalised.
+// A vertex without faces gets 0 (never culled: the test is 0 <= max_cos).
+torch::Tensor rest_vertex_normals(const Rig& rig);
+
+// Rows [K] int64, increasing, of the Gaussians kept. linear [N, 3, 3] (the 3x3 of each Gaussian's
+// blend transform T, any strides), rest_normals [N, 3] and means [N, 3] in float32 or float64,
+// no gradient taken. A non-finite row is kept (the rasterizer culls it with its own rules).
+torch::Tensor facing_rows(const torch::Tensor& linear, const torch::Tensor& rest_normals,
+                          const torch::Tensor& means, const FacingCull& cull);
+
+}  // namespace handscs
