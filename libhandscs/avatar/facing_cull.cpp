@@ -1,6 +1,8 @@
 #include "avatar/facing_cull.h"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <torch/types.h>
 
@@ -23,36 +25,37 @@ torch::Tensor rest_vertex_normals(const Rig& rig) {
 
 namespace {
 
+// The smallest cosine between the carried normal and a camera's view ray; -inf when the row is
+// kept whatever the threshold (non-finite, or a zero normal or ray).
 template <class T>
-bool faces_a_camera(const T* l, const T* n, const T* x, const FacingCull& cull) {
+double smallest_cosine(const T* l, const T* n, const T* x, const FacingCull& cull) {
   // Carried normal l n (row-major 3x3 times the rest normal).
   const double m[3] = {double(l[0]) * n[0] + double(l[1]) * n[1] + double(l[2]) * n[2],
                        double(l[3]) * n[0] + double(l[4]) * n[1] + double(l[5]) * n[2],
                        double(l[6]) * n[0] + double(l[7]) * n[1] + double(l[8]) * n[2]};
   const double m2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2];
-  if (!(std::isfinite(m2) && std::isfinite(double(x[0]) + x[1] + x[2]))) return true;
+  if (!(std::isfinite(m2) && std::isfinite(double(x[0]) + x[1] + x[2]))) return -INFINITY;
+  double smallest = INFINITY;
   for (const auto& c : cull.camera_centres) {
     const double r[3] = {x[0] - c[0], x[1] - c[1], x[2] - c[2]};
     const double r2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-    const double dot = m[0] * r[0] + m[1] * r[1] + m[2] * r[2];
     const double lengths = std::sqrt(m2 * r2);
-    if (!(lengths > 0) || dot / lengths <= cull.max_cos) return true;  // a zero normal is kept
+    if (!(lengths > 0)) return -INFINITY;
+    smallest = std::min(smallest, (m[0] * r[0] + m[1] * r[1] + m[2] * r[2]) / lengths);
   }
-  return false;
+  return smallest;
 }
 
 template <class T>
-std::vector<int64_t> kept_rows(const torch::Tensor& linear, const torch::Tensor& normals,
-                               const torch::Tensor& means, const FacingCull& cull) {
+std::vector<double> smallest_cosines(const torch::Tensor& linear, const torch::Tensor& normals,
+                                     const torch::Tensor& means, const FacingCull& cull) {
   const int64_t n = means.size(0);
   const T* l = linear.data_ptr<T>();
   const T* nn = normals.data_ptr<T>();
   const T* x = means.data_ptr<T>();
-  std::vector<int64_t> rows;
-  rows.reserve(static_cast<size_t>(n));
-  for (int64_t i = 0; i < n; ++i)
-    if (faces_a_camera(l + 9 * i, nn + 3 * i, x + 3 * i, cull)) rows.push_back(i);
-  return rows;
+  std::vector<double> cosines(static_cast<size_t>(n));
+  for (int64_t i = 0; i < n; ++i) cosines[i] = smallest_cosine(l + 9 * i, nn + 3 * i, x + 3 * i, cull);
+  return cosines;
 }
 
 }  // namespace
@@ -73,8 +76,23 @@ torch::Tensor facing_rows(const torch::Tensor& linear_in, const torch::Tensor& n
   const auto linear = linear_in.detach().to(dtype).contiguous();
   const auto normals = normals_in.detach().to(dtype).contiguous();
   const auto means = means_in.detach().contiguous();
-  std::vector<int64_t> rows = dtype == torch::kFloat64 ? kept_rows<double>(linear, normals, means, cull)
-                                                       : kept_rows<float>(linear, normals, means, cull);
+  const std::vector<double> cosines =
+      dtype == torch::kFloat64 ? smallest_cosines<double>(linear, normals, means, cull)
+                               : smallest_cosines<float>(linear, normals, means, cull);
+  std::vector<int64_t> rows, culled;
+  for (int64_t i = 0; i < n; ++i) (cosines[i] <= cull.max_cos ? rows : culled).push_back(i);
+  // Rounded up with the culled rows nearest the threshold (smallest cosine, then lowest index).
+  const int64_t multiple = std::max<int64_t>(cull.row_multiple, 1);
+  const int64_t kept = static_cast<int64_t>(rows.size());
+  const int64_t extra = std::min<int64_t>((kept + multiple - 1) / multiple * multiple, n) - kept;
+  if (extra > 0) {
+    const auto nearer = [&](int64_t a, int64_t b) {
+      return cosines[a] < cosines[b] || (cosines[a] == cosines[b] && a < b);
+    };
+    std::nth_element(culled.begin(), culled.begin() + (extra - 1), culled.end(), nearer);
+    rows.insert(rows.end(), culled.begin(), culled.begin() + extra);
+    std::sort(rows.begin(), rows.end());
+  }
   return torch::tensor(rows, torch::kInt64);
 }
 

@@ -26,21 +26,28 @@ handscs::Camera cull_test_camera(int width, int height) {
   return camera;
 }
 
-// The kept rows by the definition, with tensor ops: any camera with cos(L n, x - c) <= max_cos;
-// a zero-length normal or ray is kept.
-torch::Tensor facing_reference(const torch::Tensor& linear, const torch::Tensor& normals,
-                               const torch::Tensor& means, const handscs::FacingCull& cull) {
+// The smallest cosine over the cameras of (L n, x - c) by the definition, with tensor ops; -inf
+// for a zero-length normal or ray (kept at any threshold).
+torch::Tensor smallest_cosine_reference(const torch::Tensor& linear, const torch::Tensor& normals,
+                                        const torch::Tensor& means, const handscs::FacingCull& cull) {
   const auto l = linear.to(torch::kFloat64), n = normals.to(torch::kFloat64);
   const auto x = means.to(torch::kFloat64);
   const auto carried = l.matmul(n.unsqueeze(2)).squeeze(2);
-  auto keep = torch::zeros({x.size(0)}, torch::kBool);
+  auto smallest = torch::full({x.size(0)}, INFINITY, torch::kFloat64);
   for (const auto& c : cull.camera_centres) {
     const auto ray = x - torch::tensor({c[0], c[1], c[2]}, torch::kFloat64);
     const auto lengths = carried.norm(2, 1) * ray.norm(2, 1);
-    const auto cosine = (carried * ray).sum(1) / lengths;
-    keep = keep.logical_or(lengths == 0).logical_or(cosine <= cull.max_cos);
+    const auto cosine = torch::where(lengths == 0, torch::full_like(lengths, -INFINITY),
+                                     (carried * ray).sum(1) / lengths);
+    smallest = torch::minimum(smallest, cosine);
   }
-  return keep.nonzero().squeeze(1);
+  return smallest;
+}
+
+// The kept rows by the definition: any camera with cos <= max_cos.
+torch::Tensor facing_reference(const torch::Tensor& linear, const torch::Tensor& normals,
+                               const torch::Tensor& means, const handscs::FacingCull& cull) {
+  return (smallest_cosine_reference(linear, normals, means, cull) <= cull.max_cos).nonzero().squeeze(1);
 }
 
 }  // namespace
@@ -82,6 +89,7 @@ TEST_CASE("facing cull: kept rows equal the brute-force definition") {
     for (const double max_cos : {0.3, 0.0, -0.5, 0.9}) {
       handscs::FacingCull cull;
       cull.max_cos = max_cos;
+      cull.row_multiple = 1;  // the test alone
       cull.camera_centres = {{0, 0, -0.6}, {0.5, 0.1, 0.2}};
       const auto rows = handscs::facing_rows(linear, normals, means, cull);
       auto expected = facing_reference(linear, normals, means, cull);
@@ -101,11 +109,40 @@ TEST_CASE("facing cull: kept rows equal the brute-force definition") {
   }
 }
 
+TEST_CASE("facing cull: the kept count is rounded up with the culled rows nearest the threshold") {
+  auto gen = at::detail::createCPUGenerator(12);
+  const int64_t n = 1000;
+  const auto linear = at::normal(0.0, 1.0, {n, 3, 3}, gen, torch::kFloat64);
+  const auto normals = at::normal(0.0, 1.0, {n, 3}, gen, torch::kFloat64);
+  const auto means = at::normal(0.0, 0.1, {n, 3}, gen, torch::kFloat64);
+  handscs::FacingCull cull;
+  cull.camera_centres = {{0, 0, -0.6}};
+  const auto cosine = smallest_cosine_reference(linear, normals, means, cull);
+  const auto exact = facing_reference(linear, normals, means, cull);
+  for (const int64_t multiple : {64, 128, 7, 1000, 4096}) {
+    cull.row_multiple = multiple;
+    const auto rows = handscs::facing_rows(linear, normals, means, cull);
+    const int64_t k = exact.numel();
+    INFO("multiple " << multiple << ", " << k << " pass the test");
+    CHECK(rows.numel() == std::min<int64_t>((k + multiple - 1) / multiple * multiple, n));
+    CHECK(torch::equal(std::get<0>(rows.sort()), rows));  // increasing
+    CHECK(torch::isin(exact, rows).all().item<bool>());
+    // Every added row is nearer the threshold than every row still culled.
+    const auto added = rows.index({torch::isin(rows, exact).logical_not()});
+    auto still_culled = torch::ones({n}, torch::kBool);
+    still_culled.index_fill_(0, rows, false);
+    if (added.numel() > 0 && still_culled.any().item<bool>())
+      CHECK(cosine.index_select(0, added).max().item<double>() <=
+            cosine.index({still_culled}).min().item<double>());
+  }
+}
+
 TEST_CASE("facing cull: non-finite rows are kept, bad arguments are refused") {
   const auto linear = torch::eye(3, torch::kFloat64).expand({3, 3, 3}).contiguous();
   auto normals = torch::tensor({0., 0., 1., 0., 0., 1., 0., 0., 1.}, torch::kFloat64).view({3, 3});
   auto means = torch::zeros({3, 3}, torch::kFloat64);
   handscs::FacingCull cull;
+  cull.row_multiple = 1;
   cull.camera_centres = {{0, 0, -1}};  // every normal points away from this camera
   CHECK(handscs::facing_rows(linear, normals, means, cull).numel() == 0);
   means[1][0] = std::nan("");
