@@ -56,7 +56,8 @@ LossResult Objective::compute(const LossInputs& in) const {
       add("lpips", weights_.lpips * static_cast<double>(weights_.lpips_every),
           lpips_loss(*lpips_, pred, target));
   }
-  if (weights_.reg > 0 && in.offsets) add("reg", weights_.reg, offset_regularizer(*in.offsets, weights_.reg_terms, in.decoded_rows));
+  if (weights_.reg > 0 && in.offsets)
+    add("reg", weights_.reg, offset_regularizer(*in.offsets, weights_.reg_terms, in.decoded_rows));
   if (weights_.consistency > 0 && in.consistency.defined())
     add("consistency", weights_.consistency, in.consistency);
   result.total = parts.empty() ? torch::zeros({}, in.rgb.options()) : parts[0];

@@ -184,6 +184,8 @@ struct PoseRefineConfig {
 // Back-facing Gaussians skipped in training (issue 13, beyond the paper; avatar/facing_cull.h): a
 // Gaussian whose rig-vertex normal, carried by its blend transform, faces away from every camera of
 // the step is neither decoded nor rasterised; L_reg and L_con then average over the decoded ones.
+// Off: it takes a quarter off the forward + backward at 10k Gaussians but costs 0.11 dB of PSNR
+// (3 seeds on real_demo, docs/BENCHMARKS.md), more than issue 13's 0.05 dB for a default.
 struct CullConfig {
   bool enabled = false;
   // Kept while cos(normal, view ray) <= max_cos: 0.3 (~17 degrees past the silhouette), the value

@@ -392,7 +392,8 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
     result.diagnostics["gate_appearance"] = decoders->appearance->gate.item<double>();
     result.diagnostics["gate_fusion"] = decoders->fusion->gate.item<double>();
     for (const auto& [name, norms] : offset_norms(state.offsets)) {
-      const auto decoded = state.decoded_rows.defined() ? norms.index_select(0, state.decoded_rows) : norms;
+      const auto decoded =
+          state.decoded_rows.defined() ? norms.index_select(0, state.decoded_rows) : norms;
       result.diagnostics["offset_" + name] = decoded.mean().item<double>();
     }
     if (cull)  // train.cull: the share of Gaussians decoded and rendered
