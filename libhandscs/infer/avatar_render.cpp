@@ -13,7 +13,6 @@
 #include "avatar/avatar.h"
 #include "avatar/pose_memo.h"
 #include "core/atomic_file.h"
-#include "core/config.h"
 #include "core/error.h"
 #include "core/float_vector.h"
 #include "core/progress.h"
@@ -24,10 +23,8 @@
 #include "render/camera_export.h"
 #include "render/camera_json.h"
 #include "train/avatar_state_io.h"
-#include "train/checkpoint.h"
 #include "render/orbit.h"
 #include "infer/pose_source.h"
-#include "train/run_config.h"
 
 namespace handscs {
 
@@ -89,12 +86,8 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
   require(options.ply_sh_degree >= 0 && options.ply_sh_degree <= kMaxPlyShDegree,
           "--ply-sh-degree " + std::to_string(options.ply_sh_degree) + ": must be 0.." +
               std::to_string(kMaxPlyShDegree));
-  const OpenedCheckpoint opened = open_checkpoint(options.checkpoint);
-  const std::string& ckpt_path = opened.path;
-  const Checkpoint& ckpt = opened.checkpoint;
-  RunConfig config;
-  config_from_json(ckpt.meta.at("config"), ckpt_path + " (stored config)", config);
-  Avatar avatar = restore_avatar(ckpt, config.model, load_rig_source(avatar_rig_source(config)), ckpt_path);
+  TrainedAvatar trained = open_trained_avatar(options.checkpoint);
+  Avatar& avatar = trained.avatar;
   const std::vector<PoseFrame> poses = read_pose_source(options.poses);
 
   std::vector<Camera> cameras;

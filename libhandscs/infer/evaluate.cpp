@@ -82,13 +82,12 @@ std::string paper_table(const std::string& label, const EvalSummary& s, double f
 }
 
 ModelEvalResult evaluate_avatar(const RunConfig& config_in, const ModelEvalOptions& options) {
-  const OpenedCheckpoint opened = open_checkpoint(options.checkpoint);
-  const std::string& ckpt_path = opened.path;
-  const Checkpoint& ckpt = opened.checkpoint;
+  TrainedAvatar trained = open_trained_avatar(options.checkpoint);
+  const std::string& ckpt_path = trained.path;
+  Avatar& avatar = trained.avatar;
   RunConfig config = config_in;
   // The architecture comes from the checkpoint; data and evaluation settings from the caller.
-  RunConfig stored;
-  config_from_json(ckpt.meta.at("config"), ckpt_path + " (stored config)", stored);
+  RunConfig& stored = trained.config;
   const auto differences = json_differences(config_to_json(stored.model), config_to_json(config.model), "model");
   if (!differences.empty())
     spdlog::warn("the given config's model section differs from the checkpoint's ({}); the checkpoint's is used",
@@ -109,7 +108,6 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, const ModelEvalOptio
                                 : options.out_dir + "/cache";
   Capture capture = Capture::open(config.data, cache);
   refuse_damaged_images(capture);
-  Avatar avatar = restore_avatar(ckpt, config.model, load_rig_source(avatar_rig_source(config)), ckpt_path);
   ImageScorer scorer(config.eval);
   RegionLegend legend;
   std::string regions_dir;

@@ -2,6 +2,7 @@
 
 #include <torch/types.h>
 
+#include "core/config.h"
 #include "core/error.h"
 
 namespace handscs {
@@ -58,6 +59,15 @@ Avatar restore_avatar(const Checkpoint& checkpoint, const AvatarConfig& config, 
     tensor.copy_(stored);
   }
   return avatar;
+}
+
+TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run) {
+  const OpenedCheckpoint opened = open_checkpoint(checkpoint_or_run);
+  RunConfig config;
+  config_from_json(opened.checkpoint.meta.at("config"), opened.path + " (stored config)", config);
+  Avatar avatar = restore_avatar(opened.checkpoint, config.model,
+                                 load_rig_source(avatar_rig_source(config)), opened.path);
+  return {opened.path, std::move(config), std::move(avatar)};
 }
 
 }  // namespace handscs

@@ -6,6 +6,7 @@
 
 #include "avatar/avatar.h"
 #include "train/checkpoint.h"
+#include "train/run_config.h"
 
 namespace handscs {
 
@@ -15,5 +16,14 @@ void store_avatar(Avatar& avatar, Checkpoint& checkpoint);
 // Restores an avatar built from `config` and `rig`; `source` names the file in errors.
 Avatar restore_avatar(const Checkpoint& checkpoint, const AvatarConfig& config, Rig rig,
                       const std::string& source);
+
+// A trained avatar as a checkpoint file or run folder holds it (open_checkpoint): the file's path,
+// the run config stored in it, and the avatar restored with that config's model and rig.
+struct TrainedAvatar {
+  std::string path;
+  RunConfig config;
+  Avatar avatar;
+};
+TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run);
 
 }  // namespace handscs

@@ -15,14 +15,12 @@
 #include <torch/types.h>
 
 #include "core/allocator.h"
-#include "core/config.h"
 #include "core/logging.h"
 #include "core/threads.h"
 #include "data/capture.h"
 #include "metrics/image_scorer.h"
 #include "metrics/psnr.h"
 #include "train/avatar_state_io.h"
-#include "train/checkpoint.h"
 #include "train/run_config.h"
 #include "bench_timing.h"
 
@@ -60,15 +58,12 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   handscs::set_threads(threads);
 
-  const auto opened = handscs::open_checkpoint(checkpoint);
-  handscs::RunConfig config;
-  handscs::config_from_json(opened.checkpoint.meta.at("config"), opened.path + " (stored config)", config);
+  handscs::TrainedAvatar trained = handscs::open_trained_avatar(checkpoint);
+  handscs::RunConfig& config = trained.config;
+  handscs::Avatar& avatar = trained.avatar;
   config.eval.lpips.weights = lpips_weights;
   const auto cache = std::filesystem::temp_directory_path() / "handscs-bench-frozen-cache";
   handscs::Capture capture = handscs::Capture::open(config.data, cache.string());
-  handscs::Avatar avatar = handscs::restore_avatar(
-      opened.checkpoint, config.model, handscs::load_rig_source(handscs::avatar_rig_source(config)),
-      opened.path);
   const handscs::ImageScorer scorer(config.eval);
 
   auto frames = capture.test();
@@ -133,7 +128,7 @@ int main(int argc, char** argv) {
   const auto n = static_cast<int64_t>(frames.size());
   const bool lpips_on = scorer.has_lpips();
   nlohmann::json out;
-  out["checkpoint"] = opened.path;
+  out["checkpoint"] = trained.path;
   out["frames"] = n;
   out["gaussians"] = avatar.gaussians().size();
   out["threads"] = threads;
