@@ -19,6 +19,9 @@ torch::Tensor rest_vertex_normals(const Rig& rig) {
   const auto face_normals = torch::cross(b - a, c - a, 1);  // |.| = twice the face's area
   auto sums = torch::zeros_like(v);
   for (int k = 0; k < 3; ++k) sums.index_add_(0, f.select(1, k), face_normals);
+  // Rig files are not checked for their winding: a mesh whose faces turn clockwise seen from
+  // outside has a negative signed volume (sum of a . (b x c) / 6), and its normals are turned.
+  if ((a * torch::cross(b, c, 1)).sum().item<double>() < 0) sums = -sums;
   const auto length = sums.norm(2, 1, true);
   return torch::where(length > 0, sums / length.clamp_min(1e-300), torch::zeros_like(sums));
 }
@@ -84,7 +87,9 @@ torch::Tensor facing_rows(const torch::Tensor& linear_in, const torch::Tensor& n
   // Rounded up with the culled rows nearest the threshold (smallest cosine, then lowest index).
   const int64_t multiple = std::max<int64_t>(cull.row_multiple, 1);
   const int64_t kept = static_cast<int64_t>(rows.size());
-  const int64_t extra = std::min<int64_t>((kept + multiple - 1) / multiple * multiple, n) - kept;
+  // At least one multiple: a step that culled every Gaussian would leave L_reg a mean over none.
+  const int64_t rounded = std::max<int64_t>((kept + multiple - 1) / multiple, 1) * multiple;
+  const int64_t extra = std::min<int64_t>(rounded, n) - kept;
   if (extra > 0) {
     const auto nearer = [&](int64_t a, int64_t b) {
       return cosines[a] < cosines[b] || (cosines[a] == cosines[b] && a < b);

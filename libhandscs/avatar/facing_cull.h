@@ -22,17 +22,18 @@ namespace handscs {
 struct FacingCull {
   std::vector<std::array<double, 3>> camera_centres;  // world, metres; at least one
   double max_cos = 0.3;  // kept while the cosine between normal and view ray is at most this
-  // The kept count is rounded up to a multiple of this (capped at N) with the culled Gaussians
-  // nearest the threshold: oneDNN builds its bf16 GEMM kernels for each row count, and a count
-  // that changed every step made training with the cull slower than without it (the
-  // benchmark's training steps at 2,872 Gaussians: 1,021 oneDNN primitive cache misses against 435,
-  // 31.8 against 27.6 ms a step). 128 keeps a run's distinct counts to a few tens, cached, at
+  // The kept count is rounded up to a multiple of this (at least one, at most N) with the culled
+  // Gaussians nearest the threshold: oneDNN builds its bf16 GEMM kernels for each row count, and a
+  // count that changed every step made training with the cull slower than without it (the
+  // benchmark's training steps at 2,872 Gaussians: 1,021 oneDNN primitive cache misses against
+  // 435, 31.8 against 27.6 ms a step). 128 keeps a run's distinct counts to a few tens, cached, at
   // <= 127 rows decoded beyond the test.
   int64_t row_multiple = 128;
 };
 
 // Unit outward normal of each template vertex [V, 3] float64: the sum of its faces' cross
-// products (each twice the face's area; faces counter-clockwise seen from outside), normalised.
+// products (each twice the face's area), normalised, turned outward when the faces run clockwise
+// seen from outside (a negative signed volume; the rig's convention is counter-clockwise).
 // A vertex without faces gets 0, and a Gaussian with a zero normal is always kept.
 torch::Tensor rest_vertex_normals(const Rig& rig);
 

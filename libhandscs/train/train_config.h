@@ -183,7 +183,8 @@ struct PoseRefineConfig {
 
 // Back-facing Gaussians skipped in training (issue 13, beyond the paper; avatar/facing_cull.h): a
 // Gaussian whose rig-vertex normal, carried by its blend transform, faces away from every camera of
-// the step is neither decoded nor rasterised; L_reg and L_con then average over the decoded ones.
+// the step is neither decoded nor rasterised; L_reg then averages over the decoded Gaussians and
+// L_con takes only the pairs whose two Gaussians were decoded.
 // Off: it takes a quarter off the forward + backward at 10k Gaussians but costs 0.11 dB of PSNR
 // (3 seeds on real_demo, docs/BENCHMARKS.md), more than issue 13's 0.05 dB for a default.
 struct CullConfig {

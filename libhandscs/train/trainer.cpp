@@ -56,8 +56,9 @@ const char* kMetricsColumns[] = {"iteration", "seconds", "loss", "rgb", "mask", 
 const char* kDiagnosticColumns[] = {"gate_geometry", "gate_appearance", "gate_fusion",
                                     "offset_dx", "offset_dsigma", "offset_dc",
                                     "offset_dx_f", "offset_dsigma_f", "offset_dc_f",
-                                    "pose_refine_deg", "pose_refine_global_deg", "pose_refine_mm",
-                                    "decoded_fraction"};
+                                    "pose_refine_deg", "pose_refine_global_deg", "pose_refine_mm"};
+// ... then, with train.cull only (a run's columns never change, so runs from before it resume).
+constexpr const char* kCullColumn = "decoded_fraction";
 
 
 
@@ -117,6 +118,12 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir, ProcessGro
       std::min<int64_t>(kEmptyMaskSteps, static_cast<int64_t>(capture_->train().size())));
 }
 
+std::vector<std::string> Trainer::diagnostic_columns() const {
+  std::vector<std::string> columns(std::begin(kDiagnosticColumns), std::end(kDiagnosticColumns));
+  if (config_.train.cull.enabled) columns.push_back(kCullColumn);
+  return columns;
+}
+
 void Trainer::write_run_files() {
   // Not in the constructor: a resume that fails (or a config that fails later checks) must leave
   // the folder as it was.
@@ -127,7 +134,7 @@ void Trainer::write_run_files() {
     std::string header;
     for (size_t i = 0; i < std::size(kMetricsColumns); ++i)
       header += (i ? "," : "") + std::string(kMetricsColumns[i]);
-    for (const char* column : kDiagnosticColumns) header += "," + std::string(column);
+    for (const std::string& column : diagnostic_columns()) header += "," + column;
     write_file_atomic(metrics, header + "\n");
   }
   run_files_written_ = true;
@@ -397,7 +404,7 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
       result.diagnostics["offset_" + name] = decoded.mean().item<double>();
     }
     if (cull)  // train.cull: the share of Gaussians decoded and rendered
-      result.diagnostics["decoded_fraction"] =
+      result.diagnostics[kCullColumn] =
           state.decoded_rows.defined() ? double(state.decoded_rows.numel()) / double(g.size()) : 1.0;
     if (pose_corrections_)
       for (const auto& [name, value] : pose_corrections_->summary()) result.diagnostics[name] = value;
@@ -796,7 +803,7 @@ void Trainer::log_step(const StepResult& r) {
       << rollbacks_ << "," << optimizer_->lr_scale() << "," << r.times.data_ms << ","
       << r.times.forward_ms << "," << r.times.losses_ms << "," << r.times.backward_ms << ","
       << r.times.optimizer_ms;
-  for (const char* column : kDiagnosticColumns) {
+  for (const std::string& column : diagnostic_columns()) {
     auto it = r.diagnostics.find(column);
     out << ",";
     if (it != r.diagnostics.end()) out << it->second;

@@ -126,6 +126,9 @@ class Trainer {
   int64_t first_entry() const;       // this rank's first entry of a step
   void build_optimizer();
   void write_run_files();
+  // metrics.csv's columns after the fixed ones: the model's diagnostics (and decoded_fraction with
+  // train.cull).
+  std::vector<std::string> diagnostic_columns() const;
   Checkpoint make_checkpoint();
   void load_from(const Checkpoint& checkpoint, const std::string& source);
   bool rollback();

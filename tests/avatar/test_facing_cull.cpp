@@ -74,6 +74,9 @@ TEST_CASE("facing cull: rest normals of an octahedron point along its axes") {
   auto expected = rig.v_template.clone();
   expected[6].zero_();
   CHECK(torch::allclose(normals, expected, 0, 1e-15));
+  // Clockwise faces (a rig file with the other winding): still outward.
+  rig.faces = rig.faces.flip(1).contiguous();
+  CHECK(torch::allclose(handscs::rest_vertex_normals(rig), expected, 0, 1e-15));
 }
 
 TEST_CASE("facing cull: kept rows equal the brute-force definition") {
@@ -124,7 +127,7 @@ TEST_CASE("facing cull: the kept count is rounded up with the culled rows neares
     const auto rows = handscs::facing_rows(linear, normals, means, cull);
     const int64_t k = exact.numel();
     INFO("multiple " << multiple << ", " << k << " pass the test");
-    CHECK(rows.numel() == std::min<int64_t>((k + multiple - 1) / multiple * multiple, n));
+    CHECK(rows.numel() == std::min<int64_t>(std::max<int64_t>((k + multiple - 1) / multiple, 1) * multiple, n));
     CHECK(torch::equal(std::get<0>(rows.sort()), rows));  // increasing
     CHECK(torch::isin(exact, rows).all().item<bool>());
     // Every added row is nearer the threshold than every row still culled.
@@ -137,6 +140,26 @@ TEST_CASE("facing cull: the kept count is rounded up with the culled rows neares
   }
 }
 
+TEST_CASE("facing cull: a test that culls every Gaussian still keeps one multiple") {
+  auto gen = at::detail::createCPUGenerator(13);
+  const int64_t n = 500;
+  const auto linear = at::normal(0.0, 1.0, {n, 3, 3}, gen, torch::kFloat64);
+  const auto normals = at::normal(0.0, 1.0, {n, 3}, gen, torch::kFloat64);
+  const auto means = at::normal(0.0, 0.1, {n, 3}, gen, torch::kFloat64);
+  handscs::FacingCull cull;
+  cull.camera_centres = {{0, 0, -0.6}};
+  cull.max_cos = -1.0;  // only a normal pointing straight at the camera passes
+  REQUIRE(facing_reference(linear, normals, means, cull).numel() == 0);
+  const auto cosine = smallest_cosine_reference(linear, normals, means, cull);
+  cull.row_multiple = 64;
+  const auto rows = handscs::facing_rows(linear, normals, means, cull);
+  REQUIRE(rows.numel() == 64);
+  // The 64 smallest cosines.
+  CHECK(torch::equal(rows, std::get<0>(std::get<1>(cosine.topk(64, 0, false)).sort())));
+  cull.row_multiple = 1000;  // more than N: every row
+  CHECK(handscs::facing_rows(linear, normals, means, cull).numel() == n);
+}
+
 TEST_CASE("facing cull: non-finite rows are kept, bad arguments are refused") {
   const auto linear = torch::eye(3, torch::kFloat64).expand({3, 3, 3}).contiguous();
   auto normals = torch::tensor({0., 0., 1., 0., 0., 1., 0., 0., 1.}, torch::kFloat64).view({3, 3});
@@ -144,7 +167,7 @@ TEST_CASE("facing cull: non-finite rows are kept, bad arguments are refused") {
   handscs::FacingCull cull;
   cull.row_multiple = 1;
   cull.camera_centres = {{0, 0, -1}};  // every normal points away from this camera
-  CHECK(handscs::facing_rows(linear, normals, means, cull).numel() == 0);
+  CHECK(handscs::facing_rows(linear, normals, means, cull).numel() == 1);  // one "multiple" of 1
   means[1][0] = std::nan("");
   normals[2][2] = INFINITY;
   CHECK(torch::equal(handscs::facing_rows(linear, normals, means, cull), torch::tensor({1, 2}, torch::kInt64)));

@@ -3,8 +3,8 @@
 // the decoders as trained) and through the inference path handscs-eval and handscs-render take
 // (frozen decoders); prints PSNR of one against the other and each one's PSNR / SSIM / LPIPS
 // against the ground truth, with the per-frame forward time of both. The same for the inference
-// path with the back-facing Gaussians culled (avatar/facing_cull.h, handscs-render --cull) against
-// the frozen path. Prints one JSON object. Usage:
+// path with the back-facing Gaussians culled (avatar/facing_cull.h; measured only, not offered by
+// handscs-render) against the frozen path. Prints one JSON object. Usage:
 //   handscs-bench-frozen --checkpoint RUN [--max-images 150] [--lpips-weights FILE] [--threads 2]
 #include <cmath>
 #include <cstdio>
