@@ -5,6 +5,7 @@
 #include "catch_torch.h"
 
 #include <cmath>
+#include <tuple>
 
 #include <torch/types.h>
 
@@ -48,6 +49,15 @@ torch::Tensor smallest_cosine_reference(const torch::Tensor& linear, const torch
 torch::Tensor facing_reference(const torch::Tensor& linear, const torch::Tensor& normals,
                                const torch::Tensor& means, const handscs::FacingCull& cull) {
   return (smallest_cosine_reference(linear, normals, means, cull) <= cull.max_cos).nonzero().squeeze(1);
+}
+
+// Random blend 3x3s, rest normals and centres ~0.1 m around the origin, in double.
+std::tuple<torch::Tensor, torch::Tensor, torch::Tensor> random_cull_inputs(uint64_t seed, int64_t n) {
+  auto gen = at::detail::createCPUGenerator(seed);
+  auto linear = at::normal(0.0, 1.0, {n, 3, 3}, gen, torch::kFloat64);
+  auto normals = at::normal(0.0, 1.0, {n, 3}, gen, torch::kFloat64);
+  auto means = at::normal(0.0, 0.1, {n, 3}, gen, torch::kFloat64);
+  return {linear, normals, means};
 }
 
 }  // namespace
@@ -113,11 +123,8 @@ TEST_CASE("facing cull: kept rows equal the brute-force definition") {
 }
 
 TEST_CASE("facing cull: the kept count is rounded up with the culled rows nearest the threshold") {
-  auto gen = at::detail::createCPUGenerator(12);
   const int64_t n = 1000;
-  const auto linear = at::normal(0.0, 1.0, {n, 3, 3}, gen, torch::kFloat64);
-  const auto normals = at::normal(0.0, 1.0, {n, 3}, gen, torch::kFloat64);
-  const auto means = at::normal(0.0, 0.1, {n, 3}, gen, torch::kFloat64);
+  const auto [linear, normals, means] = random_cull_inputs(12, n);
   handscs::FacingCull cull;
   cull.camera_centres = {{0, 0, -0.6}};
   const auto cosine = smallest_cosine_reference(linear, normals, means, cull);
@@ -141,11 +148,8 @@ TEST_CASE("facing cull: the kept count is rounded up with the culled rows neares
 }
 
 TEST_CASE("facing cull: a test that culls every Gaussian still keeps one multiple") {
-  auto gen = at::detail::createCPUGenerator(13);
   const int64_t n = 500;
-  const auto linear = at::normal(0.0, 1.0, {n, 3, 3}, gen, torch::kFloat64);
-  const auto normals = at::normal(0.0, 1.0, {n, 3}, gen, torch::kFloat64);
-  const auto means = at::normal(0.0, 0.1, {n, 3}, gen, torch::kFloat64);
+  const auto [linear, normals, means] = random_cull_inputs(13, n);
   handscs::FacingCull cull;
   cull.camera_centres = {{0, 0, -0.6}};
   cull.max_cos = -1.0;  // only a normal pointing straight at the camera passes
