@@ -1,13 +1,25 @@
-// Test fixture: a small HandSCS avatar of the built-in hand for gradient checks in double precision
-// (narrow decoders and generator, 2 virtual bones) with every decoder gate open at 0.3, so the
-// decoders' offsets reach the output.
+// Test fixtures: a camera that sees the built-in hand, and a small HandSCS avatar of it for gradient
+// checks in double precision (narrow decoders and generator, 2 virtual bones) with every decoder
+// gate open at 0.3, so the decoders' offsets reach the output.
 #pragma once
 
 #include <torch/types.h>
 
 #include "avatar/avatar.h"
+#include "core/camera.h"
 
 namespace handscs_test {
+
+// Looks at the built-in hand (about 0.2 m across around the origin) from 0.6 m along +z.
+inline handscs::Camera hand_view_camera(int width, int height) {
+  handscs::Camera camera;
+  camera.width = width;
+  camera.height = height;
+  const double f = 1.1 * width;
+  camera.K = {f, 0, width / 2.0, 0, f, height / 2.0, 0, 0, 1};
+  camera.t = {0, 0, 0.6};
+  return camera;
+}
 
 inline handscs::Avatar small_double_avatar() {
   handscs::AvatarConfig config;

@@ -60,7 +60,11 @@ const char* kDiagnosticColumns[] = {"gate_geometry", "gate_appearance", "gate_fu
 // ... then, with train.cull only (a run's columns never change, so runs from before it resume).
 constexpr const char* kCullColumn = "decoded_fraction";
 
-
+// train.cull: [N] bool, true for the Gaussians the pose decoded; undefined when it decoded all.
+torch::Tensor decoded_mask(const AvatarState& state) {
+  if (!state.decoded_rows.defined()) return {};
+  return torch::zeros({state.posed.means.size(0)}, torch::kBool).index_fill_(0, state.decoded_rows, true);
+}
 
 // Checkpoint names of the inter-pose chain of the step's view `view` (view 0 keeps the names of
 // the single-view format, so older checkpoints resume).
@@ -228,10 +232,7 @@ torch::Tensor Trainer::consistency_loss(const AvatarState& state, const torch::T
   const auto attributes =
       consistency_attributes(state.canonical_means, state.canonical_covariances,
                              state.canonical_colors, g.embed_geometry, g.embed_appearance);
-  const torch::Tensor decoded =
-      state.decoded_rows.defined()
-          ? torch::zeros({g.size()}, torch::kBool).index_fill_(0, state.decoded_rows, true)
-          : torch::Tensor();
+  const torch::Tensor decoded = decoded_mask(state);
   torch::Tensor loss;
   const double weight = prev.descriptor.defined()
                             ? pose_similarity(feature, prev.pose_feature, cc.delta)
@@ -432,9 +433,7 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
     // render would have projected it (its un-offset geometry and own opacity): it is on the hand's
     // far side, where the exact render's gradient is that of an occluded Gaussian. Counting it as
     // unseen raised the mean gradient of the back's Gaussians and densified 60% more of them.
-    torch::Tensor decoded;
-    if (state.decoded_rows.defined())
-      decoded = torch::zeros({g.size()}, torch::kBool).index_fill_(0, state.decoded_rows, true);
+    const torch::Tensor decoded = decoded_mask(state);
     for (int64_t k = 0; k < count; ++k) {
       const auto grad = probes[k].grad().defined() ? probes[k].grad() : torch::zeros_like(probes[k]);
       const auto radii =

@@ -16,17 +16,6 @@
 
 namespace {
 
-handscs::Camera test_camera(int width, int height) {
-  // Looks at the built-in hand (about 0.2 m across around the origin) from 0.6 m along +z.
-  handscs::Camera camera;
-  camera.width = width;
-  camera.height = height;
-  const double f = 1.1 * width;
-  camera.K = {f, 0, width / 2.0, 0, f, height / 2.0, 0, 0, 1};
-  camera.t = {0, 0, 0.6};
-  return camera;
-}
-
 torch::Tensor small_pose(uint64_t seed) {
   auto gen = at::detail::createCPUGenerator(seed);
   return at::normal(0.0, 0.2, {48}, gen, torch::kFloat32);
@@ -40,7 +29,7 @@ TEST_CASE("avatar: with zero gates the render equals LBS of the canonical Gaussi
   const auto pose = small_pose(1);
   const auto shape = torch::randn({10}) * 0.5;
   const auto trans = torch::tensor({0.01f, -0.02f, 0.03f});
-  const auto camera = test_camera(96, 64);
+  const auto camera = handscs_test::hand_view_camera(96, 64);
   handscs::RasterSettings settings;
   const auto out = avatar.forward(pose, shape, trans, camera, settings);
 
@@ -81,7 +70,7 @@ TEST_CASE("avatar: gradients reach every parameter group") {
     avatar.gaussians().log_scales.add_(torch::randn_like(avatar.gaussians().log_scales) * 0.3);
   }
   const auto out = avatar.forward(small_pose(2), torch::zeros({10}), torch::zeros({3}),
-                                  test_camera(64, 48), {}, {}, true);
+                                  handscs_test::hand_view_camera(64, 48), {}, {}, true);
   const auto loss = out.render.rgb.mean() + out.render.alpha.mean();
   loss.backward();
   for (auto& [name, tensor] : avatar.gaussians().learnable()) {
@@ -109,7 +98,7 @@ TEST_CASE("avatar: gradients match finite differences in double precision") {
     avatar.gaussians().log_scales.add_(torch::randn_like(avatar.gaussians().log_scales) * 0.3);
   }
   const auto pose = small_pose(4).to(torch::kFloat64);
-  const auto camera = test_camera(40, 30);
+  const auto camera = handscs_test::hand_view_camera(40, 30);
   auto gen = at::detail::createCPUGenerator(9);
   const int64_t n = avatar.gaussians().size();
   const auto w_rgb = at::rand({30, 40, 3}, gen, torch::kFloat64);
@@ -193,7 +182,7 @@ TEST_CASE("avatar: every ablation switch builds and renders finite images") {
     c.apply(config);
     handscs::Avatar avatar(config, handscs::load_rig_source("builtin"));
     const auto out = avatar.forward(small_pose(5), torch::zeros({10}), torch::zeros({3}),
-                                    test_camera(48, 32), {}, {}, true);
+                                    handscs_test::hand_view_camera(48, 32), {}, {}, true);
     INFO(c.name);
     CHECK(torch::isfinite(out.render.rgb).all().item<bool>());
     CHECK(out.state.descriptor.size(1) == avatar.descriptor_dim());
@@ -220,7 +209,7 @@ TEST_CASE("avatar: extreme poses, Gaussians on joints and bad input") {
   for (double angle : {M_PI, -M_PI}) {
     auto pose = torch::zeros({48});
     for (int j = 0; j < 16; ++j) pose[3 * j + (j % 3)] = angle;  // every joint at +-pi
-    const auto out = avatar.forward(pose, torch::zeros({10}), torch::zeros({3}), test_camera(48, 32),
+    const auto out = avatar.forward(pose, torch::zeros({10}), torch::zeros({3}), handscs_test::hand_view_camera(48, 32),
                                     {}, {}, true);
     (out.render.rgb.sum() + out.state.descriptor.sum()).backward();
     CHECK(torch::isfinite(out.render.rgb).all().item<bool>());
@@ -234,10 +223,10 @@ TEST_CASE("avatar: extreme poses, Gaussians on joints and bad input") {
   auto nan_pose = torch::zeros({48});
   nan_pose[7] = NAN;
   CHECK_THROWS_WITH(avatar.forward(nan_pose, torch::zeros({10}), torch::zeros({3}),
-                                   test_camera(48, 32), {}),
+                                   handscs_test::hand_view_camera(48, 32), {}),
                     "avatar: pose contains NaN or Inf");
   CHECK_THROWS_WITH(avatar.forward(torch::zeros({47}), torch::zeros({10}), torch::zeros({3}),
-                                   test_camera(48, 32), {}),
+                                   handscs_test::hand_view_camera(48, 32), {}),
                     "avatar: pose must have 48 values, got 47");
 }
 

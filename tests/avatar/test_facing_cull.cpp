@@ -16,17 +16,6 @@
 
 namespace {
 
-handscs::Camera cull_test_camera(int width, int height) {
-  // Looks at the built-in hand (about 0.2 m across around the origin) from 0.6 m along +z.
-  handscs::Camera camera;
-  camera.width = width;
-  camera.height = height;
-  const double f = 1.1 * width;
-  camera.K = {f, 0, width / 2.0, 0, f, height / 2.0, 0, 0, 1};
-  camera.t = {0, 0, 0.6};
-  return camera;
-}
-
 // The smallest cosine over the cameras of (L n, x - c) by the definition, with tensor ops; -inf
 // for a zero-length normal or ray (kept at any threshold).
 torch::Tensor smallest_cosine_reference(const torch::Tensor& linear, const torch::Tensor& normals,
@@ -192,7 +181,7 @@ TEST_CASE("facing cull: the culled pose renders and differentiates as the exact 
   const auto pose = torch::randn({48}, torch::kFloat64) * 0.2;
   const auto shape = torch::zeros({10}, torch::kFloat64);
   const auto trans = torch::zeros({3}, torch::kFloat64);
-  const auto camera = cull_test_camera(80, 64);
+  const auto camera = handscs_test::hand_view_camera(80, 64);
   handscs::FacingCull cull;
   cull.camera_centres = {camera.centre()};
   const auto cotangent = torch::rand({64, 80, 3}, torch::kFloat64);
