@@ -94,6 +94,9 @@ int main(int argc, char** argv) {
                  "train.views_per_pose of the training step (cameras of one pose sharing a decoding)")
       ->check(CLI::Range(1, 4));
   app.add_flag("--cull", train_step.cull, "train.cull.enabled in the training step (back-facing Gaussians skipped)");
+  app.add_option("--cull-max-cos", train_step.cull_max_cos,
+                 "train.cull.max_cos of the culled timings and of the --cull training step")
+      ->check(CLI::Range(-1.0, 1.0));
   app.add_flag("--no-train-step", no_train_step, "skip train_step_ms (saves generating a capture)");
   app.add_option("--work-dir", work_dir, "where the training step's synthetic capture is written")
       ->capture_default_str();
@@ -122,6 +125,7 @@ int main(int argc, char** argv) {
   result["train_step_lpips_every"] = train_step.lpips_every;
   result["train_step_views_per_pose"] = train_step.views_per_pose;
   result["train_step_cull"] = train_step.cull;
+  result["cull_max_cos"] = train_step.cull_max_cos;
   const auto camera = capture_camera(width, height);
   const auto pose = torch::randn({48}) * 0.2;
   const auto shape = torch::zeros({10});
@@ -151,6 +155,7 @@ int main(int argc, char** argv) {
     // neither decoded nor rasterised).
     handscs::FacingCull facing;
     facing.camera_centres = {camera.centre()};
+    facing.max_cos = train_step.cull_max_cos;
     int64_t decoded_rows = n;
     const auto forward_backward = [&](double& fwd, double& bwd, const handscs::FacingCull* cull) {
       auto t0 = Clock::now();

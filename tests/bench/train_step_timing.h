@@ -30,6 +30,7 @@ struct TrainStepOptions {
   int64_t lpips_every = handscs::LossWeights{}.lpips_every;  // train.loss.lpips_every
   int64_t views_per_pose = 1;  // train.views_per_pose: cameras of one pose per step, one decoding
   bool cull = false;           // train.cull.enabled: back-facing Gaussians skipped
+  double cull_max_cos = handscs::CullConfig{}.max_cos;  // train.cull.max_cos
 };
 
 // Writes the capture into dir (replacing what is there) and returns dir.
@@ -64,6 +65,7 @@ inline nlohmann::json time_train_steps(int64_t n, const TrainStepOptions& opt) {
   config.train.loss.lpips_every = opt.lpips_every;
   config.train.views_per_pose = opt.views_per_pose;
   config.train.cull.enabled = opt.cull;
+  config.train.cull.max_cos = opt.cull_max_cos;
   config.train.iterations = kGrowSteps + 2 + opt.repeats;
   config.train.validate_every = 0;
   auto& d = config.train.densify;
