@@ -124,4 +124,49 @@ void truncate_metrics_log(const std::string& path, int64_t iteration) {
                dropped, iteration);
 }
 
+std::vector<std::string> prepare_metrics_log(const std::string& path, const std::vector<std::string>& columns) {
+  const auto join = [](const std::vector<std::string>& cells) {
+    std::string line;
+    for (size_t i = 0; i < cells.size(); ++i) line += (i ? "," : "") + cells[i];
+    return line;
+  };
+  std::error_code ec;
+  if (!fs::exists(path, ec)) {
+    write_file_atomic(path, join(columns) + "\n");
+    return columns;
+  }
+  std::istringstream in(read_file(path));
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> header;
+  {
+    std::istringstream cells(line);
+    std::string cell;
+    while (std::getline(cells, cell, ',')) header.push_back(cell);
+  }
+  std::vector<std::string> added;
+  for (const auto& column : columns)
+    if (std::find(header.begin(), header.end(), column) == header.end()) added.push_back(column);
+  if (added.empty()) return header;
+
+  const auto old_cells = static_cast<int64_t>(header.size());
+  header.insert(header.end(), added.begin(), added.end());
+  const auto new_cells = static_cast<int64_t>(header.size());
+  std::string text = join(header) + "\n";
+  int64_t longer = 0;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    const int64_t cells = std::count(line.begin(), line.end(), ',') + 1;
+    if (cells < new_cells && cells >= old_cells) line += std::string(static_cast<size_t>(new_cells - cells), ',');
+    if (cells > new_cells) ++longer;
+    text += line + "\n";
+  }
+  write_file_atomic(path, text);
+  spdlog::info("{}: header gains {} column(s) ({}) that the earlier run did not log; its rows leave them empty",
+               path, added.size(), join(added));
+  if (longer > 0)
+    spdlog::warn("{}: {} row(s) have more cells than its header; they are left as they are", path, longer);
+  return header;
+}
+
 }  // namespace handscs

@@ -36,4 +36,12 @@ int remove_stale_temporaries(const std::string& dir);
 // the later steps again). Atomic; a missing file is left missing.
 void truncate_metrics_log(const std::string& path, int64_t iteration);
 
+// Readies a metrics log for rows of `columns` and returns the file's columns, the order in which
+// rows must be written (cells by name; a file column the run does not produce stays empty). A new
+// file gets `columns` as its header. A log that an earlier run wrote with other columns (an older
+// build, or train.cull switched on at a resume) keeps its columns in their order and gains the
+// missing ones at the end, its rows padded with empty cells (atomic), so no row is lost, shifted,
+// or later dropped as torn. Rows longer than the new header are left as they are (with a warning).
+std::vector<std::string> prepare_metrics_log(const std::string& path, const std::vector<std::string>& columns);
+
 }  // namespace handscs

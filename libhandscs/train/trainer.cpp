@@ -7,8 +7,10 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <optional>
 #include <random>
+#include <sstream>
 
 #include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
@@ -57,7 +59,8 @@ const char* kDiagnosticColumns[] = {"gate_geometry", "gate_appearance", "gate_fu
                                     "offset_dx", "offset_dsigma", "offset_dc",
                                     "offset_dx_f", "offset_dsigma_f", "offset_dc_f",
                                     "pose_refine_deg", "pose_refine_global_deg", "pose_refine_mm"};
-// ... then, with train.cull only (a run's columns never change, so runs from before it resume).
+// ... then, with train.cull only (a log without it gains the column when a resume turns the cull
+// on, and keeps it, empty, when a resume turns it off: prepare_metrics_log).
 constexpr const char* kCullColumn = "decoded_fraction";
 
 // train.cull: [N] bool, true for the Gaussians the pose decoded; undefined when it decoded all.
@@ -133,14 +136,9 @@ void Trainer::write_run_files() {
   // the folder as it was.
   if (run_files_written_) return;
   write_file_atomic(run_dir_ + "/config.json", config_to_json(config_).dump(2) + "\n");
-  const std::string metrics = run_dir_ + "/metrics.csv";
-  if (!std::filesystem::exists(metrics)) {
-    std::string header;
-    for (size_t i = 0; i < std::size(kMetricsColumns); ++i)
-      header += (i ? "," : "") + std::string(kMetricsColumns[i]);
-    for (const std::string& column : diagnostic_columns()) header += "," + column;
-    write_file_atomic(metrics, header + "\n");
-  }
+  std::vector<std::string> columns(std::begin(kMetricsColumns), std::end(kMetricsColumns));
+  for (const std::string& column : diagnostic_columns()) columns.push_back(column);
+  metrics_columns_ = prepare_metrics_log(run_dir_ + "/metrics.csv", columns);
   run_files_written_ = true;
 }
 
@@ -790,24 +788,37 @@ void Trainer::validate() {
 
 void Trainer::log_step(const StepResult& r) {
   write_run_files();
-  static const char* terms[] = {"rgb", "mask", "ssim", "lpips", "reg", "consistency"};
-  std::ofstream out(run_dir_ + "/metrics.csv", std::ios::app);
-  out << r.iteration << "," << elapsed_seconds_ << "," << r.loss;
-  for (const char* t : terms) {
-    auto it = r.terms.find(t);
-    out << ",";
-    if (it != r.terms.end()) out << it->second;
-  }
-  out << "," << r.psnr << "," << avatar_->gaussians().size() << "," << skipped_total_ << ","
-      << rollbacks_ << "," << optimizer_->lr_scale() << "," << r.times.data_ms << ","
-      << r.times.forward_ms << "," << r.times.losses_ms << "," << r.times.backward_ms << ","
-      << r.times.optimizer_ms;
+  std::map<std::string, std::string> cells;  // by column name; the file's columns give the order
+  const auto set = [&cells](const std::string& column, auto value) {
+    std::ostringstream text;
+    text << value;
+    cells[column] = text.str();
+  };
+  set("iteration", r.iteration);
+  set("seconds", elapsed_seconds_);
+  set("loss", r.loss);
+  for (const auto& [term, value] : r.terms) set(term, value);
+  set("psnr", r.psnr);
+  set("gaussians", avatar_->gaussians().size());
+  set("skipped", skipped_total_);
+  set("rollbacks", rollbacks_);
+  set("lr_scale", optimizer_->lr_scale());
+  set("data_ms", r.times.data_ms);
+  set("forward_ms", r.times.forward_ms);
+  set("losses_ms", r.times.losses_ms);
+  set("backward_ms", r.times.backward_ms);
+  set("optimizer_ms", r.times.optimizer_ms);
   for (const std::string& column : diagnostic_columns()) {
     auto it = r.diagnostics.find(column);
-    out << ",";
-    if (it != r.diagnostics.end()) out << it->second;
+    if (it != r.diagnostics.end()) set(column, it->second);
   }
-  out << "\n";
+  std::string line;
+  for (size_t i = 0; i < metrics_columns_.size(); ++i) {
+    auto it = cells.find(metrics_columns_[i]);
+    line += (i ? "," : "") + (it == cells.end() ? std::string() : it->second);
+  }
+  std::ofstream out(run_dir_ + "/metrics.csv", std::ios::app);
+  out << line << "\n";
 }
 
 TrainSummary Trainer::run() {

@@ -164,6 +164,7 @@ class Trainer {
   int64_t rollbacks_ = 0;
   std::string last_checkpoint_;
   bool run_files_written_ = false;
+  std::vector<std::string> metrics_columns_;  // metrics.csv's header, the order of its cells
   // Inter-pose state of the previous step, one chain per entry of this rank, this step's (pending
   // until the step is taken) and the canonical K-NN candidate sets.
   std::vector<ConsistencyChain> prev_chains_, next_chains_;

@@ -14,6 +14,7 @@
 
 #include "core/atomic_file.h"
 #include "core/config.h"
+#include "core/csv_table.h"
 #include "core/error.h"
 #include "core/threads.h"
 #include "tiny_capture.h"
@@ -90,6 +91,63 @@ TEST_CASE("run folder: a resume's log keeps the rows up to its step, and no torn
   CHECK(handscs::read_file(path) == "iteration,loss,psnr\n");
   handscs::truncate_metrics_log(dir + "/absent.csv", 5);
   CHECK_FALSE(fs::exists(dir + "/absent.csv"));
+}
+
+TEST_CASE("run folder: a metrics log of other columns gains the missing ones, no row lost") {
+  const auto dir = handscs_test::fresh_dir("folder_columns");
+  fs::create_directories(dir);
+  const auto path = dir + "/metrics.csv";
+  const std::vector<std::string> columns = {"iteration", "loss", "gate", "decoded_fraction"};
+
+  // A new log: the run's columns.
+  CHECK(handscs::prepare_metrics_log(path, columns) == columns);
+  CHECK(handscs::read_file(path) == "iteration,loss,gate,decoded_fraction\n");
+
+  // All columns present, in another order: the file's order, the file untouched.
+  write(path, "loss,iteration,decoded_fraction,gate\n0.5,10,1,0.1\n");
+  CHECK(handscs::prepare_metrics_log(path, columns) ==
+        std::vector<std::string>{"loss", "iteration", "decoded_fraction", "gate"});
+  CHECK(handscs::read_file(path) == "loss,iteration,decoded_fraction,gate\n0.5,10,1,0.1\n");
+
+  // An older log without two of them: they are appended, its rows padded; a torn row (fewer cells
+  // than its own header) is not padded, so the resume's truncation still drops it; a row that
+  // already has the cells (an older build logged them without a header) keeps them.
+  write(path, "iteration,loss\n10,0.5\n20,0.4,0.2,1\n30\n");
+  const auto aligned = handscs::prepare_metrics_log(path, columns);
+  CHECK(aligned == std::vector<std::string>{"iteration", "loss", "gate", "decoded_fraction"});
+  CHECK(handscs::read_file(path) == "iteration,loss,gate,decoded_fraction\n10,0.5,,\n20,0.4,0.2,1\n30\n");
+  handscs::truncate_metrics_log(path, 100);
+  CHECK(handscs::read_file(path) == "iteration,loss,gate,decoded_fraction\n10,0.5,,\n20,0.4,0.2,1\n");
+  // Again with the same columns: nothing to do.
+  CHECK(handscs::prepare_metrics_log(path, columns) == aligned);
+  CHECK(handscs::read_csv(path).rows.size() == 2);
+}
+
+TEST_CASE("run folder: resumes that switch train.cull keep one table in metrics.csv") {
+  handscs::set_threads(2);
+  auto config = handscs_test::tiny_run_config();
+  config.train.log_every = 1;
+  const auto dir = handscs_test::fresh_dir("folder_cull_columns");
+  const auto run_until = [&](bool cull, int64_t steps, bool resume) {
+    auto c = config;
+    c.train.cull.enabled = cull;
+    c.train.iterations = steps;
+    handscs::Trainer trainer(c, dir);
+    if (resume) REQUIRE(trainer.resume());
+    trainer.run();  // logs every step and checkpoints at its end
+  };
+  run_until(false, 2, false);
+  run_until(true, 4, true);   // the cull's column appears
+  run_until(false, 6, true);  // and stays, empty
+  const auto table = handscs::read_csv(dir + "/metrics.csv");  // throws on a row of another length
+  REQUIRE(table.rows.size() == 6);
+  CHECK(table.header.back() == "decoded_fraction");
+  for (size_t row = 0; row < 6; ++row) {
+    INFO("step " << row + 1);
+    CHECK(table.at(row, "iteration") == std::to_string(row + 1));
+    CHECK(table.at(row, "decoded_fraction").empty() == (row < 2 || row >= 4));
+    CHECK_FALSE(table.at(row, "gate_geometry").empty());
+  }
 }
 
 TEST_CASE("run folder: config differences are listed key by key") {
