@@ -616,25 +616,34 @@ void Trainer::synchronize_state(bool keep_chains) {
 
 bool Trainer::rollback() {
   const auto files = list_checkpoints(run_dir_);
-  require(!files.empty(), "training diverged before the first checkpoint was written");
+  require(!files.empty() || !initial_state_.empty(),
+          "training diverged before the first checkpoint was written");
   require(rollbacks_ < kMaxRollbacks,
           "training diverged: " + std::to_string(rollbacks_) +
               " rollbacks did not help; lower train.lr.* or check the data");
   const double scale = optimizer_->lr_scale() * config_.train.rollback_lr_factor;
   const int64_t rollbacks = rollbacks_ + 1;
   const int64_t skipped = skipped_total_;
+  const auto restore = [&](const Checkpoint& checkpoint, const std::string& source) {
+    load_from(checkpoint, source);
+    optimizer_->set_lr_scale(scale);
+    rollbacks_ = rollbacks;
+    skipped_total_ = skipped;
+    bad_in_a_row_ = 0;
+    spdlog::warn("rolled back to {} (step {}), learning rates x{:.3g}", source, iteration_, scale);
+  };
   for (const auto& file : files) {
     try {
-      load_from(load_checkpoint(file), file);
-      optimizer_->set_lr_scale(scale);
-      rollbacks_ = rollbacks;
-      skipped_total_ = skipped;
-      bad_in_a_row_ = 0;
-      spdlog::warn("rolled back to {} (step {}), learning rates x{:.3g}", file, iteration_, scale);
+      restore(load_checkpoint(file), file);
       return true;
     } catch (const Error& e) {
       spdlog::warn("{}", e.what());
     }
+  }
+  if (!initial_state_.empty()) {
+    const std::string source = "the run's initial state";
+    restore(checkpoint_from_bytes(initial_state_, source), source);
+    return true;
   }
   throw Error("training diverged and no checkpoint in " + run_dir_ + "/checkpoints could be loaded");
 }
@@ -764,8 +773,9 @@ bool Trainer::resume() {
     }
   }
   if (!files.empty())
-    throw Error(run_dir_ + ": none of its " + std::to_string(files.size()) +
-                " checkpoints can be resumed; nothing was changed:" + reasons);
+    throw Error(run_dir_ + (files.size() == 1 ? ": its one checkpoint cannot"
+                                              : ": none of its " + std::to_string(files.size()) + " checkpoints can") +
+                " be resumed; nothing was changed:" + reasons);
   truncate_metrics_log(run_dir_ + "/metrics.csv", 0);
   return false;
 }
@@ -829,13 +839,15 @@ TrainSummary Trainer::run() {
   // Every rank starts from rank 0's state: its initialisation, or the checkpoint it resumed.
   if (group_) synchronize_state(/*keep_chains=*/false);
   const bool root = is_root();
-  if (root) write_run_files();
   const auto start = Clock::now();
   const double elapsed_before = elapsed_seconds_;
   const int64_t first_iteration = iteration_;
   const int64_t views_before = views_rendered_;
   const CommunicationStats communication_before = group_ ? group_->stats() : CommunicationStats{};
-  if (root && last_checkpoint_.empty()) save_checkpoint();  // the state a first rollback returns to
+  // The state a rollback before the first checkpoint returns to, kept in memory: nothing is written
+  // before the first logged step or checkpoint, so a run that stops at its first steps with a user
+  // error (a crop too small for the image losses) leaves the folder as it was.
+  if (root && last_checkpoint_.empty()) initial_state_ = checkpoint_bytes(make_checkpoint());
   const int64_t total = config_.train.iterations;
   std::unique_ptr<ProgressBar> bar;  // rank 0 reports for all
   if (root) bar = std::make_unique<ProgressBar>("train", total);

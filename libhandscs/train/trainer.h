@@ -72,8 +72,8 @@ struct TrainSummary {
 class Trainer {
  public:
   // Opens the capture, builds the avatar and optimiser; removes temporaries of killed writes from
-  // run_dir. config.json and the metrics.csv header are written with the first step logged,
-  // checkpoint saved or run() (write_run_files), not before. group: the data-parallel ranks
+  // run_dir. config.json and the metrics.csv header are written with the first step logged or
+  // checkpoint saved (write_run_files), not before. group: the data-parallel ranks
   // (null or one rank: a single process); the trainer keeps the pointer, the caller owns it.
   Trainer(const RunConfig& config, const std::string& run_dir, ProcessGroup* group = nullptr);
   ~Trainer();
@@ -165,6 +165,7 @@ class Trainer {
   std::string last_checkpoint_;
   bool run_files_written_ = false;
   std::vector<std::string> metrics_columns_;  // metrics.csv's header, the order of its cells
+  std::string initial_state_;  // a fresh run's step-0 checkpoint, serialised: rollback's last resort
   // Inter-pose state of the previous step, one chain per entry of this rank, this step's (pending
   // until the step is taken) and the canonical K-NN candidate sets.
   std::vector<ConsistencyChain> prev_chains_, next_chains_;

@@ -176,7 +176,7 @@ TEST_CASE("cli: a run folder is never overwritten or mixed without --overwrite")
 
   // A fresh run into it: refused, nothing changed.
   CHECK(run(train + " train.iterations=2") == 1);
-  CHECK(log_text().find(run_dir + " holds a run (2 checkpoints (newest step_00000004.ckpt), "
+  CHECK(log_text().find(run_dir + " holds a run (1 checkpoint (newest step_00000004.ckpt), "
                         "config.json, metrics.csv)") != std::string::npos);
   CHECK(snapshot(run_dir) == before);
 

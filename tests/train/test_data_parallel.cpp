@@ -115,15 +115,15 @@ TEST_CASE("train: data parallel: a killed rank ends the other with a clear error
   const auto dir = fresh_dir("dp_kill");
   std::filesystem::create_directories(dir);
   const int port = free_port();
-  // Rank 1 is killed (SIGKILL) once both are training (rank 0 writes its step-0 checkpoint after
-  // the rendezvous and the first exchange); rank 0 must exit non-zero on its own,
+  // Rank 1 is killed (SIGKILL) once both are training (rank 0 writes metrics.csv at its first
+  // logged step, after the rendezvous and several exchanges); rank 0 must exit non-zero on its own,
   // well within the 30 s timeout (a dead peer closes its connection at once).
   const std::string long_run = train_command(dir + "/run") + " train.iterations=100000 --dist-timeout 30";
   const auto [rc, seconds] = timed_shell(rank_env(0, port) + long_run + " > " + dir + "/log0 2>&1 & p0=$!; " +
                        rank_env(1, port) + kBin + "/handscs-train --threads 1 --out " + dir +
                        "/run > " + dir + "/log1 2>&1 & p1=$!; "
                        "for i in $(seq 150); do test -e " + dir +
-                       "/run/checkpoints/step_00000000.ckpt && break; sleep 0.2; done; "
+                       "/run/metrics.csv && break; sleep 0.2; done; "
                        "sleep 1; kill -9 $p1; wait $p0");
   const auto log = handscs::read_file(dir + "/log0");
   INFO(log);
