@@ -10,6 +10,7 @@
 #include <map>
 #include <optional>
 #include <random>
+#include <set>
 #include <sstream>
 
 #include <opencv2/imgproc.hpp>
@@ -648,6 +649,33 @@ bool Trainer::rollback() {
   throw Error("training diverged and no checkpoint in " + run_dir_ + "/checkpoints could be loaded");
 }
 
+void Trainer::put_chains(Checkpoint& checkpoint) const {
+  for (size_t i = 0; i < prev_chains_.size(); ++i) {
+    const std::string prefix = chain_prefix(first_entry() + static_cast<int64_t>(i));
+    const ConsistencyChain& chain = prev_chains_[i];
+    for (const auto& [field, tensor] : {std::pair<const char*, const torch::Tensor&>{"descriptor", chain.descriptor},
+                                        {"attributes", chain.attributes},
+                                        {"pose_feature", chain.pose_feature},
+                                        {"decoded", chain.decoded}})
+      if (tensor.defined()) checkpoint.tensors[prefix + field] = tensor.clone();
+  }
+}
+
+void Trainer::gather_chains() {
+  // Each other rank's chains travel as a checkpoint of those tensors alone; rank 0 keeps them.
+  Checkpoint mine;
+  put_chains(mine);
+  if (is_root()) other_chains_.clear();
+  for (int rank = 1; rank < group_->world_size(); ++rank) {
+    std::string bytes = group_->rank() == rank ? checkpoint_bytes(mine) : std::string();
+    group_->broadcast_bytes(bytes, rank);
+    if (!is_root()) continue;
+    const std::string source = "rank " + std::to_string(rank) + "'s inter-pose chains";
+    for (auto& [name, tensor] : checkpoint_from_bytes(bytes, source).tensors) other_chains_[name] = tensor;
+  }
+  other_chains_iteration_ = iteration_;
+}
+
 Checkpoint Trainer::make_checkpoint() {
   Checkpoint ckpt;
   ckpt.meta["format"] = "handscs-checkpoint";
@@ -670,13 +698,9 @@ Checkpoint Trainer::make_checkpoint() {
   auto put = [&](const std::string& name, const torch::Tensor& t) {
     if (t.defined()) ckpt.tensors[name] = t.clone();
   };
-  for (size_t i = 0; i < prev_chains_.size(); ++i) {
-    const std::string prefix = chain_prefix(first_entry() + static_cast<int64_t>(i));
-    put(prefix + "descriptor", prev_chains_[i].descriptor);
-    put(prefix + "attributes", prev_chains_[i].attributes);
-    put(prefix + "pose_feature", prev_chains_[i].pose_feature);
-    put(prefix + "decoded", prev_chains_[i].decoded);
-  }
+  put_chains(ckpt);
+  if (other_chains_iteration_ == iteration_)
+    for (const auto& [name, tensor] : other_chains_) ckpt.tensors.emplace(name, tensor);
   put("consistency/candidates", candidates_);
   if (pose_corrections_)
     for (const auto& [name, tensor] : pose_corrections_->state()) ckpt.tensors[name] = tensor;
@@ -728,6 +752,20 @@ void Trainer::load_from(const Checkpoint& ckpt, const std::string& source) {
     const std::string prefix = chain_prefix(first_entry() + static_cast<int64_t>(i));
     prev_chains_[i] = {get(prefix + "descriptor"), get(prefix + "attributes"),
                        get(prefix + "pose_feature"), get(prefix + "decoded")};
+  }
+  // Rank 0 keeps the other ranks' chains of the checkpoint: the broadcast that starts (or rolls
+  // back) every rank then carries them.
+  other_chains_.clear();
+  other_chains_iteration_ = -1;
+  if (group_ && group_->is_root()) {
+    std::set<std::string> own;
+    for (size_t i = 0; i < prev_chains_.size(); ++i) own.insert(chain_prefix(first_entry() + static_cast<int64_t>(i)));
+    const std::string views = "consistency/view";
+    for (const auto& [name, tensor] : ckpt.tensors) {
+      if (name.rfind(views, 0) != 0) continue;
+      if (!own.count(name.substr(0, name.find('/', views.size()) + 1))) other_chains_[name] = tensor.clone();
+    }
+    other_chains_iteration_ = iteration_;
   }
   candidates_ = get("consistency/candidates");
   if (pose_corrections_) {
@@ -855,17 +893,20 @@ TrainSummary Trainer::run() {
   while (iteration_ < total && !stop_requested()) {
     const StepResult r = step();
     elapsed_seconds_ = elapsed_before + ms_between(start, Clock::now()) / 1000.0;
+    const bool checkpoint_due = iteration_ % config_.train.checkpoint_every == 0;
+    if (group_ && checkpoint_due) gather_chains();  // every rank takes part
     if (!root) continue;
     std::snprintf(status, sizeof(status), "loss %.4f psnr %.2f (avg %.2f) N %lld%s", r.loss, r.psnr,
                   running_psnr_, static_cast<long long>(avatar_->gaussians().size()),
                   skipped_total_ ? (" skipped " + std::to_string(skipped_total_)).c_str() : "");
     bar->update(iteration_, status);
     if (iteration_ % config_.train.log_every == 0 || r.skipped) log_step(r);
-    if (iteration_ % config_.train.checkpoint_every == 0) save_checkpoint();
+    if (checkpoint_due) save_checkpoint();
     if (config_.train.validate_every > 0 && iteration_ % config_.train.validate_every == 0)
       validate();
   }
   const bool interrupted = stop_requested() && iteration_ < total;
+  if (group_) gather_chains();  // for the final checkpoint (every rank reaches this point)
   if (root) {
     if (last_checkpoint_.find(checkpoint_name(iteration_)) == std::string::npos) save_checkpoint();
     if (pose_corrections_)

@@ -130,6 +130,8 @@ class Trainer {
   // train.cull).
   std::vector<std::string> diagnostic_columns() const;
   Checkpoint make_checkpoint();
+  void put_chains(Checkpoint& checkpoint) const;  // this rank's inter-pose chains, by view
+  void gather_chains();  // data parallel, every rank: rank 0 receives the others' chains
   void load_from(const Checkpoint& checkpoint, const std::string& source);
   bool rollback();
   // The frames entry `entry_index` (= iteration x entries_per_step() + its place in the step)
@@ -169,6 +171,11 @@ class Trainer {
   // Inter-pose state of the previous step, one chain per entry of this rank, this step's (pending
   // until the step is taken) and the canonical K-NN candidate sets.
   std::vector<ConsistencyChain> prev_chains_, next_chains_;
+  // Data parallel, rank 0: the other ranks' inter-pose chains (consistency/view<k>/...) as of step
+  // other_chains_iteration_, gathered before each checkpoint or read from the one resumed, so that
+  // rank 0's checkpoints give every rank its L_con back after a resume or a rollback.
+  std::map<std::string, torch::Tensor> other_chains_;
+  int64_t other_chains_iteration_ = -1;
   torch::Tensor candidates_;
   std::vector<torch::Tensor> network_params_;  // the optimiser points into this vector
   double elapsed_seconds_ = 0;                 // training wall time, across resumes
