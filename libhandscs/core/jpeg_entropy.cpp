@@ -20,14 +20,18 @@ using jpeg::kSof1;
 using jpeg::kSof2;
 using jpeg::kSos;
 
+// Codes of up to this many bits are decoded by one table lookup (most of a JPEG's codes are).
+constexpr int kFastBits = 9;
+
 // A Huffman table in the form of T.81 F.2.2.3: per code length, the first and largest code and
-// the index of the first value.
+// the index of the first value; plus `fast`, what that search gives for each kFastBits-bit prefix.
 struct HuffmanTable {
   bool defined = false;
   std::array<int32_t, 17> max_code{};  // -1: no code of this length
   std::array<int32_t, 17> first_code{};
   std::array<int32_t, 17> first_index{};
   std::vector<uint8_t> values;
+  std::array<uint16_t, 1 << kFastBits> fast{};  // (length << 8) | value; 0: search further
 };
 
 struct Component {
@@ -39,28 +43,41 @@ struct Component {
 };
 
 // Bits of the entropy-coded data: 0xFF 0x00 is a data byte 0xFF; any other 0xFF xx is a marker,
-// where the data ends (reading past it fails).
+// where the data ends (reading past it fails). Up to 64 bits are buffered ahead; pos() is where a
+// reader taking one byte at a time would stand (just past the last byte a consumed bit came from),
+// which the problem messages report.
 class BitReader {
  public:
-  BitReader(const uint8_t* bytes, size_t size, size_t pos) : bytes_(bytes), size_(size), pos_(pos) {}
+  BitReader(const uint8_t* bytes, size_t size, size_t pos) : bytes_(bytes), size_(size) { seek(pos); }
 
+  // At least `count` (<= 57) bits buffered, unless the data ends first.
+  bool has(int count) {
+    if (count_ < count) fill();
+    return count_ >= count;
+  }
+  uint32_t peek(int count) const { return static_cast<uint32_t>(buffer_ >> (64 - count)); }  // 1..32, has(count)
+  void consume(int count) {  // has(count)
+    buffer_ = count == 64 ? 0 : buffer_ << count;
+    count_ -= count;
+    consumed_ += count;
+  }
   bool bit(int& out) {
-    if (left_ == 0) {
-      if (pos_ >= size_) return false;
-      const uint8_t b = bytes_[pos_];
-      if (b == 0xFF) {
-        if (pos_ + 1 >= size_ || bytes_[pos_ + 1] != 0x00) return false;  // a marker
-        pos_ += 2;
-      } else {
-        ++pos_;
-      }
-      byte_ = b;
-      left_ = 8;
-    }
-    out = (byte_ >> --left_) & 1;
+    if (!has(1)) return false;
+    out = static_cast<int>(peek(1));
+    consume(1);
     return true;
   }
+  // `count` bits as a number; false, having taken the bits there were, when the data ends first.
   bool bits(int count, int32_t& value) {
+    if (count == 0) {
+      value = 0;
+      return true;
+    }
+    if (has(count)) {
+      value = static_cast<int32_t>(peek(count));
+      consume(count);
+      return true;
+    }
     value = 0;
     for (int i = 0; i < count; ++i) {
       int b;
@@ -69,30 +86,98 @@ class BitReader {
     }
     return true;
   }
-  void align() { left_ = 0; }  // drops the padding bits before a marker
-  size_t pos() const { return pos_; }
-  void seek(size_t pos) { pos_ = pos, left_ = 0; }
+  void align() { consume(static_cast<int>((8 - consumed_ % 8) % 8)); }  // drops the padding bits before a marker
+  size_t pos() const {
+    const int64_t bytes_touched = (consumed_ + 7) / 8;
+    return bytes_touched == 0 ? start_ : byte_end_[(bytes_touched - 1) % kRing];
+  }
+  void seek(size_t pos) {
+    start_ = next_ = pos;
+    buffer_ = 0;
+    count_ = 0;
+    consumed_ = 0;
+    loaded_ = 0;
+  }
 
  private:
+  static constexpr int64_t kRing = 16;  // > the 9 bytes buffered and partly consumed at most
+
+  void fill() {
+    while (count_ <= 56 && next_ < size_) {
+      const uint8_t b = bytes_[next_];
+      if (b == 0xFF) {
+        if (next_ + 1 >= size_ || bytes_[next_ + 1] != 0x00) return;  // a marker
+        next_ += 2;
+      } else {
+        ++next_;
+      }
+      buffer_ |= uint64_t{b} << (56 - count_);
+      count_ += 8;
+      byte_end_[loaded_++ % kRing] = next_;
+    }
+  }
+
   const uint8_t* bytes_;
-  size_t size_, pos_;
-  uint8_t byte_ = 0;
-  int left_ = 0;
+  size_t size_;
+  size_t start_ = 0, next_ = 0;  // where the last seek put the reader; the next byte to buffer
+  uint64_t buffer_ = 0;          // buffered bits, the next one highest
+  int count_ = 0;                // buffered bits
+  int64_t consumed_ = 0;         // bits taken since the seek
+  int64_t loaded_ = 0;           // bytes buffered since the seek
+  std::array<size_t, kRing> byte_end_{};  // by byte number since the seek: the offset after it
 };
 
 constexpr int kEnded = -1;     // decode(): the data ended (a marker)
 constexpr int kNoMatch = -2;   // decode(): no code of the table matches
 
+// The value of an l-bit `code` if a code of length l matches it; -1 if none does (search on), and
+// kNoMatch for a table whose codes of that length run past its values (a malformed DHT).
+int match(const HuffmanTable& table, int length, int32_t code) {
+  if (table.max_code[length] < 0 || code > table.max_code[length]) return -1;
+  const int32_t index = table.first_index[length] + code - table.first_code[length];
+  return index >= 0 && index < static_cast<int32_t>(table.values.size()) ? table.values[index] : kNoMatch;
+}
+
 int decode(BitReader& reader, const HuffmanTable& table) {
-  int32_t code = 0;
+  if (reader.has(16)) {  // the usual case: one lookup, or a search over the 16 bits ahead
+    const uint32_t ahead = reader.peek(16);
+    const uint16_t entry = table.fast[ahead >> (16 - kFastBits)];
+    if (entry != 0) {
+      reader.consume(entry >> 8);
+      return entry & 0xFF;
+    }
+    for (int length = 1; length <= 16; ++length) {
+      const int value = match(table, length, static_cast<int32_t>(ahead >> (16 - length)));
+      if (value == -1) continue;
+      reader.consume(length);
+      return value;
+    }
+    reader.consume(16);
+    return kNoMatch;
+  }
+  int32_t code = 0;  // near the end of the data: bit by bit, to report where it ends
   for (int length = 1; length <= 16; ++length) {
     int b;
     if (!reader.bit(b)) return kEnded;
     code = (code << 1) | b;
-    if (table.max_code[length] >= 0 && code <= table.max_code[length])
-      return table.values[table.first_index[length] + code - table.first_code[length]];
+    const int value = match(table, length, code);
+    if (value != -1) return value;
   }
   return kNoMatch;
+}
+
+// Fills table.fast from the search tables: each prefix gets what decode's search finds within
+// kFastBits bits (0 when it would search further or the table is malformed there).
+void build_fast_lookup(HuffmanTable& table) {
+  for (uint32_t prefix = 0; prefix < table.fast.size(); ++prefix) {
+    table.fast[prefix] = 0;
+    for (int length = 1; length <= kFastBits; ++length) {
+      const int value = match(table, length, static_cast<int32_t>(prefix >> (kFastBits - length)));
+      if (value == -1) continue;
+      if (value >= 0) table.fast[prefix] = static_cast<uint16_t>((length << 8) | value);
+      break;
+    }
+  }
 }
 
 // Reads a DHT segment's tables; false when malformed.
@@ -117,6 +202,7 @@ bool read_tables(const uint8_t* p, size_t length, std::array<HuffmanTable, 8>& t
       code = (code + count) << 1;
       index += count;
     }
+    build_fast_lookup(t);
     at += 17 + total;
   }
   return true;
@@ -167,11 +253,11 @@ class ScanWalker {
             const int64_t bx = interleaved ? unit_x * c->h + x : unit_x;
             const int64_t by = interleaved ? unit_y * c->v + y : unit_y;
             uint64_t* flags = scan.progressive ? &c->nonzero[by * c->padded_wide + bx] : nullptr;
-            const std::string problem = !scan.progressive ? sequential_block(*c)
-                                        : scan.ss == 0   ? dc_block(*c, scan)
-                                        : scan.ah == 0   ? ac_first_block(*c, scan, *flags)
-                                                         : ac_refine_block(*c, scan, *flags);
-            if (!problem.empty()) return problem;
+            const bool ok = !scan.progressive ? sequential_block(*c)
+                            : scan.ss == 0   ? dc_block(*c, scan)
+                            : scan.ah == 0   ? ac_first_block(*c, scan, *flags)
+                                             : ac_refine_block(*c, scan, *flags);
+            if (!ok) return problem_;
           }
       }
     }
@@ -190,43 +276,41 @@ class ScanWalker {
   }
 
  private:
+  // The block functions return false with problem_ set; the messages are built only then.
   std::string where() const {
     return " at block " + std::to_string(block_ + 1) + " of " + std::to_string(blocks_) + " (byte " +
            std::to_string(reader_.pos()) + ")";
   }
-  std::string ended() const { return "truncated image data: it ends" + where(); }
-  std::string no_match() const { return "corrupt image data: no Huffman code matches" + where(); }
-
-  // A symbol of `table`, or the problem.
-  bool symbol(const HuffmanTable& table, int& value, std::string& problem) {
-    value = decode(reader_, table);
-    if (value == kEnded) problem = ended();
-    if (value == kNoMatch) problem = no_match();
-    return value >= 0;
-  }
-  bool skip(int count, std::string& problem) {
-    int32_t ignored;
-    if (reader_.bits(count, ignored)) return true;
-    problem = ended();
+  bool fail(const std::string& problem) {
+    problem_ = problem + where();
     return false;
   }
+  bool ended() { return fail("truncated image data: it ends"); }
 
-  std::string dc_difference(const Component& c) {
-    std::string problem;
-    int s;
-    if (!symbol(tables_[c.dc_table], s, problem)) return problem;
-    if (s > max_dc_category_)
-      return "corrupt image data: a DC difference of category " + std::to_string(s) + where();
-    skip(s, problem);
-    return problem;
+  // A symbol of `table`.
+  bool symbol(const HuffmanTable& table, int& value) {
+    value = decode(reader_, table);
+    if (value == kEnded) return ended();
+    if (value == kNoMatch) return fail("corrupt image data: no Huffman code matches");
+    return true;
+  }
+  bool skip(int count) {
+    int32_t ignored;
+    return reader_.bits(count, ignored) || ended();
   }
 
-  std::string sequential_block(const Component& c) {
-    std::string problem = dc_difference(c);
-    if (!problem.empty()) return problem;
+  bool dc_difference(const Component& c) {
+    int s;
+    if (!symbol(tables_[c.dc_table], s)) return false;
+    if (s > max_dc_category_) return fail("corrupt image data: a DC difference of category " + std::to_string(s));
+    return skip(s);
+  }
+
+  bool sequential_block(const Component& c) {
+    if (!dc_difference(c)) return false;
     for (int k = 1; k < 64;) {
       int rs;
-      if (!symbol(tables_[4 + c.ac_table], rs, problem)) return problem;
+      if (!symbol(tables_[4 + c.ac_table], rs)) return false;
       const int run = rs >> 4, size = rs & 15;
       if (size == 0) {
         if (run != 15) break;  // end of block
@@ -234,29 +318,26 @@ class ScanWalker {
         continue;
       }
       k += run;
-      if (k > 63) return "corrupt image data: a coefficient run past 63" + where();
-      if (!skip(size, problem)) return problem;
+      if (k > 63) return fail("corrupt image data: a coefficient run past 63");
+      if (!skip(size)) return false;
       ++k;
     }
-    return "";
+    return true;
   }
 
-  std::string dc_block(const Component& c, const Scan& scan) {
+  bool dc_block(const Component& c, const Scan& scan) {
     if (scan.ah == 0) return dc_difference(c);
-    std::string problem;
-    skip(1, problem);  // one refinement bit
-    return problem;
+    return skip(1);  // one refinement bit
   }
 
-  std::string ac_first_block(const Component& c, const Scan& scan, uint64_t& flags) {
+  bool ac_first_block(const Component& c, const Scan& scan, uint64_t& flags) {
     if (eob_run_ > 0) {
       --eob_run_;
-      return "";
+      return true;
     }
-    std::string problem;
     for (int k = scan.ss; k <= scan.se;) {
       int rs;
-      if (!symbol(tables_[4 + c.ac_table], rs, problem)) return problem;
+      if (!symbol(tables_[4 + c.ac_table], rs)) return false;
       const int run = rs >> 4, size = rs & 15;
       if (size == 0) {
         if (run == 15) {
@@ -269,23 +350,22 @@ class ScanWalker {
         break;
       }
       k += run;
-      if (k > scan.se) return "corrupt image data: a coefficient run past the band's end" + where();
-      if (!skip(size, problem)) return problem;
+      if (k > scan.se) return fail("corrupt image data: a coefficient run past the band's end");
+      if (!skip(size)) return false;
       flags |= uint64_t{1} << k;
       ++k;
     }
-    return "";
+    return true;
   }
 
   // Successive approximation of AC coefficients (T.81 G.1.2.3): correction bits for the
   // coefficients already nonzero, new ones of magnitude 1 placed after `run` zero coefficients.
-  std::string ac_refine_block(const Component& c, const Scan& scan, uint64_t& flags) {
+  bool ac_refine_block(const Component& c, const Scan& scan, uint64_t& flags) {
     int k = scan.ss;
     if (eob_run_ == 0) {
       for (; k <= scan.se; ++k) {
         int rs;
-        std::string problem;
-        if (!symbol(tables_[4 + c.ac_table], rs, problem)) return problem;
+        if (!symbol(tables_[4 + c.ac_table], rs)) return false;
         int run = rs >> 4;
         const int size = rs & 15;
         if (size == 0 && run != 15) {
@@ -294,30 +374,29 @@ class ScanWalker {
           eob_run_ = (int64_t{1} << run) + extra;
           break;  // the rest of the band is refined as in an end-of-band run
         }
-        if (size > 1) return "corrupt image data: a refinement coefficient of size " + std::to_string(size) + where();
-        if (size == 1 && !skip(1, problem)) return problem;  // the new coefficient's sign
+        if (size > 1) return fail("corrupt image data: a refinement coefficient of size " + std::to_string(size));
+        if (size == 1 && !skip(1)) return false;  // the new coefficient's sign
         // Skip `run` zero coefficients, refining the nonzero ones passed on the way.
         for (; k <= scan.se; ++k) {
           if (flags & (uint64_t{1} << k)) {
-            if (!skip(1, problem)) return problem;
+            if (!skip(1)) return false;
           } else {
             if (run == 0) break;
             --run;
           }
         }
         if (size == 1) {
-          if (k > scan.se) return "corrupt image data: a coefficient run past the band's end" + where();
+          if (k > scan.se) return fail("corrupt image data: a coefficient run past the band's end");
           flags |= uint64_t{1} << k;
         }
       }
     }
     if (eob_run_ > 0) {
-      std::string problem;
       for (; k <= scan.se; ++k)
-        if ((flags & (uint64_t{1} << k)) && !skip(1, problem)) return problem;
+        if ((flags & (uint64_t{1} << k)) && !skip(1)) return false;
       --eob_run_;
     }
-    return "";
+    return true;
   }
 
   const uint8_t* bytes_;
@@ -326,6 +405,7 @@ class ScanWalker {
   const std::array<HuffmanTable, 8>& tables_;
   int max_dc_category_;
   int64_t blocks_ = 0, block_ = 0, eob_run_ = 0;
+  std::string problem_;
 };
 
 }  // namespace
