@@ -63,6 +63,8 @@ const char* kDiagnosticColumns[] = {"gate_geometry", "gate_appearance", "gate_fu
 // ... then, with train.cull only (a log without it gains the column when a resume turns the cull
 // on, and keeps it, empty, when a resume turns it off: prepare_metrics_log).
 constexpr const char* kCullColumn = "decoded_fraction";
+// The loss terms a step reports (StepResult::terms): data parallel sums them across ranks.
+const char* kReducedTerms[] = {"rgb", "mask", "ssim", "lpips", "reg", "consistency", "pose_refine"};
 
 // train.cull: [N] bool, true for the Gaussians the pose decoded; undefined when it decoded all.
 torch::Tensor decoded_mask(const AvatarState& state) {
@@ -453,7 +455,7 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
   return outcome;
 }
 
-bool Trainer::reduce_across_ranks(EntryOutcome& sums, bool finite) {
+bool Trainer::reduce_across_ranks(EntryOutcome& sums, bool finite, std::map<std::string, double>& terms) {
   // One buffer, one all-reduce: per parameter a flag (has a gradient here) and its gradient, the
   // densification statistics, then loss, PSNR, "not finite here" and "stop requested here".
   std::vector<torch::Tensor*> params;
@@ -472,25 +474,41 @@ bool Trainer::reduce_across_ranks(EntryOutcome& sums, bool finite) {
     parts.push_back(sums.densify.visible);
   }
   parts.push_back(torch::tensor(flags, torch::kFloat32));
-  parts.push_back(torch::tensor({static_cast<float>(sums.loss), static_cast<float>(sums.psnr),
-                                 finite ? 0.f : 1.f, g_stop_requested ? 1.f : 0.f}));
+  // The loss terms (a term this rank lacks adds 0 and no presence), so that metrics.csv logs the
+  // mean over every rank's views, as one process with their batch would.
+  std::vector<float> scalar_values = {static_cast<float>(sums.loss), static_cast<float>(sums.psnr),
+                                      finite ? 0.f : 1.f, g_stop_requested ? 1.f : 0.f};
+  for (const char* name : kReducedTerms) {
+    const auto it = terms.find(name);
+    scalar_values.push_back(it == terms.end() ? 0.f : static_cast<float>(it->second));
+    scalar_values.push_back(it == terms.end() ? 0.f : 1.f);
+  }
+  const auto scalar_count = static_cast<int64_t>(scalar_values.size());
+  parts.push_back(torch::tensor(scalar_values, torch::kFloat32));
   auto buffer = torch::cat(parts).to(torch::kFloat32).contiguous();
   group_->all_reduce_sum(buffer);
 
-  const int64_t tail = static_cast<int64_t>(flags.size()) + 4;
-  const auto summed_flags = buffer.slice(0, buffer.numel() - tail, buffer.numel() - 4);
-  const auto scalars = buffer.slice(0, buffer.numel() - 4);
-  sums.loss = scalars[0].item<double>();
-  sums.psnr = scalars[1].item<double>();
-  if (scalars[3].item<float>() > 0) stop_agreed_ = true;
-  const bool all_finite = scalars[2].item<float>() == 0 && torch::isfinite(buffer).all().item<bool>();
+  const int64_t tail = static_cast<int64_t>(flags.size()) + scalar_count;
+  const auto summed_flags = buffer.slice(0, buffer.numel() - tail, buffer.numel() - scalar_count);
+  const auto scalars = buffer.slice(0, buffer.numel() - scalar_count).contiguous();
+  const float* scalar = scalars.data_ptr<float>();
+  sums.loss = scalar[0];
+  sums.psnr = scalar[1];
+  if (scalar[3] > 0) stop_agreed_ = true;
+  const bool all_finite = scalar[2] == 0 && torch::isfinite(buffer).all().item<bool>();
+  const double inverse_ranks = 1.0 / group_->world_size();
+  for (size_t k = 0; k < std::size(kReducedTerms); ++k) {
+    if (scalar[5 + 2 * k] > 0)
+      terms[kReducedTerms[k]] = scalar[4 + 2 * k] * inverse_ranks;
+    else
+      terms.erase(kReducedTerms[k]);
+  }
   int64_t offset = 0;
-  const double inverse_world = 1.0 / group_->world_size();
   for (size_t i = 0; i < params.size(); ++i) {
     auto* p = params[i];
     const int64_t n = p->numel();
     if (summed_flags[static_cast<int64_t>(i)].item<float>() > 0)
-      p->mutable_grad() = (buffer.slice(0, offset, offset + n) * inverse_world).view(p->sizes()).clone();
+      p->mutable_grad() = (buffer.slice(0, offset, offset + n) * inverse_ranks).view(p->sizes()).clone();
     else
       p->mutable_grad() = torch::Tensor();
     offset += n;
@@ -538,7 +556,7 @@ StepResult Trainer::step() {
 
   if (group_) {
     const auto before = group_->stats().seconds;
-    finite = reduce_across_ranks(sums, finite);
+    finite = reduce_across_ranks(sums, finite, result.terms);
     result.times.communication_ms = (group_->stats().seconds - before) * 1000.0;
   } else {
     for (auto& group : optimizer_->groups())

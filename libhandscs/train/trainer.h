@@ -46,7 +46,7 @@ struct StepResult {
   double loss = 0;           // mean over the step's entries of their views' mean (every rank)
   double psnr = 0;           // of this step's ROI crops, likewise
   std::map<std::string, double> terms;        // unweighted loss terms (LossResult::terms), mean
-                                              // over this rank's entries and views
+                                              // over the step's entries and views (all ranks')
   // L_con's pose-similarity weight of this step and the previous one (-1: no pair); the term is
   // absent when it is below train.consistency.min_weight.
   double consistency_weight = -1;  // of the step's first entry
@@ -114,10 +114,10 @@ class Trainer {
   // Entry `entry` of this rank's step: its frames' pose decoded once, each frame rasterised, the
   // losses averaged over them and backpropagated (scaled to the step's mean over entries).
   EntryOutcome train_entry(int64_t entry, bool diagnostics, StepResult& result);
-  // Sums this rank's gradients, densification statistics, loss, PSNR and flags with the other
-  // ranks' and divides the gradients by the world size; returns whether the step is finite on
-  // every rank.
-  bool reduce_across_ranks(EntryOutcome& sums, bool finite);
+  // Sums this rank's gradients, densification statistics, loss, PSNR, loss terms and flags with
+  // the other ranks' and divides the gradients and terms by the world size; returns whether the
+  // step is finite on every rank.
+  bool reduce_across_ranks(EntryOutcome& sums, bool finite, std::map<std::string, double>& terms);
   // Data parallel: every rank takes rank 0's state (parameters, optimiser, counters). keep_chains:
   // the other ranks keep their inter-pose chains where the Gaussian count is unchanged.
   void synchronize_state(bool keep_chains);

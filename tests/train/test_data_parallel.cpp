@@ -112,6 +112,18 @@ TEST_CASE("train: data parallel: 2 ranks x 1 view equal 1 process x batch_size 2
   CHECK(difference.mismatch == "");
   INFO("largest relative difference " << difference.worst << " in " << difference.worst_name);
   CHECK(difference.worst <= 1e-5);
+  // metrics.csv logs the same losses: each term the mean over both ranks' views, as the single
+  // process's over its batch (the ranks sum them in float32).
+  const auto log_a = handscs::read_csv(single + "/metrics.csv"), log_b = handscs::read_csv(ranks + "/metrics.csv");
+  REQUIRE(log_a.rows.size() == log_b.rows.size());
+  REQUIRE_FALSE(log_a.rows.empty());
+  for (size_t row = 0; row < log_a.rows.size(); ++row)
+    for (const char* column : {"loss", "rgb", "mask", "ssim", "reg", "consistency", "psnr"}) {
+      INFO("step " << log_a.at(row, "iteration") << ", " << column);
+      const std::string x = log_a.at(row, column), y = log_b.at(row, column);
+      REQUIRE(x.empty() == y.empty());
+      if (!x.empty()) CHECK(std::stod(y) == Approx(std::stod(x)).epsilon(1e-4));
+    }
 }
 
 TEST_CASE("train: data parallel: a 2-rank run resumed with 2 ranks repeats the uninterrupted run") {
