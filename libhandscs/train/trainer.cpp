@@ -84,9 +84,6 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir, ProcessGro
     : config_(config), run_dir_(run_dir), group_(group) {
   validate_run_config(config_, "config");
   if (group_ && group_->world_size() == 1) group_ = nullptr;
-  require(!(group_ && config_.train.pose_refine.enabled),
-          "train.pose_refine.enabled: pose refinement needs a single process (each rank would "
-          "refine the poses of its own views only); train without it or with one rank");
   ensure_directory(run_dir_);
   ensure_directory(run_dir_ + "/checkpoints");
   if (is_root()) remove_stale_temporaries(run_dir_);
@@ -273,6 +270,12 @@ torch::Tensor Trainer::consistency_loss(const AvatarState& state, const torch::T
 }
 
 // What one entry of a step leaves behind after its backward (its gradients are in the parameters).
+struct Trainer::PoseUpdate {
+  int64_t entry = 0;       // the step's entry, over every rank (first_entry() + e)
+  int64_t pose_index = 0;  // the training pose whose correction it updates
+  torch::Tensor grad;      // [PoseCorrections::kWidth], scaled as the step's mean over entries
+};
+
 struct Trainer::EntryOutcome {
   double loss = 0;  // mean over the entry's views, unweighted by the step's entry count
   double psnr = 0;  // mean over the entry's views
@@ -455,7 +458,8 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
   return outcome;
 }
 
-bool Trainer::reduce_across_ranks(EntryOutcome& sums, bool finite, std::map<std::string, double>& terms) {
+bool Trainer::reduce_across_ranks(EntryOutcome& sums, bool finite, std::map<std::string, double>& terms,
+                                  std::vector<PoseUpdate>& pose_updates) {
   // One buffer, one all-reduce: per parameter a flag (has a gradient here) and its gradient, the
   // densification statistics, then loss, PSNR, "not finite here" and "stop requested here".
   std::vector<torch::Tensor*> params;
@@ -472,6 +476,20 @@ bool Trainer::reduce_across_ranks(EntryOutcome& sums, bool finite, std::map<std:
   if (densify) {
     parts.push_back(sums.densify.grad_norm);
     parts.push_back(sums.densify.visible);
+  }
+  // Pose refinement: one slot per entry of the step over every rank (flag, pose index, gradient),
+  // this rank's filled and the others' zero, so the sum hands every rank every update (an
+  // all-gather by all-reduce). Pose indices are exact in float32 up to 2^24.
+  const int64_t slot_width = 2 + PoseCorrections::kWidth;
+  const int64_t slots = pose_corrections_ ? entries_per_step() : 0;
+  if (slots > 0) {
+    auto pose_slots = torch::zeros({slots, slot_width});
+    for (const auto& update : pose_updates) {
+      pose_slots[update.entry][0] = 1.0;
+      pose_slots[update.entry][1] = static_cast<double>(update.pose_index);
+      pose_slots[update.entry].slice(0, 2).copy_(update.grad.reshape(-1));
+    }
+    parts.push_back(pose_slots.reshape(-1));
   }
   parts.push_back(torch::tensor(flags, torch::kFloat32));
   // The loss terms (a term this rank lacks adds 0 and no presence), so that metrics.csv logs the
@@ -517,6 +535,16 @@ bool Trainer::reduce_across_ranks(EntryOutcome& sums, bool finite, std::map<std:
     const int64_t n = sums.densify.visible.numel();
     sums.densify.grad_norm = buffer.slice(0, offset, offset + n).clone();
     sums.densify.visible = buffer.slice(0, offset + n, offset + 2 * n).clone();
+    offset += 2 * n;
+  }
+  if (slots > 0) {
+    // Gradients scaled as the parameters' (the mean over every rank's entries), in entry order.
+    const auto pose_slots = buffer.slice(0, offset, offset + slots * slot_width).view({slots, slot_width});
+    pose_updates.clear();
+    for (int64_t entry = 0; entry < slots; ++entry)
+      if (pose_slots[entry][0].item<float>() > 0)
+        pose_updates.push_back({entry, static_cast<int64_t>(pose_slots[entry][1].item<float>()),
+                                pose_slots[entry].slice(0, 2) * inverse_ranks});
   }
   return all_finite;
 }
@@ -553,10 +581,16 @@ StepResult Trainer::step() {
     }
   }
   const auto t4 = Clock::now();
+  std::vector<PoseUpdate> pose_updates;  // in entry order; data parallel: every rank's
+  for (int64_t e = 0; e < entries; ++e) {
+    const auto& o = outcomes[static_cast<size_t>(e)];
+    if (o.pose_delta.defined() && o.pose_delta.grad().defined())
+      pose_updates.push_back({first_entry() + e, o.pose_index, o.pose_delta.grad()});
+  }
 
   if (group_) {
     const auto before = group_->stats().seconds;
-    finite = reduce_across_ranks(sums, finite, result.terms);
+    finite = reduce_across_ranks(sums, finite, result.terms, pose_updates);
     result.times.communication_ms = (group_->stats().seconds - before) * 1000.0;
   } else {
     for (auto& group : optimizer_->groups())
@@ -564,10 +598,8 @@ StepResult Trainer::step() {
         if (finite && p->grad().defined() && !torch::isfinite(p->grad()).all().item<bool>())
           finite = false;
   }
-  for (const auto& o : outcomes)
-    if (finite && o.pose_delta.defined() && o.pose_delta.grad().defined() &&
-        !torch::isfinite(o.pose_delta.grad()).all().item<bool>())
-      finite = false;
+  for (const auto& update : pose_updates)  // data parallel: the all-reduce's check covered them
+    if (finite && !torch::isfinite(update.grad).all().item<bool>()) finite = false;
   result.loss = sums.loss / entries_per_step();
   result.psnr = sums.psnr / entries_per_step();
   auto& g = avatar_->gaussians();
@@ -588,9 +620,7 @@ StepResult Trainer::step() {
   } else {
     bad_in_a_row_ = 0;
     optimizer_->step(iteration_, total);
-    for (const auto& o : outcomes)
-      if (o.pose_delta.defined() && o.pose_delta.grad().defined())
-        pose_corrections_->step(o.pose_index, o.pose_delta.grad());
+    for (const auto& update : pose_updates) pose_corrections_->step(update.pose_index, update.grad);
     if (sums.densify.visible.defined()) densifier_->add(sums.densify);
     optimizer_->zero_grad();
     if (config_.train.loss.consistency > 0) prev_chains_ = next_chains_;

@@ -111,13 +111,16 @@ class Trainer {
   };
   ViewTarget load_view(const FrameInfo& frame, int64_t view_index);
   struct EntryOutcome;
+  struct PoseUpdate;
   // Entry `entry` of this rank's step: its frames' pose decoded once, each frame rasterised, the
   // losses averaged over them and backpropagated (scaled to the step's mean over entries).
   EntryOutcome train_entry(int64_t entry, bool diagnostics, StepResult& result);
   // Sums this rank's gradients, densification statistics, loss, PSNR, loss terms and flags with
-  // the other ranks' and divides the gradients and terms by the world size; returns whether the
+  // the other ranks' and divides the gradients and terms by the world size; pose_updates (this
+  // rank's pose-correction gradients) become every rank's, likewise scaled. Returns whether the
   // step is finite on every rank.
-  bool reduce_across_ranks(EntryOutcome& sums, bool finite, std::map<std::string, double>& terms);
+  bool reduce_across_ranks(EntryOutcome& sums, bool finite, std::map<std::string, double>& terms,
+                           std::vector<PoseUpdate>& pose_updates);
   // Data parallel: every rank takes rank 0's state (parameters, optimiser, counters). keep_chains:
   // the other ranks keep their inter-pose chains where the Gaussian count is unchanged.
   void synchronize_state(bool keep_chains);

@@ -1,8 +1,9 @@
 // Data-parallel training as users run it: handscs-train processes on loopback, rendezvous from the
 // environment (RANK, WORLD_SIZE, MASTER_ADDR, MASTER_PORT). Two ranks with one view each against
-// one process with batch_size 2 (densification inside the window), a 2-rank run resumed exactly,
-// a killed rank, a rank alone, and resuming a 2-rank run with 1 rank and a 1-rank run with 2. In
-// process (two ranks as two threads): a NaN on one rank is skipped and rolled back on both.
+// one process with batch_size 2 (densification inside the window; pose refinement), a 2-rank run
+// resumed exactly, a killed rank, a rank alone, and resuming a 2-rank run with 1 rank and a 1-rank
+// run with 2. In process (two ranks as two threads): a NaN on one rank is skipped and rolled back
+// on both.
 #include "test_support.h"
 #include "catch_torch.h"
 
@@ -83,18 +84,35 @@ int run_two_ranks(const std::string& command, const std::string& rank1_command,
                rank_env(1, port) + rank1_command + " > " + log + ".1 2>&1; r1=$?; wait $p0; "
                "r0=$?; exit $(( r0 > r1 ? r0 : r1 ))");
 }
+// Trains DIR/single (one process, batch_size 2) and DIR/ranks (two ranks, one view each) with
+// train_command + `settings`.
+void train_single_and_two_ranks(const std::string& dir, const std::string& settings) {
+  std::filesystem::create_directories(dir);
+  REQUIRE(shell(train_command(dir + "/single") + settings + " train.batch_size=2 > " + dir + "/single.log 2>&1") == 0);
+  const int rc = run_two_ranks(train_command(dir + "/ranks") + settings,
+                               kBin + "/handscs-train --threads 1 --out " + dir + "/ranks", dir + "/ranks.log");
+  INFO(handscs::read_file(dir + "/ranks.log.0") + handscs::read_file(dir + "/ranks.log.1"));
+  REQUIRE(rc == 0);
+}
+
+// Rank 0's checkpoint holds every tensor the single process's does (view 1's inter-pose chain,
+// rank 1's, gathered, included), each equal to it within 1e-5.
+void check_same_state(const handscs::Checkpoint& single, const handscs::Checkpoint& ranks) {
+  for (const auto& [name, tensor] : single.tensors) {
+    INFO(name);
+    CHECK(ranks.tensors.count(name) == 1);
+  }
+  const auto difference = handscs_test::compare_checkpoints(single, ranks);
+  CHECK(difference.mismatch == "");
+  INFO("largest relative difference " << difference.worst << " in " << difference.worst_name);
+  CHECK(difference.worst <= 1e-5);
+}
 }  // namespace
 
 TEST_CASE("train: data parallel: 2 ranks x 1 view equal 1 process x batch_size 2, densifying") {
   const auto dir = fresh_dir("dp_equal");
-  std::filesystem::create_directories(dir);
+  train_single_and_two_ranks(dir, "");
   const auto single = dir + "/single", ranks = dir + "/ranks";
-  REQUIRE(shell(train_command(single) + " train.batch_size=2 > " + dir + "/single.log 2>&1") == 0);
-  const int rc = run_two_ranks(train_command(ranks),
-                               kBin + "/handscs-train --threads 1 --out " + ranks, dir + "/ranks.log");
-  INFO(handscs::read_file(dir + "/ranks.log.0") + handscs::read_file(dir + "/ranks.log.1"));
-  REQUIRE(rc == 0);
-
   const auto a = handscs::load_checkpoint(handscs::latest_checkpoint(single));
   const auto b = handscs::load_checkpoint(handscs::latest_checkpoint(ranks));
   CHECK(a.meta["iteration"] == 12);
@@ -102,16 +120,7 @@ TEST_CASE("train: data parallel: 2 ranks x 1 view equal 1 process x batch_size 2
   CHECK(a.meta["adam_steps"] == b.meta["adam_steps"]);
   const int64_t gaussians = a.tensors.at("gaussians/means").size(0);
   CHECK(gaussians > 1696);  // densification changed the set inside the window
-  // Rank 0's checkpoint holds what the single process's does, view 1's inter-pose chain (rank
-  // 1's, gathered) included, and every tensor equals it.
-  for (const auto& [name, tensor] : a.tensors) {
-    INFO(name);
-    CHECK(b.tensors.count(name) == 1);
-  }
-  const auto difference = handscs_test::compare_checkpoints(a, b);
-  CHECK(difference.mismatch == "");
-  INFO("largest relative difference " << difference.worst << " in " << difference.worst_name);
-  CHECK(difference.worst <= 1e-5);
+  check_same_state(a, b);
   // metrics.csv logs the same losses: each term the mean over both ranks' views, as the single
   // process's over its batch (the ranks sum them in float32).
   const auto log_a = handscs::read_csv(single + "/metrics.csv"), log_b = handscs::read_csv(ranks + "/metrics.csv");
@@ -124,6 +133,18 @@ TEST_CASE("train: data parallel: 2 ranks x 1 view equal 1 process x batch_size 2
       REQUIRE(x.empty() == y.empty());
       if (!x.empty()) CHECK(std::stod(y) == Approx(std::stod(x)).epsilon(1e-4));
     }
+}
+
+TEST_CASE("train: data parallel: pose refinement on 2 ranks equals 1 process x batch_size 2") {
+  // Every rank applies every rank's pose-correction updates, in the single process's order.
+  const auto dir = fresh_dir("dp_pose_refine");
+  train_single_and_two_ranks(dir, " train.densify.enabled=false train.pose_refine.enabled=true train.pose_refine.start=2");
+  const auto a = handscs::load_checkpoint(handscs::latest_checkpoint(dir + "/single"));
+  const auto b = handscs::load_checkpoint(handscs::latest_checkpoint(dir + "/ranks"));
+  REQUIRE(a.tensors.count("pose_refine/values") == 1);
+  // Both views' poses were corrected: more than one row moved.
+  CHECK((a.tensors.at("pose_refine/values").abs().sum(1) > 0).sum().item<int64_t>() >= 2);
+  check_same_state(a, b);
 }
 
 TEST_CASE("train: data parallel: a 2-rank run resumed with 2 ranks repeats the uninterrupted run") {
