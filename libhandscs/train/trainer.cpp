@@ -269,13 +269,14 @@ torch::Tensor Trainer::consistency_loss(const AvatarState& state, const torch::T
   return loss;
 }
 
-// What one entry of a step leaves behind after its backward (its gradients are in the parameters).
+// One pose-correction update of a step (pose refinement).
 struct Trainer::PoseUpdate {
   int64_t entry = 0;       // the step's entry, over every rank (first_entry() + e)
   int64_t pose_index = 0;  // the training pose whose correction it updates
   torch::Tensor grad;      // [PoseCorrections::kWidth], scaled as the step's mean over entries
 };
 
+// What one entry of a step leaves behind after its backward (its gradients are in the parameters).
 struct Trainer::EntryOutcome {
   double loss = 0;  // mean over the entry's views, unweighted by the step's entry count
   double psnr = 0;  // mean over the entry's views
@@ -460,8 +461,9 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
 
 bool Trainer::reduce_across_ranks(EntryOutcome& sums, bool finite, std::map<std::string, double>& terms,
                                   std::vector<PoseUpdate>& pose_updates) {
-  // One buffer, one all-reduce: per parameter a flag (has a gradient here) and its gradient, the
-  // densification statistics, then loss, PSNR, "not finite here" and "stop requested here".
+  // One buffer, one all-reduce: each parameter's gradient, the densification statistics, the pose
+  // updates' slots, per parameter a flag (has a gradient here), then loss, PSNR, "not finite here",
+  // "stop requested here" and each loss term with its presence.
   std::vector<torch::Tensor*> params;
   for (auto& group : optimizer_->groups())
     for (auto* p : group.params) params.push_back(p);
