@@ -130,8 +130,8 @@ AvatarState Avatar::pose(const torch::Tensor& pose_in, const torch::Tensor& shap
       use_descriptor ? s.descriptor : torch::zeros({g.size(), 0}, s.lbs_means.options());
   const auto transform_in = transforms.slice(1, 0, 3).reshape({-1, 12});
   if (cull) {
-    const auto normals = rest_normals_.index_select(0, g.vertex_ids).to(dtype);
-    const auto rows = facing_rows(linear, normals, s.lbs_means, *cull);
+    // facing_rows takes the means' dtype.
+    const auto rows = facing_rows(linear, rest_normals_.index_select(0, g.vertex_ids), s.lbs_means, *cull);
     if (rows.numel() < g.size()) s.decoded_rows = rows;
   }
   const bool culled = s.decoded_rows.defined();

@@ -47,6 +47,11 @@ struct AvatarState {
   // With a FacingCull: the rows [K] int64 decoded and rendered; the others' decoder outputs are 0
   // and their opacities 0 (the rasterizer skips them). Undefined: every row (no cull, or none culled).
   torch::Tensor decoded_rows;
+
+  // The share of the Gaussians decoded and rendered (1 without a cull).
+  double decoded_fraction() const {
+    return decoded_rows.defined() ? double(decoded_rows.numel()) / double(posed.means.size(0)) : 1.0;
+  }
 };
 
 struct AvatarOutput {

@@ -99,8 +99,9 @@ torch::Tensor static_descriptor_loop_typed(const torch::Tensor& x_in, const torc
 // eps, constant below it as clamp_min makes them):
 //   dP/dr = d (b / (|r|_f |b|_f) - rho r / |r|_f^2 [|r|^2 >= eps^2]) - 2 P r / tau^2,
 //   dP/db = d (r / (|r|_f |b|_f) - rho b / |b|_f^2 [|b|^2 >= eps^2]),
-// and x receives -dP/dr, j_u dP/dr - dP/db, j_v dP/db.
-template <class T>
+// and x receives -dP/dr, j_u dP/dr - dP/db, j_v dP/db. kJoints false: d/djoints is neither computed
+// nor returned (undefined), the usual case of a fixed pose.
+template <class T, bool kJoints>
 std::vector<torch::Tensor> static_descriptor_backward_typed(const torch::Tensor& x_in, const torch::Tensor& joints_in,
                                                             const torch::Tensor& grad_in, const BoneTopology& topology,
                                                             double tau, double eps) {
@@ -116,11 +117,12 @@ std::vector<torch::Tensor> static_descriptor_backward_typed(const torch::Tensor&
   T* gxp = grad_x.data_ptr<T>();
   const int64_t tasks = (n + kGaussiansPerTask - 1) / kGaussiansPerTask;
   // Per task and bone: the sums of dP/dr and dP/db (weighted by the incoming gradient).
-  std::vector<T> sum_r(size_t(tasks * edges * 3), T(0)), sum_b(size_t(tasks * edges * 3), T(0));
+  const size_t sums = kJoints ? size_t(tasks * edges * 3) : 0;
+  std::vector<T> sum_r(sums, T(0)), sum_b(sums, T(0));
   at::parallel_for(0, tasks, 1, [&](int64_t first, int64_t last) {
     for (int64_t task = first; task < last; ++task) {
-      T* sr = sum_r.data() + task * edges * 3;
-      T* sb = sum_b.data() + task * edges * 3;
+      T* sr = kJoints ? sum_r.data() + task * edges * 3 : nullptr;
+      T* sb = kJoints ? sum_b.data() + task * edges * 3 : nullptr;
       const int64_t end = std::min(n, (task + 1) * kGaussiansPerTask);
       for (int64_t i = task * kGaussiansPerTask; i < end; ++i) {
         const T* xi = xp + 3 * i;
@@ -140,16 +142,18 @@ std::vector<torch::Tensor> static_descriptor_backward_typed(const torch::Tensor&
           const T b_term = bones.b_sq[e] >= eps_sq ? rho / (b_norm[e] * b_norm[e]) : T(0);
           for (int c = 0; c < 3; ++c) {
             const T dr = g * (d * (be[c] / denom - r_term * r[c]) - 2 * d * rho * r[c] / tau_sq);
-            const T db = g * d * (r[c] / denom - b_term * be[c]);
             gx[c] -= dr;
-            sr[3 * e + c] += dr;
-            sb[3 * e + c] += db;
+            if constexpr (kJoints) {
+              sr[3 * e + c] += dr;
+              sb[3 * e + c] += g * d * (r[c] / denom - b_term * be[c]);
+            }
           }
         }
         for (int c = 0; c < 3; ++c) gxp[3 * i + c] = gx[c];
       }
     }
   });
+  if constexpr (!kJoints) return {grad_x, torch::Tensor()};
   auto grad_joints = torch::zeros(joints.sizes(), joints.options());
   T* gjp = grad_joints.data_ptr<T>();
   for (int64_t task = 0; task < tasks; ++task)
@@ -187,12 +191,15 @@ struct StaticDescriptorFunction : public torch::autograd::Function<StaticDescrip
     const auto edges = ctx->saved_data["edges"].toIntVector();
     for (size_t k = 0; k + 1 < edges.size(); k += 2) topology.edges.push_back({int(edges[k]), int(edges[k + 1])});
     const double tau = ctx->saved_data["tau"].toDouble(), eps = ctx->saved_data["eps"].toDouble();
-    auto g = saved[0].scalar_type() == torch::kDouble
-                 ? static_descriptor_backward_typed<double>(saved[0], saved[1], grads[0], topology, tau, eps)
-                 : static_descriptor_backward_typed<float>(saved[0], saved[1], grads[0], topology, tau, eps);
-    // The joints usually come from a fixed pose; their gradient is only returned when asked for.
-    return {g[0], ctx->needs_input_grad(1) ? g[1] : torch::Tensor(), torch::Tensor(), torch::Tensor(),
-            torch::Tensor()};
+    // The joints usually come from a fixed pose; their gradient is only computed when asked for.
+    const bool joints = ctx->needs_input_grad(1), is_double = saved[0].scalar_type() == torch::kDouble;
+    const auto& x = saved[0];
+    const auto& j = saved[1];
+    auto g = is_double ? (joints ? static_descriptor_backward_typed<double, true>(x, j, grads[0], topology, tau, eps)
+                                 : static_descriptor_backward_typed<double, false>(x, j, grads[0], topology, tau, eps))
+                       : (joints ? static_descriptor_backward_typed<float, true>(x, j, grads[0], topology, tau, eps)
+                                 : static_descriptor_backward_typed<float, false>(x, j, grads[0], topology, tau, eps));
+    return {g[0], g[1], torch::Tensor(), torch::Tensor(), torch::Tensor()};
   }
 };
 

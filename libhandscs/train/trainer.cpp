@@ -218,8 +218,8 @@ std::array<float, 3> Trainer::background_for(int64_t view_index) const {
   return {u(rng), u(rng), u(rng)};
 }
 
-torch::Tensor Trainer::consistency_loss(const AvatarState& state, const torch::Tensor& rendered_pose,
-                                        size_t chain, double* pair_weight) {
+torch::Tensor Trainer::consistency_loss(const AvatarState& state, const torch::Tensor& decoded,
+                                        const torch::Tensor& rendered_pose, size_t chain, double* pair_weight) {
   const ConsistencyChain& prev = prev_chains_[chain];
   auto& g = avatar_->gaussians();
   const auto& cc = config_.train.consistency;
@@ -230,7 +230,6 @@ torch::Tensor Trainer::consistency_loss(const AvatarState& state, const torch::T
   const auto attributes =
       consistency_attributes(state.canonical_means, state.canonical_covariances,
                              state.canonical_colors, g.embed_geometry, g.embed_appearance);
-  const torch::Tensor decoded = decoded_mask(state);
   torch::Tensor loss;
   const double weight = prev.descriptor.defined()
                             ? pose_similarity(feature, prev.pose_feature, cc.delta)
@@ -355,6 +354,7 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
   }
   const AvatarState state = avatar_->pose(pose, float_vector(current.shape), trans, consistency,
                                           cull ? &*cull : nullptr);
+  const torch::Tensor decoded = decoded_mask(state);  // for L_con's pairs and densification
   std::vector<torch::Tensor> probes;
   std::vector<RasterOutput> renders;
   for (const auto& view : views) {
@@ -367,7 +367,7 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
 
   double pair_weight = -1;
   torch::Tensor consistency_term;  // one per pose: the same for each of its views
-  if (consistency) consistency_term = consistency_loss(state, pose, entry, &pair_weight);
+  if (consistency) consistency_term = consistency_loss(state, decoded, pose, entry, &pair_weight);
   if (entry == 0) result.consistency_weight = pair_weight;
   // The entry's loss is the mean over its views (the pose's terms, L_reg and L_con, are the same
   // in each, so they count once).
@@ -405,13 +405,11 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
     result.diagnostics["gate_appearance"] = decoders->appearance->gate.item<double>();
     result.diagnostics["gate_fusion"] = decoders->fusion->gate.item<double>();
     for (const auto& [name, norms] : offset_norms(state.offsets)) {
-      const auto decoded =
-          state.decoded_rows.defined() ? norms.index_select(0, state.decoded_rows) : norms;
-      result.diagnostics["offset_" + name] = decoded.mean().item<double>();
+      const auto kept = state.decoded_rows.defined() ? norms.index_select(0, state.decoded_rows) : norms;
+      result.diagnostics["offset_" + name] = kept.mean().item<double>();
     }
     if (cull)  // train.cull: the share of Gaussians decoded and rendered
-      result.diagnostics[kCullColumn] =
-          state.decoded_rows.defined() ? double(state.decoded_rows.numel()) / double(g.size()) : 1.0;
+      result.diagnostics[kCullColumn] = state.decoded_fraction();
     if (pose_corrections_)
       for (const auto& [name, value] : pose_corrections_->summary()) result.diagnostics[name] = value;
   }
@@ -438,7 +436,6 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
     // render would have projected it (its un-offset geometry and own opacity): it is on the hand's
     // far side, where the exact render's gradient is that of an occluded Gaussian. Counting it as
     // unseen raised the mean gradient of the back's Gaussians and densified 60% more of them.
-    const torch::Tensor decoded = decoded_mask(state);
     for (int64_t k = 0; k < count; ++k) {
       const auto grad = probes[k].grad().defined() ? probes[k].grad() : torch::zeros_like(probes[k]);
       const auto radii =
@@ -927,6 +924,7 @@ TrainSummary Trainer::run() {
   // Every rank starts from rank 0's state: its initialisation, or the checkpoint it resumed.
   if (group_) synchronize_state(/*keep_chains=*/false);
   const bool root = is_root();
+  const bool consistency_chains = config_.train.loss.consistency > 0;  // what gather_chains moves
   const auto start = Clock::now();
   const double elapsed_before = elapsed_seconds_;
   const int64_t first_iteration = iteration_;
@@ -944,7 +942,7 @@ TrainSummary Trainer::run() {
     const StepResult r = step();
     elapsed_seconds_ = elapsed_before + ms_between(start, Clock::now()) / 1000.0;
     const bool checkpoint_due = iteration_ % config_.train.checkpoint_every == 0;
-    if (group_ && checkpoint_due) gather_chains();  // every rank takes part
+    if (group_ && checkpoint_due && consistency_chains) gather_chains();  // every rank takes part
     if (!root) continue;
     std::snprintf(status, sizeof(status), "loss %.4f psnr %.2f (avg %.2f) N %lld%s", r.loss, r.psnr,
                   running_psnr_, static_cast<long long>(avatar_->gaussians().size()),
@@ -956,7 +954,7 @@ TrainSummary Trainer::run() {
       validate();
   }
   const bool interrupted = stop_requested() && iteration_ < total;
-  if (group_) gather_chains();  // for the final checkpoint (every rank reaches this point)
+  if (group_ && consistency_chains) gather_chains();  // for the final checkpoint (every rank gets here)
   if (root) {
     if (last_checkpoint_.find(checkpoint_name(iteration_)) == std::string::npos) save_checkpoint();
     if (pose_corrections_)

@@ -144,10 +144,11 @@ class Trainer {
   std::vector<const FrameInfo*> frames_for(int64_t entry_index);
   // view_index = entry_index x views_per_pose + the view's place in the entry.
   std::array<float, 3> background_for(int64_t view_index) const;
-  // pose: the pose the entry rendered (annotated, or corrected by pose refinement); chain: the
-  // entry's place in the step.
-  torch::Tensor consistency_loss(const AvatarState& state, const torch::Tensor& pose, size_t chain,
-                                 double* weight);
+  // decoded: [N] bool, the Gaussians the pose decoded (train.cull; undefined: all); pose: the pose
+  // the entry rendered (annotated, or corrected by pose refinement); chain: the entry's place in
+  // the step.
+  torch::Tensor consistency_loss(const AvatarState& state, const torch::Tensor& decoded,
+                                 const torch::Tensor& pose, size_t chain, double* weight);
   void validate();
   void log_step(const StepResult& result);
 

@@ -108,9 +108,7 @@ int main(int argc, char** argv) {
       const auto state = avatar.pose(pose, shape, trans, false, &cull);
       culled = handscs::render_posed(state.posed, sample.camera, settings).rgb;
       culled_ms.push_back(ms_since(t0));
-      decoded_share += state.decoded_rows.defined()
-                           ? double(state.decoded_rows.numel()) / double(avatar.gaussians().size())
-                           : 1.0;
+      decoded_share += state.decoded_fraction();
     }
     exact = exact.clamp(0, 1);
     frozen = frozen.clamp(0, 1);

@@ -156,13 +156,13 @@ int main(int argc, char** argv) {
     handscs::FacingCull facing;
     facing.camera_centres = {camera.centre()};
     facing.max_cos = train_step.cull_max_cos;
-    int64_t decoded_rows = n;
+    double decoded_fraction = 1.0;  // of the culled forward + backward
     const auto forward_backward = [&](double& fwd, double& bwd, const handscs::FacingCull* cull) {
       auto t0 = Clock::now();
       const auto state = avatar.pose(pose, shape, trans, false, cull);
       const auto render = handscs::render_posed(state.posed, camera, {});
       fwd = ms_since(t0);
-      if (state.decoded_rows.defined()) decoded_rows = state.decoded_rows.numel();
+      if (cull) decoded_fraction = state.decoded_fraction();
       const auto cotangent = torch::rand_like(render.rgb);
       t0 = Clock::now();
       ((render.rgb * cotangent).sum() + render.alpha.sum()).backward();
@@ -416,7 +416,7 @@ int main(int argc, char** argv) {
     row["forward_backward_ms"] = median(t_forward) + median(t_backward);
     // train.cull's forward + backward (alternated with the above) and the share it decodes.
     row["forward_backward_culled_ms"] = median(t_culled);
-    row["culled_decoded_fraction"] = double(decoded_rows) / double(n);
+    row["culled_decoded_fraction"] = decoded_fraction;
     row["stage_forward_ms"] = {{"lbs", median(t_lbs)},
                                {"scs", median(t_scs)},
                                {"decoders", median(t_dec)},

@@ -5,6 +5,7 @@
 #include "catch_torch.h"
 
 #include <cmath>
+#include <functional>
 
 #include "checkpoint_compare.h"
 #include "core/threads.h"
@@ -15,6 +16,28 @@
 using handscs_test::fresh_dir;
 using handscs_test::tiny_run_config;
 
+namespace {
+
+// Trains `plain` and `culled` for their iterations in fresh folders (on_step sees each step's
+// result and config) and returns their final checkpoints.
+std::pair<handscs::Checkpoint, handscs::Checkpoint> train_plain_and_culled(
+    const handscs::RunConfig& plain, const handscs::RunConfig& culled, const std::string& name,
+    const std::function<void(const handscs::StepResult&, const handscs::RunConfig&)>& on_step = {}) {
+  const auto plain_dir = fresh_dir(name + "_plain"), culled_dir = fresh_dir(name + "_culled");
+  for (const auto& [c, dir] : {std::pair{plain, plain_dir}, std::pair{culled, culled_dir}}) {
+    handscs::Trainer t(c, dir);
+    while (t.iteration() < c.train.iterations) {
+      const auto r = t.step();
+      if (on_step) on_step(r, c);
+    }
+    t.save_checkpoint();
+  }
+  return {handscs::load_checkpoint(handscs::latest_checkpoint(plain_dir)),
+          handscs::load_checkpoint(handscs::latest_checkpoint(culled_dir))};
+}
+
+}  // namespace
+
 TEST_CASE("cull: a cull that keeps every Gaussian trains exactly as no cull") {
   handscs::set_threads(1);
   auto config = tiny_run_config();
@@ -23,18 +46,13 @@ TEST_CASE("cull: a cull that keeps every Gaussian trains exactly as no cull") {
   auto culled = config;
   culled.train.cull.enabled = true;
   culled.train.cull.max_cos = 1.0;  // every cosine is at most 1
-  const auto plain_dir = fresh_dir("cull_plain"), culled_dir = fresh_dir("cull_keep_all");
-  for (const auto& [c, dir] : {std::pair{config, plain_dir}, std::pair{culled, culled_dir}}) {
-    handscs::Trainer t(c, dir);
-    while (t.iteration() < 4) {
-      const auto r = t.step();
-      CHECK(r.diagnostics.count("decoded_fraction") == (c.train.cull.enabled ? 1u : 0u));
-      if (c.train.cull.enabled) CHECK(r.diagnostics.at("decoded_fraction") == 1.0);
-    }
-    t.save_checkpoint();
-  }
-  const auto a = handscs::load_checkpoint(handscs::latest_checkpoint(plain_dir));
-  const auto b = handscs::load_checkpoint(handscs::latest_checkpoint(culled_dir));
+  const auto [a, b] = train_plain_and_culled(config, culled, "cull_keep_all",
+                                             [](const handscs::StepResult& r, const handscs::RunConfig& c) {
+                                               CHECK(r.diagnostics.count("decoded_fraction") ==
+                                                     (c.train.cull.enabled ? 1u : 0u));
+                                               if (c.train.cull.enabled)
+                                                 CHECK(r.diagnostics.at("decoded_fraction") == 1.0);
+                                             });
   const auto difference = handscs_test::compare_checkpoints(a, b, 1e-30);
   CHECK(difference.mismatch == "");
   INFO("largest relative difference " << difference.worst << " in " << difference.worst_name);
@@ -106,14 +124,7 @@ TEST_CASE("cull: densification counts a skipped Gaussian as seen wherever the ex
   config.train.densify.start = 1000;  // statistics accumulate, nothing densifies
   auto culled = config;
   culled.train.cull.enabled = true;
-  const auto plain_dir = fresh_dir("cull_densify_plain"), culled_dir = fresh_dir("cull_densify");
-  for (const auto& [c, dir] : {std::pair{config, plain_dir}, std::pair{culled, culled_dir}}) {
-    handscs::Trainer t(c, dir);
-    t.step();
-    t.save_checkpoint();
-  }
-  const auto a = handscs::load_checkpoint(handscs::latest_checkpoint(plain_dir));
-  const auto b = handscs::load_checkpoint(handscs::latest_checkpoint(culled_dir));
+  const auto [a, b] = train_plain_and_culled(config, culled, "cull_densify");
   const auto& count = b.tensors.at("densify/count");
   CHECK(torch::equal(count, a.tensors.at("densify/count")));
   CHECK(count.sum().item<double>() > 0.9 * count.numel());  // the crop sees nearly every Gaussian

@@ -70,27 +70,30 @@ std::string train_command(const std::string& out) {
          " train.densify.start=4 train.densify.interval=4 train.densify.grad_threshold=1e-5";
 }
 
+// Rank 1's command: it needs only --out (rank 0's config reaches it).
+std::string rank1_command(const std::string& out) { return kBin + "/handscs-train --threads 1 --out " + out; }
+
 std::string rank_env(int rank, int port) {
   return "RANK=" + std::to_string(rank) + " WORLD_SIZE=2 MASTER_ADDR=127.0.0.1 MASTER_PORT=" +
          std::to_string(port) + " ";
 }
 
-// Rank 0 runs `command`, rank 1 `rank1_command` (rank 0's config reaches it); returns the larger
-// exit code.
-int run_two_ranks(const std::string& command, const std::string& rank1_command,
-                  const std::string& log) {
+// Rank 0 runs `command`, rank 1 `rank1` (rank 0's config reaches it); returns the larger exit
+// code.
+int run_two_ranks(const std::string& command, const std::string& rank1, const std::string& log) {
   const int port = free_port();
   return shell(rank_env(0, port) + command + " > " + log + ".0 2>&1 & p0=$!; " +
-               rank_env(1, port) + rank1_command + " > " + log + ".1 2>&1; r1=$?; wait $p0; "
+               rank_env(1, port) + rank1 + " > " + log + ".1 2>&1; r1=$?; wait $p0; "
                "r0=$?; exit $(( r0 > r1 ? r0 : r1 ))");
 }
+
 // Trains DIR/single (one process, batch_size 2) and DIR/ranks (two ranks, one view each) with
 // train_command + `settings`.
 void train_single_and_two_ranks(const std::string& dir, const std::string& settings) {
   std::filesystem::create_directories(dir);
   REQUIRE(shell(train_command(dir + "/single") + settings + " train.batch_size=2 > " + dir + "/single.log 2>&1") == 0);
   const int rc = run_two_ranks(train_command(dir + "/ranks") + settings,
-                               kBin + "/handscs-train --threads 1 --out " + dir + "/ranks", dir + "/ranks.log");
+                               rank1_command(dir + "/ranks"), dir + "/ranks.log");
   INFO(handscs::read_file(dir + "/ranks.log.0") + handscs::read_file(dir + "/ranks.log.1"));
   REQUIRE(rc == 0);
 }
@@ -157,11 +160,10 @@ TEST_CASE("train: data parallel: a 2-rank run resumed with 2 ranks repeats the u
   // The same run stopped after its step-6 checkpoint: a copy of the folder without the later one
   // (stopping the run itself at 6 would change its learning-rate schedule).
   const std::string plain = " train.densify.enabled=false train.log_every=1 train.checkpoint_every=6";
-  const std::string rank1 = kBin + "/handscs-train --threads 1 --out ";
-  REQUIRE(run_two_ranks(train_command(straight) + plain, rank1 + straight, dir + "/straight.log") == 0);
+  REQUIRE(run_two_ranks(train_command(straight) + plain, rank1_command(straight), dir + "/straight.log") == 0);
   std::filesystem::copy(straight, resumed, std::filesystem::copy_options::recursive);
   REQUIRE(std::filesystem::remove(resumed + "/checkpoints/step_00000012.ckpt"));
-  const int rc = run_two_ranks(kBin + "/handscs-train --resume --out " + resumed + " --threads 1", rank1 + resumed,
+  const int rc = run_two_ranks(kBin + "/handscs-train --resume --out " + resumed + " --threads 1", rank1_command(resumed),
                                dir + "/second.log");
   INFO(handscs::read_file(dir + "/second.log.0") + handscs::read_file(dir + "/second.log.1"));
   REQUIRE(rc == 0);
@@ -193,8 +195,7 @@ TEST_CASE("train: data parallel: a killed rank ends the other with a clear error
   // well within the 30 s timeout (a dead peer closes its connection at once).
   const std::string long_run = train_command(dir + "/run") + " train.iterations=100000 --dist-timeout 30";
   const auto [rc, seconds] = timed_shell(rank_env(0, port) + long_run + " > " + dir + "/log0 2>&1 & p0=$!; " +
-                       rank_env(1, port) + kBin + "/handscs-train --threads 1 --out " + dir +
-                       "/run > " + dir + "/log1 2>&1 & p1=$!; "
+                       rank_env(1, port) + rank1_command(dir + "/run") + " > " + dir + "/log1 2>&1 & p1=$!; "
                        "for i in $(seq 150); do test -e " + dir +
                        "/run/metrics.csv && break; sleep 0.2; done; "
                        "sleep 1; kill -9 $p1; wait $p0");
@@ -208,9 +209,8 @@ TEST_CASE("train: data parallel: a killed rank ends the other with a clear error
 
 TEST_CASE("train: data parallel: a rank whose peers never come fails its rendezvous with a clear error") {
   const auto dir = fresh_dir("dp_alone");
-  const auto [rc, seconds] = timed_shell(rank_env(1, free_port()) + kBin +
-                                         "/handscs-train --threads 1 --out " + dir +
-                                         " --dist-timeout 2 > " + dir + ".log 2>&1");
+  const auto [rc, seconds] =
+      timed_shell(rank_env(1, free_port()) + rank1_command(dir) + " --dist-timeout 2 > " + dir + ".log 2>&1");
   const auto log = handscs::read_file(dir + ".log");
   INFO(log);
   CHECK(rc == 1);
@@ -222,7 +222,7 @@ TEST_CASE("train: data parallel: a 2-rank run resumes with 1 rank, and a 1-rank 
   const auto dir = fresh_dir("dp_resume");
   std::filesystem::create_directories(dir);
   const auto run = dir + "/run";
-  REQUIRE(run_two_ranks(train_command(run), kBin + "/handscs-train --threads 1 --out " + run,
+  REQUIRE(run_two_ranks(train_command(run), rank1_command(run),
                         dir + "/first.log") == 0);
   CHECK(handscs::latest_checkpoint(run).find("step_00000012.ckpt") != std::string::npos);
   const std::string resume = kBin + "/handscs-train --resume --out " + run + " --threads 1 --set ";
@@ -230,7 +230,7 @@ TEST_CASE("train: data parallel: a 2-rank run resumes with 1 rank, and a 1-rank 
   CHECK(handscs::read_file(dir + "/one.log").find("resumed from") != std::string::npos);
   CHECK(handscs::latest_checkpoint(run).find("step_00000016.ckpt") != std::string::npos);
   const int rc = run_two_ranks(resume + "train.iterations=20",
-                               kBin + "/handscs-train --threads 1 --out " + run, dir + "/two.log");
+                               rank1_command(run), dir + "/two.log");
   INFO(handscs::read_file(dir + "/two.log.0") + handscs::read_file(dir + "/two.log.1"));
   REQUIRE(rc == 0);
   CHECK(handscs::latest_checkpoint(run).find("step_00000020.ckpt") != std::string::npos);

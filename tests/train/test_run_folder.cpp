@@ -160,13 +160,10 @@ TEST_CASE("run folder: a run stopped by a user error at step 1 leaves the folder
   fs::create_directories(dir);
   write(dir + "/notes.txt", "the user's own file");
   const auto before = snapshot(dir);
-  std::string error;
-  try {
+  const std::string error = handscs_test::error_of([&] {
     handscs::Trainer trainer(config, dir);
     trainer.run();
-  } catch (const handscs::Error& e) {
-    error = e.what();
-  }
+  });
   INFO(error);
   REQUIRE(error.find("scales the crop around the hand") != std::string::npos);
   auto after = snapshot(dir);  // the mask cache may be new: shared, keyed by its settings, no run
