@@ -1,5 +1,8 @@
 #include "train/losses.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include <torch/types.h>
 
 #include "metrics/image_tensor.h"
@@ -16,7 +19,17 @@ torch::Tensor smooth_norm(const torch::Tensor& v, int64_t first_dim) {
   for (int64_t d = first_dim; d < v.dim(); ++d) dims.push_back(d);
   return (v.pow(2).sum(dims) + kEps * kEps).sqrt() - kEps;
 }
+
+// [B, C, H, W] scaled by `scale` with area averaging (scale 1: unchanged).
+torch::Tensor area_scaled(const torch::Tensor& bchw, double scale) {
+  if (scale == 1.0) return bchw;
+  return torch::adaptive_avg_pool2d(bchw, {scaled_side(bchw.size(2), scale), scaled_side(bchw.size(3), scale)});
+}
 }  // namespace
+
+int64_t scaled_side(int64_t side, double scale) {
+  return std::max<int64_t>(1, std::llround(static_cast<double>(side) * scale));
+}
 
 std::vector<std::pair<std::string, torch::Tensor>> offset_norms(const DecodedOffsets& o) {
   const auto eye = torch::eye(3, o.dsigma.options()).unsqueeze(0);
@@ -54,7 +67,8 @@ LossResult Objective::compute(const LossInputs& in) const {
     if (weights_.ssim > 0) add("ssim", weights_.ssim, ssim_loss(pred, target, SsimConfig{SsimConfig::Variant::three_dgs}));
     if (lpips)
       add("lpips", weights_.lpips * static_cast<double>(weights_.lpips_every),
-          lpips_loss(*lpips_, pred, target));
+          lpips_loss(*lpips_, area_scaled(pred, weights_.lpips_scale),
+                     area_scaled(target, weights_.lpips_scale)));
   }
   if (weights_.reg > 0 && in.offsets)
     add("reg", weights_.reg, offset_regularizer(*in.offsets, weights_.reg_terms, in.decoded_rows));

@@ -48,6 +48,9 @@ class Objective {
   std::shared_ptr<const Lpips> lpips_;
 };
 
+// An image side scaled as LPIPS sees it under train.loss.lpips_scale: rounded, at least 1.
+int64_t scaled_side(int64_t side, double scale);
+
 // Per-Gaussian smooth norms [N] of every decoded offset, named dx, dsigma (|dSigma - I|_F), dc,
 // dx_f, dsigma_f, dc_f in that order (L_reg's terms; the trainer logs their means).
 std::vector<std::pair<std::string, torch::Tensor>> offset_norms(const DecodedOffsets& offsets);

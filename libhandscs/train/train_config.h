@@ -20,6 +20,10 @@ struct LossWeights {
   // 3 seeds, paired against every step): PSNR -0.004 +- 0.013 dB, LPIPS +0.0015, training loop
   // 98.7 -> 63.9 s (k = 2 measured -0.075 dB; docs/BENCHMARKS.md, "LPIPS on a schedule").
   int64_t lpips_every = 4;
+  // LPIPS on the crop scaled by this (area average, so each scaled pixel is the mean of the pixels
+  // it covers) before the backbone: 0.5 runs AlexNet on a quarter of the pixels. 1 = the crop as
+  // rendered (the paper; evaluation always scores the full image).
+  double lpips_scale = 1.0;
   double reg = 0.1;           // lambda_reg, offset regularisation L_reg
   // L_reg's terms: "paper" = |dx| + |dSigma - I|_F + |dc| of the geometry and appearance decoders
   // (paper eq. for L_reg); "all" adds the fusion decoder's offsets (this code's choice before).
@@ -38,6 +42,8 @@ struct LossWeights {
     v.field("lpips", lpips, "weight of LPIPS (0 = never computed)", 0.0, 1e6);
     v.field("lpips_every", lpips_every,
             "LPIPS on steps whose number is a multiple of this, weighted this x lpips there", 1, 1e6);
+    v.field("lpips_scale", lpips_scale,
+            "LPIPS on the crop scaled by this (area average); 1 = full resolution", 0.05, 1.0);
     v.field("reg", reg, "weight of the offset regulariser L_reg", 0.0, 1e6);
     v.choice("reg_terms", reg_terms, {{"paper", RegTerms::paper}, {"all", RegTerms::all}},
              "L_reg terms: paper = geometry and appearance offsets; all = fusion offsets too");

@@ -11,6 +11,7 @@
 #include "core/text.h"
 #include "metrics/lpips.h"
 #include "metrics/ssim.h"
+#include "train/losses.h"
 
 namespace handscs {
 
@@ -29,7 +30,12 @@ std::string smallest_scale(int side, int64_t min_side) {
 int64_t min_loss_image_side(const LossWeights& weights, const Lpips* lpips) {
   int64_t side = 1;
   if (weights.ssim > 0) side = std::max(side, kSsimWindow);
-  if (lpips && weights.lpips > 0) side = std::max(side, lpips->min_image_side());
+  if (lpips && weights.lpips > 0) {
+    // The smallest crop side that is still min_image_side() after train.loss.lpips_scale.
+    int64_t lpips_side = lpips->min_image_side();
+    while (scaled_side(lpips_side, weights.lpips_scale) < lpips->min_image_side()) ++lpips_side;
+    side = std::max(side, lpips_side);
+  }
   return side;
 }
 

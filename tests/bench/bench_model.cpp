@@ -90,6 +90,9 @@ int main(int argc, char** argv) {
                  "LPIPS weight file for the training step's LPIPS term (without: the term is skipped)");
   app.add_option("--lpips-every", train_step.lpips_every,
                  "train.loss.lpips_every of the training step (see mean_step_ms then)");
+  app.add_option("--lpips-scale", train_step.lpips_scale,
+                 "train.loss.lpips_scale of the training step (LPIPS on the crop scaled by this)")
+      ->check(CLI::Range(0.05, 1.0));
   app.add_option("--views-per-pose", train_step.views_per_pose,
                  "train.views_per_pose of the training step (cameras of one pose sharing a decoding)")
       ->check(CLI::Range(1, 4));
@@ -123,6 +126,7 @@ int main(int argc, char** argv) {
   result["blas"] = handscs::blas_in_use();
   result["train_step_lpips"] = !no_train_step && !train_step.lpips_weights.empty();
   result["train_step_lpips_every"] = train_step.lpips_every;
+  result["train_step_lpips_scale"] = train_step.lpips_scale;
   result["train_step_views_per_pose"] = train_step.views_per_pose;
   result["train_step_cull"] = train_step.cull;
   result["cull_max_cos"] = train_step.cull_max_cos;

@@ -28,6 +28,7 @@ struct TrainStepOptions {
   std::string decoder_precision = "auto";
   int repeats = 10;
   int64_t lpips_every = handscs::LossWeights{}.lpips_every;  // train.loss.lpips_every
+  double lpips_scale = handscs::LossWeights{}.lpips_scale;   // train.loss.lpips_scale
   int64_t views_per_pose = 1;  // train.views_per_pose: cameras of one pose per step, one decoding
   bool cull = false;           // train.cull.enabled: back-facing Gaussians skipped
   double cull_max_cos = handscs::CullConfig{}.max_cos;  // train.cull.max_cos
@@ -63,6 +64,7 @@ inline nlohmann::json time_train_steps(int64_t n, const TrainStepOptions& opt) {
   }
   config.eval.lpips.weights = opt.lpips_weights;
   config.train.loss.lpips_every = opt.lpips_every;
+  config.train.loss.lpips_scale = opt.lpips_scale;
   config.train.views_per_pose = opt.views_per_pose;
   config.train.cull.enabled = opt.cull;
   config.train.cull.max_cos = opt.cull_max_cos;

@@ -17,6 +17,19 @@ double frobenius(const torch::Tensor& m) {  // plain loop over a small tensor, d
   return std::sqrt(sum);
 }
 
+std::shared_ptr<const handscs::Lpips> shipped_lpips() {
+  handscs::EvalConfig eval;
+  eval.lpips.weights = std::string(HANDSCS_SHARED_DIR) + "/assets/lpips/lpips_alex_v0.1.pt";
+  return std::make_shared<const handscs::Lpips>(eval.lpips);
+}
+
+handscs::LossWeights lpips_only() {  // every other term off, lambda_3 = 0.01
+  handscs::LossWeights weights;
+  weights.rgb = weights.mask = weights.ssim = weights.reg = weights.consistency = 0;
+  weights.lpips = 0.01;
+  return weights;
+}
+
 handscs::DecodedOffsets random_offsets(int64_t n) {
   torch::manual_seed(11);
   handscs::DecodedOffsets o;
@@ -90,12 +103,8 @@ TEST_CASE("losses: L_reg is finite with zero gradient at zero offsets") {
 }
 
 TEST_CASE("losses: LPIPS on every k-th step weighs k x lambda_3 there and is absent elsewhere") {
-  handscs::EvalConfig eval;
-  eval.lpips.weights = std::string(HANDSCS_SHARED_DIR) + "/assets/lpips/lpips_alex_v0.1.pt";
-  const auto lpips = std::make_shared<const handscs::Lpips>(eval.lpips);
-  handscs::LossWeights weights;
-  weights.rgb = weights.mask = weights.ssim = weights.reg = weights.consistency = 0;
-  weights.lpips = 0.01;
+  const auto lpips = shipped_lpips();
+  auto weights = lpips_only();
   weights.lpips_every = 3;
   const handscs::Objective objective(weights, lpips);
   torch::manual_seed(5);
@@ -115,4 +124,38 @@ TEST_CASE("losses: LPIPS on every k-th step weighs k x lambda_3 there and is abs
   const auto skipped = objective.compute(in);
   CHECK(skipped.terms.count("lpips") == 0);
   CHECK(skipped.total.item<double>() == 0.0);
+}
+
+TEST_CASE("losses: train.loss.lpips_scale 0.5 scores the 2x2 means of the crop") {
+  const auto lpips = shipped_lpips();
+  auto weights = lpips_only();
+  weights.lpips_every = 1;
+  weights.lpips_scale = 0.5;
+  const handscs::Objective objective(weights, lpips);
+  torch::manual_seed(6);
+  handscs::LossInputs in;
+  in.rgb = torch::rand({96, 80, 3}, torch::requires_grad());
+  in.target = torch::rand({96, 80, 3});
+  in.alpha = torch::rand({96, 80});
+  in.mask = torch::ones({96, 80});
+  // Reference: each 2x2 block's mean by reshaping, then LPIPS at 48x40.
+  const auto box_mean = [](const torch::Tensor& hwc) {
+    return handscs::hwc_to_bchw(hwc.reshape({48, 2, 40, 2, 3}).mean({1, 3}));
+  };
+  const auto expected = handscs::lpips_loss(*lpips, box_mean(in.rgb.detach()), box_mean(in.target));
+  const auto full =
+      handscs::lpips_loss(*lpips, handscs::hwc_to_bchw(in.rgb.detach()), handscs::hwc_to_bchw(in.target));
+  const auto taken = objective.compute(in);
+  CHECK_THAT(taken.terms.at("lpips"), Catch::Matchers::WithinRel(expected.item<double>(), 1e-5));
+  CHECK(std::abs(taken.terms.at("lpips") - full.item<double>()) > 1e-3);  // not the full-size score
+  taken.total.backward();  // the scaling is differentiable: every pixel gets a gradient
+  CHECK(torch::isfinite(in.rgb.grad()).all().item<bool>());
+  CHECK((in.rgb.grad() != 0).all().item<bool>());
+}
+
+TEST_CASE("losses: scaled_side rounds and never returns 0") {
+  CHECK(handscs::scaled_side(96, 0.5) == 48);
+  CHECK(handscs::scaled_side(97, 0.5) == 49);  // 48.5 rounds away from zero
+  CHECK(handscs::scaled_side(3, 0.1) == 1);
+  CHECK(handscs::scaled_side(250, 1.0) == 250);
 }

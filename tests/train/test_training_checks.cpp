@@ -13,6 +13,7 @@
 #include "metrics/ssim.h"
 #include "tiny_capture.h"
 #include "train/trainer.h"
+#include "train/losses.h"
 #include "train/training_checks.h"
 
 using handscs_test::fresh_dir;
@@ -34,6 +35,23 @@ TEST_CASE("training checks: the image losses' smallest side follows the losses t
   CHECK(handscs::min_loss_image_side(weights, nullptr) == handscs::kSsimWindow);
   weights.ssim = 0;
   CHECK(handscs::min_loss_image_side(weights, nullptr) == 1);
+}
+
+TEST_CASE("training checks: LPIPS on a scaled crop needs the crop larger by that scale") {
+  handscs::LpipsConfig config;
+  config.weights = std::string(HANDSCS_SHARED_DIR) + "/assets/lpips/lpips_alex_v0.1.pt";
+  const handscs::Lpips lpips(config);
+  const int64_t backbone = lpips.min_image_side();
+  handscs::LossWeights weights;
+  weights.ssim = 0;
+  CHECK(handscs::min_loss_image_side(weights, &lpips) == backbone);
+  for (const double scale : {0.5, 0.3, 0.25}) {
+    weights.lpips_scale = scale;
+    const int64_t side = handscs::min_loss_image_side(weights, &lpips);
+    // The smallest side whose scaled image the backbone still accepts.
+    CHECK(handscs::scaled_side(side, scale) >= backbone);
+    CHECK(handscs::scaled_side(side - 1, scale) < backbone);
+  }
 }
 
 TEST_CASE("training checks: a resolution_scale below the SSIM window is refused before step 1") {
