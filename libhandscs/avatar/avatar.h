@@ -90,13 +90,16 @@ class Avatar {
   // Width of P as computed (static bones, then virtual bones); the decoders see it when SCS is on.
   int64_t descriptor_dim() const;
 
+  // The SCS descriptor P [N, descriptor_dim()] of one pose (pose [48], its LBS and the Gaussians'
+  // LBS-only positions, as pose() computes them); the virtual bones it used go to *bones.
+  torch::Tensor compute_descriptor(const torch::Tensor& pose, const LbsOutput& lbs,
+                                   const torch::Tensor& lbs_means, VirtualBones* bones);
+
   // Network parameters by group name: "generator", "decoders", "gates".
   std::vector<std::pair<std::string, std::vector<torch::Tensor>>> network_parameter_groups();
 
  private:
   bool uses_static_bones() const;
-  torch::Tensor compute_descriptor(const torch::Tensor& pose, const LbsOutput& lbs,
-                                   const torch::Tensor& lbs_means, VirtualBones* bones);
   const FrozenDecoders& frozen_decoders();  // built or rebuilt when not current
 
   AvatarConfig config_;

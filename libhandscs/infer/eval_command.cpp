@@ -1,6 +1,7 @@
 #include "infer/eval_command.h"
 
 #include <cstdio>
+#include <utility>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
@@ -8,8 +9,8 @@
 #include "core/config.h"
 #include "core/error.h"
 #include "core/text.h"
-#include "train/checkpoint.h"
 #include "infer/evaluate.h"
+#include "train/avatar_state_io.h"
 #include "train/run_config.h"
 
 namespace handscs {
@@ -65,14 +66,15 @@ int run_model_eval_command(const ModelEvalCommandLine& cli, const EvalCommandLin
     if (assignment.rfind("model.", 0) == 0 || assignment.rfind("model=", 0) == 0)
       throw Error("--set " + assignment + ": the model is the checkpoint's and cannot be changed at "
                   "evaluation (data.*, eval.* and train.* keys can be set)");
+  TrainedAvatar trained = open_trained_avatar(cli.checkpoint);  // read once, used below
   RunConfig config;
   if (!cli.config.empty()) {
     config = load_config<RunConfig>(cli.config, overrides);
   } else {
-    const std::string ckpt = resolve_checkpoint_path(cli.checkpoint);
-    json stored = load_checkpoint(ckpt).meta.at("config");
+    json stored = config_to_json(trained.config);
     apply_overrides(stored, overrides);
-    config_from_json(stored, ckpt + " (stored config)" + (overrides.empty() ? "" : " + --set"), config);
+    config_from_json(stored, trained.path + " (stored config)" + (overrides.empty() ? "" : " + --set"),
+                     config);
   }
   config.eval = resolve_eval_config(metric_flags, {}, config.eval);
   ModelEvalOptions options;
@@ -84,7 +86,7 @@ int run_model_eval_command(const ModelEvalCommandLine& cli, const EvalCommandLin
   options.label = cli.label;
   options.regions = !metric_flags.no_regions;
   options.regions_dir = metric_flags.regions_dir;
-  const ModelEvalResult result = evaluate_avatar(config, options);
+  const ModelEvalResult result = evaluate_avatar(config, std::move(trained), options);
   std::fputs(format_eval_table(result.report).c_str(), stdout);
   std::printf("rendering: %lld frames, %.1f FPS over the whole forward (median %.1f ms per frame)\n",
               static_cast<long long>(result.frames), result.fps, result.forward_ms);

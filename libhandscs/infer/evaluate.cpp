@@ -81,8 +81,12 @@ std::string paper_table(const std::string& label, const EvalSummary& s, double f
   return t;
 }
 
-ModelEvalResult evaluate_avatar(const RunConfig& config_in, const ModelEvalOptions& options) {
-  TrainedAvatar trained = open_trained_avatar(options.checkpoint);
+ModelEvalResult evaluate_avatar(const RunConfig& config, const ModelEvalOptions& options) {
+  return evaluate_avatar(config, open_trained_avatar(options.checkpoint), options);
+}
+
+ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar trained,
+                                const ModelEvalOptions& options) {
   const std::string& ckpt_path = trained.path;
   Avatar& avatar = trained.avatar;
   RunConfig config = config_in;

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "metrics/eval_report.h"
+#include "train/avatar_state_io.h"
 #include "train/checkpoint.h"
 #include "train/run_config.h"
 
@@ -35,6 +36,9 @@ struct ModelEvalResult {
 // its mask <regions_dir>/<data.split>/<image path>.png: a missing one is an Error naming it (before
 // anything is rendered); an unreadable or wrong-size one fails that frame.
 ModelEvalResult evaluate_avatar(const RunConfig& config, const ModelEvalOptions& options);
+// The same with the checkpoint already opened (open_trained_avatar(options.checkpoint)).
+ModelEvalResult evaluate_avatar(const RunConfig& config, TrainedAvatar trained,
+                                const ModelEvalOptions& options);
 
 // The paper-style Markdown table: the capture's column group, then one per region (summary.regions),
 // then FPS; with regions, a line under it gives each region's image count and pixel share.

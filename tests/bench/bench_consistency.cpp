@@ -26,7 +26,6 @@
 #include "core/threads.h"
 #include "data/capture.h"
 #include "train/avatar_state_io.h"
-#include "train/checkpoint.h"
 #include "train/consistency.h"
 #include "train/descriptor_tree.h"
 #include "train/run_config.h"
@@ -111,14 +110,13 @@ int main(int argc, char** argv) {
   handscs::set_threads(threads);
   torch::NoGradGuard no_grad;
 
-  const std::string path = handscs::resolve_checkpoint_path(checkpoint);
-  const auto ckpt = handscs::load_checkpoint(path);
-  handscs::RunConfig config;
-  handscs::config_from_json(ckpt.meta.at("config"), path + " (stored config)", config);
+  // The avatar as trained (its stored config and its hand's rig: train/avatar_state_io.h).
+  handscs::TrainedAvatar opened = handscs::open_trained_avatar(checkpoint);
+  const std::string& path = opened.path;
+  handscs::RunConfig& config = opened.config;
+  handscs::Avatar& avatar = opened.avatar;
   if (!capture_root.empty()) config.data.root = capture_root;
   auto capture = handscs::Capture::open(config.data, "");
-  auto avatar = handscs::restore_avatar(ckpt, config.model,
-                                        handscs::load_rig_source(config.model.rig), path);
   const auto& frames = capture.train();
   const std::vector<int64_t> k_values = parse_list(ks);
   std::vector<int64_t> sizes = parse_list(counts);

@@ -203,21 +203,9 @@ int main(int argc, char** argv) {
       const double raster_bwd_ms = ms_since(t0);
       // Descriptor + generator, then decoders alone.
       t0 = Clock::now();
-      torch::Tensor descriptor;
-      {
-        handscs::VirtualBones bones;
-        const auto x = state.lbs_means.detach();
-        descriptor = handscs::static_descriptor_loop(x, state.lbs.joints[0].detach(), avatar.topology(),
-                                                config.scs.tau, config.scs.norm_eps);
-        if (avatar.generator()) {
-          bones = avatar.generator()->forward(pose, state.lbs.rest_joints[0].detach(),
-                                              state.lbs.rest_joints[0].detach());
-          descriptor = torch::cat({descriptor, handscs::virtual_descriptor(
-                                                   avatar.gaussians().means, bones.start,
-                                                   bones.end, config.scs.norm_eps)},
-                                  1);
-        }
-      }
+      handscs::VirtualBones bones;
+      const auto descriptor =
+          avatar.compute_descriptor(pose, state.lbs, state.lbs_means.detach(), &bones);
       const double scs_ms = ms_since(t0);
       const auto transforms = torch::randn({n, 12});
       t0 = Clock::now();
