@@ -60,6 +60,7 @@ std::vector<std::pair<std::string, std::vector<torch::Tensor>>> Avatar::network_
 
 torch::Tensor Avatar::compute_descriptor(const torch::Tensor& pose, const LbsOutput& lbs,
                                          const torch::Tensor& lbs_means, VirtualBones* bones) {
+  require(bones != nullptr, "Avatar::compute_descriptor: bones must point to a VirtualBones");
   std::vector<torch::Tensor> parts;
   const auto posed_joints = lbs.joints[0];      // [21, 3]
   const auto canonical_joints = lbs.rest_joints[0];

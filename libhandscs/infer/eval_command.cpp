@@ -66,11 +66,11 @@ int run_model_eval_command(const ModelEvalCommandLine& cli, const EvalCommandLin
     if (assignment.rfind("model.", 0) == 0 || assignment.rfind("model=", 0) == 0)
       throw Error("--set " + assignment + ": the model is the checkpoint's and cannot be changed at "
                   "evaluation (data.*, eval.* and train.* keys can be set)");
-  TrainedAvatar trained = open_trained_avatar(cli.checkpoint);  // read once, used below
   RunConfig config;
-  if (!cli.config.empty()) {
-    config = load_config<RunConfig>(cli.config, overrides);
-  } else {
+  // A --config or --set mistake is reported before the checkpoint is read (once, used below).
+  if (!cli.config.empty()) config = load_config<RunConfig>(cli.config, overrides);
+  TrainedAvatar trained = open_trained_avatar(cli.checkpoint);
+  if (cli.config.empty()) {
     json stored = config_to_json(trained.config);
     apply_overrides(stored, overrides);
     config_from_json(stored, trained.path + " (stored config)" + (overrides.empty() ? "" : " + --set"),

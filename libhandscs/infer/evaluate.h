@@ -36,7 +36,7 @@ struct ModelEvalResult {
 // its mask <regions_dir>/<data.split>/<image path>.png: a missing one is an Error naming it (before
 // anything is rendered); an unreadable or wrong-size one fails that frame.
 ModelEvalResult evaluate_avatar(const RunConfig& config, const ModelEvalOptions& options);
-// The same with the checkpoint already opened (open_trained_avatar(options.checkpoint)).
+// The same with the checkpoint already opened (open_trained_avatar); options.checkpoint is not read.
 ModelEvalResult evaluate_avatar(const RunConfig& config, TrainedAvatar trained,
                                 const ModelEvalOptions& options);
 

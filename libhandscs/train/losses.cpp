@@ -20,10 +20,11 @@ torch::Tensor smooth_norm(const torch::Tensor& v, int64_t first_dim) {
   return (v.pow(2).sum(dims) + kEps * kEps).sqrt() - kEps;
 }
 
-// [B, C, H, W] scaled by `scale` with area averaging (scale 1: unchanged).
+// [B, C, H, W] scaled by `scale` in area mode (adaptive average pooling; scale 1: unchanged).
 torch::Tensor area_scaled(const torch::Tensor& bchw, double scale) {
   if (scale == 1.0) return bchw;
-  return torch::adaptive_avg_pool2d(bchw, {scaled_side(bchw.size(2), scale), scaled_side(bchw.size(3), scale)});
+  const int64_t height = scaled_side(bchw.size(2), scale), width = scaled_side(bchw.size(3), scale);
+  return torch::adaptive_avg_pool2d(bchw, {height, width});
 }
 }  // namespace
 

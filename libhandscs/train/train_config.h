@@ -20,11 +20,12 @@ struct LossWeights {
   // 3 seeds, paired against every step): PSNR -0.004 +- 0.013 dB, LPIPS +0.0015, training loop
   // 98.7 -> 63.9 s (k = 2 measured -0.075 dB; docs/BENCHMARKS.md, "LPIPS on a schedule").
   int64_t lpips_every = 4;
-  // LPIPS on the crop scaled by this (area average, so each scaled pixel is the mean of the pixels
-  // it covers) before the backbone: 0.5 runs AlexNet on a quarter of the pixels. 1 = the crop as
-  // rendered (the paper; evaluation always scores the full image). 1 by the rule fixed before
-  // configs/sweeps/lpips_scale_real.json ran: 0.5 worsened evaluation LPIPS by 0.0091 on every seed
-  // (PSNR -0.058 dB) for ~2.4 ms of a 35 ms step at 2,872 (docs/BENCHMARKS.md).
+  // LPIPS on the crop scaled by this (area mode: adaptive average pooling, block means where the
+  // scale divides the side) before the backbone: 0.5 runs AlexNet on a quarter of the pixels. 1 =
+  // the crop as rendered (the paper; evaluation always scores the full image). 1 by the rule fixed
+  // before configs/sweeps/lpips_scale_real.json ran: 0.5 worsened evaluation LPIPS on every seed
+  // (mean +0.0091, PSNR -0.058 dB) for ~2.4 ms of a 35 ms step at 2,872 (docs/BENCHMARKS.md).
+  // The lower bound of its range, 0.05, only keeps a crop from shrinking to a few pixels.
   double lpips_scale = 1.0;
   // lambda_reg, offset regularisation L_reg. The paper's 0.1 keeps the geometry and appearance
   // decoders' offsets near zero here; 1e-2 by the rule fixed before

@@ -50,7 +50,7 @@ void check_training_image_sizes(const std::vector<FrameInfo>& train, double scal
                 std::to_string(size.first) + "x" + std::to_string(size.second) + " images (" +
                 frame->image_path + ") to " + std::to_string(w) + "x" + std::to_string(h) +
                 ", smaller than the " + std::to_string(min_side) + "x" + std::to_string(min_side) +
-                " the image losses need (SSIM window, LPIPS backbone); use at least " +
+                " the image losses need (SSIM window, LPIPS backbone after train.loss.lpips_scale); use at least " +
                 smallest_scale(std::min(size.first, size.second), min_side) +
                 " (crops around the hand need more), or set train.loss.ssim and train.loss.lpips to 0");
   }
@@ -63,7 +63,7 @@ std::string scaled_crop_problem(const FrameInfo& frame, int width, int height, d
   return "train.resolution_scale: " + number_text(scale) + " scales the crop around the hand in " +
          frame.image_path + " to " + std::to_string(width) + "x" + std::to_string(height) +
          ", smaller than the " + std::to_string(min_side) + "x" + std::to_string(min_side) +
-         " the image losses need (SSIM window, LPIPS backbone); use at least " +
+         " the image losses need (SSIM window, LPIPS backbone after train.loss.lpips_scale); use at least " +
          smallest_scale(std::max(1, crop_side), min_side) +
          ", or set train.loss.ssim and train.loss.lpips to 0";
 }

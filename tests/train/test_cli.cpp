@@ -222,6 +222,9 @@ TEST_CASE("cli: handscs-eval refuses damaged ground truth and --set model.*") {
   CHECK(run(eval + " --set model.embedding_dim=16") == 1);
   CHECK(log_text().find("--set model.embedding_dim=16: the model is the checkpoint's and cannot be changed at "
                         "evaluation") != std::string::npos);
+  // Without --config the overrides apply to the checkpoint's stored config: an unknown key is named.
+  CHECK(run(eval + " --set data.no_such_key=1") == 1);
+  CHECK(log_text().find("data.no_such_key") != std::string::npos);
   // A copy of the capture with one truncated JPEG: training would skip it, evaluation refuses.
   const auto capture = fresh_dir("cli_eval_damaged_capture");
   std::filesystem::copy(tiny_capture_dir(), capture, std::filesystem::copy_options::recursive);

@@ -1,5 +1,6 @@
 // The offset regulariser L_reg against per-Gaussian loops: the paper's three terms by default, the
-// fusion offsets as well with "all"; smooth norms equal plain norms away from zero.
+// fusion offsets as well with "all"; smooth norms equal plain norms away from zero. LPIPS on a
+// schedule (lpips_every) and on a scaled crop (lpips_scale, against block means by reshaping).
 #include "catch_torch.h"
 
 #include <cmath>
@@ -126,21 +127,21 @@ TEST_CASE("losses: LPIPS on every k-th step weighs k x lambda_3 there and is abs
   CHECK(skipped.total.item<double>() == 0.0);
 }
 
-TEST_CASE("losses: train.loss.lpips_scale 0.5 scores the 2x2 means of the crop") {
+TEST_CASE("losses: train.loss.lpips_scale 0.25 scores the 4x4 means of the crop") {
   const auto lpips = shipped_lpips();
   auto weights = lpips_only();
   weights.lpips_every = 1;
-  weights.lpips_scale = 0.5;
+  weights.lpips_scale = 0.25;  // 4x4 blocks: a bilinear resize would sample 2x2 of them instead
   const handscs::Objective objective(weights, lpips);
   torch::manual_seed(6);
   handscs::LossInputs in;
-  in.rgb = torch::rand({96, 80, 3}, torch::requires_grad());
-  in.target = torch::rand({96, 80, 3});
-  in.alpha = torch::rand({96, 80});
-  in.mask = torch::ones({96, 80});
-  // Reference: each 2x2 block's mean by reshaping, then LPIPS at 48x40.
+  in.rgb = torch::rand({192, 160, 3}, torch::requires_grad());
+  in.target = torch::rand({192, 160, 3});
+  in.alpha = torch::rand({192, 160});
+  in.mask = torch::ones({192, 160});
+  // Reference: each 4x4 block's mean by reshaping, then LPIPS at 48x40.
   const auto box_mean = [](const torch::Tensor& hwc) {
-    return handscs::hwc_to_bchw(hwc.reshape({48, 2, 40, 2, 3}).mean({1, 3}));
+    return handscs::hwc_to_bchw(hwc.reshape({48, 4, 40, 4, 3}).mean({1, 3}));
   };
   const auto expected = handscs::lpips_loss(*lpips, box_mean(in.rgb.detach()), box_mean(in.target));
   const auto full =

@@ -12,8 +12,8 @@
 #include "core/error.h"
 #include "metrics/ssim.h"
 #include "tiny_capture.h"
-#include "train/trainer.h"
 #include "train/losses.h"
+#include "train/trainer.h"
 #include "train/training_checks.h"
 
 using handscs_test::fresh_dir;
@@ -51,6 +51,13 @@ TEST_CASE("training checks: LPIPS on a scaled crop needs the crop larger by that
     // The smallest side whose scaled image the backbone still accepts.
     CHECK(handscs::scaled_side(side, scale) >= backbone);
     CHECK(handscs::scaled_side(side - 1, scale) < backbone);
+    // The backbone itself takes the scaled crop of that side and refuses that of one pixel less.
+    const auto crop = [&](int64_t s) {
+      const int64_t scaled = handscs::scaled_side(s, scale);
+      return torch::rand({1, 3, scaled, scaled});
+    };
+    CHECK_NOTHROW(lpips.distance(crop(side), crop(side)));
+    CHECK_THROWS(lpips.distance(crop(side - 1), crop(side - 1)));
   }
 }
 
@@ -65,8 +72,9 @@ TEST_CASE("training checks: a resolution_scale below the SSIM window is refused 
                         handscs_test::tiny_capture_dir() + "/images/test/Capture0/",
                     0) == 0);
   CHECK(error.find(") to 8x13, smaller than the 11x11 the image losses need (SSIM window, LPIPS "
-                   "backbone); use at least 0.066 (crops around the hand need more), or set "
-                   "train.loss.ssim and train.loss.lpips to 0") != std::string::npos);
+                   "backbone after train.loss.lpips_scale); use at least 0.066 (crops around the "
+                   "hand need more), or set train.loss.ssim and train.loss.lpips to 0") !=
+        std::string::npos);
   CHECK_FALSE(std::filesystem::exists(dir + "/config.json"));
 
   // The suggested scale passes the full-image check (167 * 0.066 rounds to 11).
@@ -84,7 +92,7 @@ TEST_CASE("training checks: a crop scaled below the window names the image and a
   // A 130x90 crop at 0.1 is 13x9; 11 / 90 = 0.1222 -> 0.123.
   CHECK(handscs::scaled_crop_problem(frame, 13, 9, 0.1, 11) ==
         "train.resolution_scale: 0.1 scales the crop around the hand in /data/cam1/image7.jpg to "
-        "13x9, smaller than the 11x11 the image losses need (SSIM window, LPIPS backbone); use at "
+        "13x9, smaller than the 11x11 the image losses need (SSIM window, LPIPS backbone after train.loss.lpips_scale); use at "
         "least 0.123, or set train.loss.ssim and train.loss.lpips to 0");
 }
 
