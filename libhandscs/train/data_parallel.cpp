@@ -4,6 +4,7 @@
 // Gloo; the headers come with libgloo-dev): libhandscs/CMakeLists.txt defines it for this file alone.
 
 #include <chrono>
+#include <csignal>
 #include <cstring>
 #include <cstdlib>
 #include <vector>
@@ -76,6 +77,10 @@ struct ProcessGroup::Backend {
 ProcessGroup::ProcessGroup(const DataParallelOptions& options)
     : options_(options), backend_(std::make_unique<Backend>()) {
   validate_data_parallel(options_);
+  // A write to a peer that has died raises SIGPIPE, whose default action ends this process with
+  // status 141 and no message (seen when a killed rank's peer sent to it). Ignored, the write fails
+  // with EPIPE instead and the exchange reports the dead rank as an Error (ProcessGroup::run).
+  std::signal(SIGPIPE, SIG_IGN);
   const std::string where = options_.master_addr + ":" + std::to_string(options_.master_port);
   const std::string who =
       "rank " + std::to_string(options_.rank) + " of " + std::to_string(options_.world_size);
@@ -137,8 +142,13 @@ void ProcessGroup::broadcast(torch::Tensor& tensor, int root) {
 }
 
 void ProcessGroup::broadcast_bytes(std::string& bytes, int root) {
-  auto length = torch::tensor({static_cast<int64_t>(bytes.size())}, torch::kInt64);
-  broadcast(length, root);
+  // The length travels as an all-reduce (the root's, zeros elsewhere), not a broadcast: every rank
+  // then hears from every other, so a peer that died is seen at once as a closed connection. A
+  // broadcast's root only sends, and Gloo let it wait for the whole timeout when the receiver had
+  // died (about 1 kill in 20 in tests/train/test_data_parallel.cpp; docs/NOTES.md).
+  auto length = torch::tensor({options_.rank == root ? static_cast<int64_t>(bytes.size()) : 0},
+                              torch::kInt64);
+  all_reduce_sum(length);
   auto buffer = torch::empty({length.item<int64_t>()}, torch::kUInt8);
   if (options_.rank == root) std::memcpy(buffer.data_ptr(), bytes.data(), bytes.size());
   broadcast(buffer, root);
