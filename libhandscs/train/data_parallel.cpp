@@ -133,25 +133,19 @@ void ProcessGroup::all_reduce_sum(torch::Tensor& tensor) {
       [&] { return backend_->group->allreduce(tensors); });
 }
 
-void ProcessGroup::broadcast(torch::Tensor& tensor, int root) {
-  std::vector<torch::Tensor> tensors{tensor};
-  c10d::BroadcastOptions options;
-  options.rootRank = root;
-  run("broadcast", tensor.numel() * static_cast<int64_t>(tensor.element_size()),
-      [&] { return backend_->group->broadcast(tensors, options); });
-}
-
 void ProcessGroup::broadcast_bytes(std::string& bytes, int root) {
-  // The length travels as an all-reduce (the root's, zeros elsewhere), not a broadcast: every rank
-  // then hears from every other, so a peer that died is seen at once as a closed connection. A
-  // broadcast's root only sends, and Gloo let it wait for the whole timeout when the receiver had
-  // died (about 1 kill in 20 in tests/train/test_data_parallel.cpp; docs/NOTES.md).
-  auto length = torch::tensor({options_.rank == root ? static_cast<int64_t>(bytes.size()) : 0},
-                              torch::kInt64);
+  // Length and bytes travel as all-reduces (the root's values, zeros elsewhere; a sum of one
+  // non-zero term is exact), not broadcasts: every rank then hears from every other, so a peer that
+  // died is seen at once as a closed connection. A broadcast's root only sends, and Gloo let it wait
+  // out the whole timeout when the receiver had died (3-5% of the kills in
+  // tests/train/test_data_parallel.cpp; docs/NOTES.md). It costs twice a broadcast's traffic, on
+  // the rare exchanges that use it (the state at the start, after densification and rollback).
+  const bool mine = options_.rank == root;
+  auto length = torch::tensor({mine ? static_cast<int64_t>(bytes.size()) : 0}, torch::kInt64);
   all_reduce_sum(length);
-  auto buffer = torch::empty({length.item<int64_t>()}, torch::kUInt8);
-  if (options_.rank == root) std::memcpy(buffer.data_ptr(), bytes.data(), bytes.size());
-  broadcast(buffer, root);
+  auto buffer = torch::zeros({length.item<int64_t>()}, torch::kUInt8);
+  if (mine) std::memcpy(buffer.data_ptr(), bytes.data(), bytes.size());
+  all_reduce_sum(buffer);
   bytes.assign(static_cast<const char*>(buffer.data_ptr()), buffer.numel());
 }
 

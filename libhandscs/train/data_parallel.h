@@ -50,9 +50,7 @@ class ProcessGroup {
 
   // In place: every rank ends with the element-wise sum (bit-identical on every rank).
   void all_reduce_sum(torch::Tensor& tensor);  // contiguous CPU tensor
-  // In place: every rank ends with root's values; shapes must agree.
-  void broadcast(torch::Tensor& tensor, int root = 0);
-  // Every rank ends with root's bytes (any length).
+  // Every rank ends with root's bytes (any length), sent as all-reduces (see the .cpp for why).
   void broadcast_bytes(std::string& bytes, int root = 0);
 
   const CommunicationStats& stats() const { return stats_; }
