@@ -51,6 +51,8 @@ inline std::map<std::string, std::string> snapshot(const std::string& dir) {
 #ifdef HANDSCS_SOURCE_DIR
 inline const std::string kSource = HANDSCS_SOURCE_DIR;  // the repository (configs/, docs/, scripts/)
 inline const std::string kBin = HANDSCS_BIN_DIR;        // the built programs
+// The LPIPS AlexNet weights in ../shared (read in place, never copied).
+inline const std::string kLpipsAlexWeights = std::string(HANDSCS_SHARED_DIR) + "/assets/lpips/lpips_alex_v0.1.pt";
 #endif
 
 }  // namespace handscs_test

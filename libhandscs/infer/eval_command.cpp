@@ -78,7 +78,6 @@ int run_model_eval_command(const ModelEvalCommandLine& cli, const EvalCommandLin
   }
   config.eval = resolve_eval_config(metric_flags, {}, config.eval);
   ModelEvalOptions options;
-  options.checkpoint = cli.checkpoint;
   options.out_dir = cli.out;
   options.split = cli.split;
   options.side_by_side = cli.side_by_side;

@@ -48,7 +48,7 @@ class Objective {
   std::shared_ptr<const Lpips> lpips_;
 };
 
-// An image side scaled as LPIPS sees it under train.loss.lpips_scale: rounded, at least 1.
+// An image side times a scale (train.loss.lpips_scale, train.resolution_scale): rounded, at least 1.
 int64_t scaled_side(int64_t side, double scale);
 
 // Per-Gaussian smooth norms [N] of every decoded offset, named dx, dsigma (|dSigma - I|_F), dc,

@@ -11,10 +11,16 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/text.h"
 
 namespace handscs {
 
 namespace fs = std::filesystem;
+
+namespace {
+// Cells of one metrics.csv line (its commas plus one).
+int64_t count_cells(const std::string& line) { return std::count(line.begin(), line.end(), ',') + 1; }
+}  // namespace
 
 bool RunFolderContents::holds_run() const {
   return !checkpoints.empty() || config || metrics || validation || pose_refine;
@@ -97,7 +103,6 @@ void truncate_metrics_log(const std::string& path, int64_t iteration) {
   std::istringstream in(read_file(path));
   std::string line, kept;
   int64_t dropped = 0, cells = -1;
-  const auto count_cells = [](const std::string& l) { return std::count(l.begin(), l.end(), ',') + 1; };
   while (std::getline(in, line)) {
     if (cells < 0) {  // the header
       kept += line + "\n";
@@ -125,14 +130,9 @@ void truncate_metrics_log(const std::string& path, int64_t iteration) {
 }
 
 std::vector<std::string> prepare_metrics_log(const std::string& path, const std::vector<std::string>& columns) {
-  const auto join = [](const std::vector<std::string>& cells) {
-    std::string line;
-    for (size_t i = 0; i < cells.size(); ++i) line += (i ? "," : "") + cells[i];
-    return line;
-  };
   std::error_code ec;
   if (!fs::exists(path, ec)) {
-    write_file_atomic(path, join(columns) + "\n");
+    write_file_atomic(path, join(columns, ",") + "\n");
     return columns;
   }
   std::istringstream in(read_file(path));
@@ -152,18 +152,18 @@ std::vector<std::string> prepare_metrics_log(const std::string& path, const std:
   const auto old_cells = static_cast<int64_t>(header.size());
   header.insert(header.end(), added.begin(), added.end());
   const auto new_cells = static_cast<int64_t>(header.size());
-  std::string text = join(header) + "\n";
+  std::string text = join(header, ",") + "\n";
   int64_t longer = 0;
   while (std::getline(in, line)) {
     if (line.empty()) continue;
-    const int64_t cells = std::count(line.begin(), line.end(), ',') + 1;
+    const int64_t cells = count_cells(line);
     if (cells < new_cells && cells >= old_cells) line += std::string(static_cast<size_t>(new_cells - cells), ',');
     if (cells > new_cells) ++longer;
     text += line + "\n";
   }
   write_file_atomic(path, text);
   spdlog::info("{}: header gains {} column(s) ({}) that the earlier run did not log; its rows leave them empty",
-               path, added.size(), join(added));
+               path, added.size(), join(added, ","));
   if (longer > 0)
     spdlog::warn("{}: {} row(s) have more cells than its header; they are left as they are", path, longer);
   return header;

@@ -294,8 +294,8 @@ Trainer::ViewTarget Trainer::load_view(const FrameInfo& frame, int64_t view_inde
   view.mask = sample.mask.to(torch::kFloat32);                        // [h, w]
   const double scale = config_.train.resolution_scale;
   if (scale != 1.0) {
-    const int w = std::max(1, static_cast<int>(std::lround(view.camera.width * scale)));
-    const int h = std::max(1, static_cast<int>(std::lround(view.camera.height * scale)));
+    const int w = static_cast<int>(scaled_side(view.camera.width, scale));
+    const int h = static_cast<int>(scaled_side(view.camera.height, scale));
     cv::Mat img(image.size(0), image.size(1), CV_32FC3, image.data_ptr<float>());
     cv::Mat msk(view.mask.size(0), view.mask.size(1), CV_32FC1, view.mask.data_ptr<float>());
     cv::Mat img_small, msk_small;
@@ -596,9 +596,9 @@ StepResult Trainer::step() {
       for (auto* p : group.params)
         if (finite && p->grad().defined() && !torch::isfinite(p->grad()).all().item<bool>())
           finite = false;
+    for (const auto& update : pose_updates)  // data parallel: the all-reduce's check covers them
+      if (finite && !torch::isfinite(update.grad).all().item<bool>()) finite = false;
   }
-  for (const auto& update : pose_updates)  // data parallel: the all-reduce's check covered them
-    if (finite && !torch::isfinite(update.grad).all().item<bool>()) finite = false;
   result.loss = sums.loss / entries_per_step();
   result.psnr = sums.psnr / entries_per_step();
   auto& g = avatar_->gaussians();
@@ -710,8 +710,8 @@ void Trainer::put_chains(Checkpoint& checkpoint) const {
 
 void Trainer::gather_chains() {
   // Each other rank's chains travel as a checkpoint of those tensors alone; rank 0 keeps them.
-  Checkpoint mine;
-  put_chains(mine);
+  Checkpoint mine;  // rank 0 sends nothing
+  if (!is_root()) put_chains(mine);
   if (is_root()) other_chains_.clear();
   for (int rank = 1; rank < group_->world_size(); ++rank) {
     std::string bytes = group_->rank() == rank ? checkpoint_bytes(mine) : std::string();
@@ -903,17 +903,14 @@ void Trainer::log_step(const StepResult& r) {
   set("losses_ms", r.times.losses_ms);
   set("backward_ms", r.times.backward_ms);
   set("optimizer_ms", r.times.optimizer_ms);
-  for (const std::string& column : diagnostic_columns()) {
-    auto it = r.diagnostics.find(column);
-    if (it != r.diagnostics.end()) set(column, it->second);
-  }
-  std::string line;
-  for (size_t i = 0; i < metrics_columns_.size(); ++i) {
-    auto it = cells.find(metrics_columns_[i]);
-    line += (i ? "," : "") + (it == cells.end() ? std::string() : it->second);
+  for (const auto& [column, value] : r.diagnostics) set(column, value);  // cells go by name
+  std::vector<std::string> row;
+  for (const std::string& column : metrics_columns_) {
+    auto it = cells.find(column);
+    row.push_back(it == cells.end() ? std::string() : it->second);
   }
   std::ofstream out(run_dir_ + "/metrics.csv", std::ios::app);
-  out << line << "\n";
+  out << join(row, ",") << "\n";
 }
 
 TrainSummary Trainer::run() {
@@ -938,11 +935,15 @@ TrainSummary Trainer::run() {
   std::unique_ptr<ProgressBar> bar;  // rank 0 reports for all
   if (root) bar = std::make_unique<ProgressBar>("train", total);
   char status[160] = "";
+  int64_t chains_gathered_at = -1;  // the same on every rank, so all decide the final gather alike
   while (iteration_ < total && !stop_requested()) {
     const StepResult r = step();
     elapsed_seconds_ = elapsed_before + ms_between(start, Clock::now()) / 1000.0;
     const bool checkpoint_due = iteration_ % config_.train.checkpoint_every == 0;
-    if (group_ && checkpoint_due && consistency_chains) gather_chains();  // every rank takes part
+    if (group_ && checkpoint_due && consistency_chains) {  // every rank takes part
+      gather_chains();
+      chains_gathered_at = iteration_;
+    }
     if (!root) continue;
     std::snprintf(status, sizeof(status), "loss %.4f psnr %.2f (avg %.2f) N %lld%s", r.loss, r.psnr,
                   running_psnr_, static_cast<long long>(avatar_->gaussians().size()),
@@ -954,7 +955,8 @@ TrainSummary Trainer::run() {
       validate();
   }
   const bool interrupted = stop_requested() && iteration_ < total;
-  if (group_ && consistency_chains) gather_chains();  // for the final checkpoint (every rank gets here)
+  // For the final checkpoint (every rank gets here), unless the loop's last step just gathered.
+  if (group_ && consistency_chains && chains_gathered_at != iteration_) gather_chains();
   if (root) {
     if (last_checkpoint_.find(checkpoint_name(iteration_)) == std::string::npos) save_checkpoint();
     if (pose_corrections_)

@@ -43,8 +43,8 @@ void check_training_image_sizes(const std::vector<FrameInfo>& train, double scal
   std::map<std::pair<int, int>, const FrameInfo*> sizes;  // one frame per image size
   for (const FrameInfo& f : train) sizes.emplace(std::make_pair(f.camera.width, f.camera.height), &f);
   for (const auto& [size, frame] : sizes) {
-    const int w = std::max(1, static_cast<int>(std::lround(size.first * scale)));
-    const int h = std::max(1, static_cast<int>(std::lround(size.second * scale)));
+    const int w = static_cast<int>(scaled_side(size.first, scale));
+    const int h = static_cast<int>(scaled_side(size.second, scale));
     if (w >= min_side && h >= min_side) continue;
     throw Error("train.resolution_scale: " + number_text(scale) + " scales the " +
                 std::to_string(size.first) + "x" + std::to_string(size.second) + " images (" +

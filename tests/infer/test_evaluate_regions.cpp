@@ -57,7 +57,7 @@ TEST_CASE("evaluate: region masks of the capture are scored and reported", "[reg
   auto config = handscs_test::tiny_run_config();
   config.data.root = root;
   config.train.iterations = 2;
-  config.eval.lpips.weights = std::string(HANDSCS_SHARED_DIR) + "/assets/lpips/lpips_alex_v0.1.pt";
+  config.eval.lpips.weights = handscs_test::kLpipsAlexWeights;
   const auto run = fresh_dir("eval_regions_run");
   {
     handscs::Trainer trainer(config, run);

@@ -60,7 +60,7 @@ inline handscs::SsimConfig ssim_variant_config(const std::string& name) {
 
 inline std::string shared_dir() { return HANDSCS_SHARED_DIR; }
 inline std::string pairs_dir() { return shared_dir() + "/testdata/metric_pairs"; }
-inline std::string lpips_alex_path() { return shared_dir() + "/assets/lpips/lpips_alex_v0.1.pt"; }
+inline std::string lpips_alex_path() { return handscs_test::kLpipsAlexWeights; }
 
 // LPIPS with the shared AlexNet weights.
 inline handscs::Lpips load_alex() {

@@ -16,6 +16,7 @@
 #include <fstream>
 #include <set>
 #include <thread>
+#include <utility>
 
 #include "checkpoint_compare.h"
 #include "core/atomic_file.h"
@@ -88,14 +89,17 @@ int run_two_ranks(const std::string& command, const std::string& rank1, const st
 }
 
 // Trains DIR/single (one process, batch_size 2) and DIR/ranks (two ranks, one view each) with
-// train_command + `settings`.
-void train_single_and_two_ranks(const std::string& dir, const std::string& settings) {
+// train_command + `settings`; returns their latest checkpoints (single, ranks).
+std::pair<handscs::Checkpoint, handscs::Checkpoint> train_single_and_two_ranks(const std::string& dir,
+                                                                              const std::string& settings) {
   std::filesystem::create_directories(dir);
   REQUIRE(shell(train_command(dir + "/single") + settings + " train.batch_size=2 > " + dir + "/single.log 2>&1") == 0);
   const int rc = run_two_ranks(train_command(dir + "/ranks") + settings,
                                rank1_command(dir + "/ranks"), dir + "/ranks.log");
   INFO(handscs::read_file(dir + "/ranks.log.0") + handscs::read_file(dir + "/ranks.log.1"));
   REQUIRE(rc == 0);
+  return {handscs::load_checkpoint(handscs::latest_checkpoint(dir + "/single")),
+          handscs::load_checkpoint(handscs::latest_checkpoint(dir + "/ranks"))};
 }
 
 // Rank 0's checkpoint holds every tensor the single process's does (view 1's inter-pose chain,
@@ -114,10 +118,8 @@ void check_same_state(const handscs::Checkpoint& single, const handscs::Checkpoi
 
 TEST_CASE("train: data parallel: 2 ranks x 1 view equal 1 process x batch_size 2, densifying") {
   const auto dir = fresh_dir("dp_equal");
-  train_single_and_two_ranks(dir, "");
+  const auto [a, b] = train_single_and_two_ranks(dir, "");
   const auto single = dir + "/single", ranks = dir + "/ranks";
-  const auto a = handscs::load_checkpoint(handscs::latest_checkpoint(single));
-  const auto b = handscs::load_checkpoint(handscs::latest_checkpoint(ranks));
   CHECK(a.meta["iteration"] == 12);
   CHECK(b.meta["iteration"] == 12);
   CHECK(a.meta["adam_steps"] == b.meta["adam_steps"]);
@@ -141,9 +143,8 @@ TEST_CASE("train: data parallel: 2 ranks x 1 view equal 1 process x batch_size 2
 TEST_CASE("train: data parallel: pose refinement on 2 ranks equals 1 process x batch_size 2") {
   // Every rank applies every rank's pose-correction updates, in the single process's order.
   const auto dir = fresh_dir("dp_pose_refine");
-  train_single_and_two_ranks(dir, " train.densify.enabled=false train.pose_refine.enabled=true train.pose_refine.start=2");
-  const auto a = handscs::load_checkpoint(handscs::latest_checkpoint(dir + "/single"));
-  const auto b = handscs::load_checkpoint(handscs::latest_checkpoint(dir + "/ranks"));
+  const auto [a, b] = train_single_and_two_ranks(
+      dir, " train.densify.enabled=false train.pose_refine.enabled=true train.pose_refine.start=2");
   REQUIRE(a.tensors.count("pose_refine/values") == 1);
   // Both views' poses were corrected: more than one row moved.
   CHECK((a.tensors.at("pose_refine/values").abs().sum(1) > 0).sum().item<int64_t>() >= 2);

@@ -7,6 +7,7 @@
 
 #include "metrics/eval_config.h"
 #include "metrics/image_tensor.h"
+#include "test_support.h"
 #include "train/losses.h"
 
 namespace {
@@ -20,7 +21,7 @@ double frobenius(const torch::Tensor& m) {  // plain loop over a small tensor, d
 
 std::shared_ptr<const handscs::Lpips> shipped_lpips() {
   handscs::EvalConfig eval;
-  eval.lpips.weights = std::string(HANDSCS_SHARED_DIR) + "/assets/lpips/lpips_alex_v0.1.pt";
+  eval.lpips.weights = handscs_test::kLpipsAlexWeights;
   return std::make_shared<const handscs::Lpips>(eval.lpips);
 }
 

@@ -216,7 +216,7 @@ TEST_CASE("trainer: pose pairs less similar than train.consistency.min_weight sk
 
 TEST_CASE("trainer: train.loss.lpips_every takes LPIPS on the steps whose number it divides") {
   auto config = tiny_run_config();
-  config.eval.lpips.weights = std::string(HANDSCS_SHARED_DIR) + "/assets/lpips/lpips_alex_v0.1.pt";
+  config.eval.lpips.weights = handscs_test::kLpipsAlexWeights;
   config.train.loss.lpips_every = 3;
   handscs::Trainer trainer(config, fresh_dir("lpips_every"));
   for (int i = 0; i < 7; ++i) {

@@ -39,7 +39,7 @@ TEST_CASE("training checks: the image losses' smallest side follows the losses t
 
 TEST_CASE("training checks: LPIPS on a scaled crop needs the crop larger by that scale") {
   handscs::LpipsConfig config;
-  config.weights = std::string(HANDSCS_SHARED_DIR) + "/assets/lpips/lpips_alex_v0.1.pt";
+  config.weights = handscs_test::kLpipsAlexWeights;
   const handscs::Lpips lpips(config);
   const int64_t backbone = lpips.min_image_side();
   handscs::LossWeights weights;
