@@ -3,6 +3,7 @@
 #include <torch/types.h>
 
 #include "avatar/gaussians.h"
+#include "avatar/linear_relu.h"
 #include "render/rotation.h"
 
 namespace handscs {
@@ -27,13 +28,12 @@ torch::Tensor GatedMlpImpl::forward(const torch::Tensor& x) {
     return gate * layer3_->forward(h);
   }
   // Mixed precision: bf16 operands, float accumulation inside oneDNN, float master weights (the
-  // casts are differentiable, so Adam updates float parameters).
-  auto linear = [](const torch::nn::Linear& layer, const torch::Tensor& in) {
-    return torch::linear(in, layer->weight.to(torch::kBFloat16), layer->bias.to(torch::kBFloat16));
-  };
-  auto h = torch::relu(linear(layer1_, x.to(torch::kBFloat16)));
-  h = torch::relu(linear(layer2_, h));
-  return gate * linear(layer3_, h).to(torch::kFloat);
+  // casts are differentiable, so Adam updates float parameters). The hidden layers add their float
+  // bias after the GEMM (avatar/linear_relu.h: faster than addmm's bias).
+  const auto bf16 = [](const torch::Tensor& t) { return t.to(torch::kBFloat16); };
+  auto h = linear_relu(bf16(x), bf16(layer1_->weight), layer1_->bias);
+  h = linear_relu(h, bf16(layer2_->weight), layer2_->bias);
+  return gate * torch::linear(h, bf16(layer3_->weight), bf16(layer3_->bias)).to(torch::kFloat);
 }
 
 OffsetDecodersImpl::OffsetDecodersImpl(int64_t descriptor_dim, int64_t embedding_dim,

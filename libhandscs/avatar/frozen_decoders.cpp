@@ -2,6 +2,8 @@
 
 #include <torch/types.h>
 
+#include "avatar/linear_relu.h"
+
 namespace handscs {
 
 namespace {
@@ -54,14 +56,23 @@ FrozenDecoders::Mlp FrozenDecoders::freeze(GatedMlpImpl& mlp, const torch::Tenso
   out.w3 = mlp.layer(2)->weight.detach() * gate;
   out.b3 = mlp.layer(2)->bias.detach() * gate;
   const bool bf16 = mlp.bf16() && w.scalar_type() == torch::kFloat;  // as GatedMlp::forward
-  for (auto* t : {&out.w1, &out.per_gaussian1, &out.w2, &out.b2, &out.w3, &out.b3})
+  // b2 stays in the parameters' precision: in bf16 it is added after the GEMM, in float.
+  for (auto* t : {&out.w1, &out.per_gaussian1, &out.w2, &out.w3, &out.b3})
     *t = (bf16 ? t->to(torch::kBFloat16) : *t).contiguous();
+  out.b2 = out.b2.contiguous();
   return out;
 }
 
 torch::Tensor FrozenDecoders::run(const Mlp& mlp, const torch::Tensor& x,
                                   const torch::Tensor& rows) const {
   const auto constant = rows.defined() ? mlp.per_gaussian1.index_select(0, rows) : mlp.per_gaussian1;
+  if (mlp.w1.scalar_type() == torch::kBFloat16) {  // the biases added after the GEMMs, as GatedMlp
+    auto h = torch::mm(x, mlp.w1.t());
+    add_bias_relu_(h, constant);
+    auto h2 = torch::mm(h, mlp.w2.t());
+    add_bias_relu_(h2, mlp.b2);
+    return torch::addmm(mlp.b3, h2, mlp.w3.t());
+  }
   auto h = torch::addmm(constant, x, mlp.w1.t()).relu_();
   h = torch::addmm(mlp.b2, h, mlp.w2.t()).relu_();
   return torch::addmm(mlp.b3, h, mlp.w3.t());

@@ -1,8 +1,9 @@
 // The offset decoders of one avatar at inference (issue 13). With the weights and the embeddings
 // fixed, each decoder's first layer W [P, e, vec(T)] + b splits into W_P P + W_T vec(T), which
 // changes with the pose, and W_e e + b, a constant per Gaussian: that part is computed once, in
-// float, and kept in the decoders' precision. The weights are cast to bf16 once and each gate is
-// folded into its last layer. The same function as OffsetDecoders::forward up to rounding (the
+// float, and kept in the decoders' precision. The weights are cast to bf16 once (in bf16 the hidden
+// layers' biases are added after the GEMMs, avatar/linear_relu.h) and each gate is folded into its
+// last layer. The same function as OffsetDecoders::forward up to rounding (the
 // difference is measured in docs/BENCHMARKS.md and bounded by tests/avatar/test_frozen_decoders).
 //
 // A FrozenDecoders remembers which tensors it was built from and their version counters, so
@@ -38,7 +39,7 @@ class FrozenDecoders {
  private:
   struct Mlp {
     torch::Tensor w1, per_gaussian1;  // [hidden, |P| + 12] pose part; [N, hidden] = W_e e + b1
-    torch::Tensor w2, b2, w3, b3;     // gate folded into w3, b3
+    torch::Tensor w2, b2, w3, b3;     // gate folded into w3, b3; b2 in the parameters' precision
   };
   // descriptor_dim: |P|, the first columns of layer 1 (then the embeddings, then vec(T)).
   static Mlp freeze(GatedMlpImpl& mlp, const torch::Tensor& embeddings, int64_t descriptor_dim);

@@ -1,0 +1,121 @@
+// avatar/linear_relu.h: the bias + ReLU pass and the one-op hidden layer against the same formula in
+// LibTorch ops (mm, float add, relu, cast to bf16, differentiated by LibTorch): bit for bit, except
+// the bias gradient (a float sum in another order), with NaN, a width that is not a multiple of the
+// vector length, both SIMD levels, and one or two threads.
+#include "catch_torch.h"
+
+#include <torch/csrc/autograd/autograd.h>
+#include <torch/types.h>
+
+#include "avatar/linear_relu.h"
+#include "core/simd_level.h"
+#include "core/threads.h"
+
+namespace {
+
+// Bits equal, NaN where NaN (torch::equal is false for NaN).
+bool same_bf16(const torch::Tensor& a, const torch::Tensor& b) {
+  const auto nan_a = torch::isnan(a), nan_b = torch::isnan(b);
+  return torch::equal(nan_a, nan_b) &&
+         torch::equal(a.masked_fill(nan_a, 0).view(torch::kInt16), b.masked_fill(nan_b, 0).view(torch::kInt16));
+}
+
+// bf16 values of either sign, some exactly 0 and some NaN.
+torch::Tensor random_bf16(int64_t n, int64_t m, bool with_nan) {
+  auto t = torch::randn({n, m}) * 3;
+  t.view(-1).slice(0, 0, t.numel(), 17).zero_();
+  if (with_nan) t.view(-1).slice(0, 5, t.numel(), 101).fill_(std::nan(""));
+  return t.to(torch::kBFloat16);
+}
+
+struct LevelScope {  // a SIMD level for one test section, then the detected one again
+  explicit LevelScope(handscs::SimdLevel level) { handscs::set_simd_level(level); }
+  ~LevelScope() { handscs::set_simd_level(handscs::detected_simd_level()); }
+};
+
+}  // namespace
+
+TEST_CASE("add_bias_relu_: equals relu(float(y) + bias) cast to bf16, bit for bit") {
+  torch::manual_seed(11);
+  for (const int64_t m : {256, 37}) {  // 37: a tail of 5 past two 16-wide vectors
+    for (const auto level : {handscs::SimdLevel::generic, handscs::SimdLevel::avx512}) {
+      LevelScope scope(level);
+      INFO("M = " << m << ", level " << handscs::simd_level_name(handscs::active_simd_level()));
+      const auto y = random_bf16(300, m, /*with_nan=*/true);
+      const auto column_bias = torch::randn({m});
+      auto got = y.clone();
+      handscs::add_bias_relu_(got, column_bias);
+      CHECK(same_bf16(got, torch::relu(y.to(torch::kFloat) + column_bias).to(torch::kBFloat16)));
+      CHECK(torch::isnan(got).sum().item<int64_t>() > 0);  // NaN kept, as LibTorch's relu
+
+      const auto entry_bias = random_bf16(300, m, /*with_nan=*/false);
+      got = y.clone();
+      handscs::add_bias_relu_(got, entry_bias);
+      CHECK(same_bf16(got, torch::relu(y.to(torch::kFloat) + entry_bias.to(torch::kFloat)).to(torch::kBFloat16)));
+    }
+  }
+}
+
+TEST_CASE("add_bias_relu_: names what is wrong with its arguments") {
+  auto y = torch::zeros({4, 8}, torch::kBFloat16);
+  auto y_float = torch::zeros({4, 8});
+  CHECK_THROWS_WITH(handscs::add_bias_relu_(y_float, torch::zeros({8})),
+                    Catch::Contains("y must be a contiguous CPU bf16"));
+  CHECK_THROWS_WITH(handscs::add_bias_relu_(y, torch::zeros({7})),
+                    Catch::Contains("per-column bias must be contiguous float [8]"));
+  CHECK_THROWS_WITH(handscs::add_bias_relu_(y, torch::zeros({4, 8})),
+                    Catch::Contains("per-entry bias must be contiguous bf16"));
+  CHECK_THROWS_WITH(handscs::linear_relu(torch::zeros({4, 3}, torch::kBFloat16), torch::zeros({8, 3}, torch::kBFloat16),
+                                         torch::zeros({8}, torch::kBFloat16)),
+                    Catch::Contains("bias must be float [8]"));
+}
+
+TEST_CASE("linear_relu: values and gradients equal LibTorch's ops on the same formula") {
+  torch::manual_seed(12);
+  const int64_t n = 700, k = 80, m = 256;  // 700 rows: two full 256-row blocks and a partial one
+  const auto x0 = (torch::randn({n, k}) * 0.5).to(torch::kBFloat16);
+  const auto w0 = (torch::randn({m, k}) * 0.2).to(torch::kBFloat16);
+  const auto b0 = torch::randn({m}) * 0.3;
+  auto upstream = (torch::randn({n, m})).to(torch::kBFloat16);
+  upstream[3][4] = std::nan("");  // a NaN gradient passes where the output is positive, as LibTorch's
+
+  const auto run = [&](bool reference) {
+    const auto x = x0.clone().requires_grad_(true), w = w0.clone().requires_grad_(true),
+               b = b0.clone().requires_grad_(true);
+    const auto y = reference ? torch::relu(torch::mm(x, w.t()).to(torch::kFloat) + b).to(torch::kBFloat16)
+                             : handscs::linear_relu(x, w, b);
+    const auto grads = torch::autograd::grad({y}, {x, w, b}, {upstream});
+    return std::vector<torch::Tensor>{y.detach(), grads[0], grads[1], grads[2]};
+  };
+  const auto want = run(true);
+  for (const auto level : {handscs::SimdLevel::generic, handscs::SimdLevel::avx512}) {
+    LevelScope scope(level);
+    INFO("level " << handscs::simd_level_name(handscs::active_simd_level()));
+    const auto got = run(false);
+    CHECK(got[0].scalar_type() == torch::kBFloat16);
+    CHECK(same_bf16(got[0], want[0]));
+    CHECK(same_bf16(got[1], want[1]));  // input gradient
+    CHECK(same_bf16(got[2], want[2]));  // weight gradient
+    // The bias gradient: float sums of the same bf16 terms in another order. Column 4 has the NaN.
+    CHECK(got[3].scalar_type() == torch::kFloat);
+    CHECK(torch::isnan(got[3][4]).item<bool>() == torch::isnan(want[3][4]).item<bool>());
+    const auto finite = torch::isfinite(want[3]);
+    CHECK(torch::allclose(got[3].masked_select(finite), want[3].masked_select(finite), 1e-5, 1e-4));
+  }
+  upstream[3][4] = 0.0;
+
+  // The bias gradient does not depend on the thread count (fixed row blocks, summed in order).
+  const auto two = run(false)[3];
+  torch::Tensor one;
+  {
+    handscs::SingleThreadScope single;
+    one = run(false)[3];
+  }
+  CHECK(torch::equal(one, two));
+
+  // Without autograd: the same values, no graph.
+  torch::NoGradGuard no_grad;
+  const auto plain = handscs::linear_relu(x0, w0, b0);
+  CHECK_FALSE(plain.requires_grad());
+  CHECK(same_bf16(plain, want[0]));
+}
