@@ -60,13 +60,14 @@ FrozenDecoders::Mlp FrozenDecoders::freeze(GatedMlpImpl& mlp, const torch::Tenso
   for (auto* t : {&out.w1, &out.per_gaussian1, &out.w2, &out.w3, &out.b3})
     *t = (bf16 ? t->to(torch::kBFloat16) : *t).contiguous();
   out.b2 = out.b2.contiguous();
+  out.bias_after_gemm = bf16;
   return out;
 }
 
 torch::Tensor FrozenDecoders::run(const Mlp& mlp, const torch::Tensor& x,
                                   const torch::Tensor& rows) const {
   const auto constant = rows.defined() ? mlp.per_gaussian1.index_select(0, rows) : mlp.per_gaussian1;
-  if (mlp.w1.scalar_type() == torch::kBFloat16) {  // the biases added after the GEMMs, as GatedMlp
+  if (mlp.bias_after_gemm) {  // as GatedMlp::forward in bf16
     auto h = torch::mm(x, mlp.w1.t());
     add_bias_relu_(h, constant);
     auto h2 = torch::mm(h, mlp.w2.t());

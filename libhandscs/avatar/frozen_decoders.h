@@ -40,6 +40,7 @@ class FrozenDecoders {
   struct Mlp {
     torch::Tensor w1, per_gaussian1;  // [hidden, |P| + 12] pose part; [N, hidden] = W_e e + b1
     torch::Tensor w2, b2, w3, b3;     // gate folded into w3, b3; b2 in the parameters' precision
+    bool bias_after_gemm = false;     // bf16 from float parameters: add_bias_relu_ after plain mm
   };
   // descriptor_dim: |P|, the first columns of layer 1 (then the embeddings, then vec(T)).
   static Mlp freeze(GatedMlpImpl& mlp, const torch::Tensor& embeddings, int64_t descriptor_dim);

@@ -2,9 +2,11 @@
 
 #include <immintrin.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <utility>
 #include <vector>
 
 #include <ATen/Parallel.h>
@@ -15,11 +17,17 @@
 namespace handscs {
 
 namespace linear_relu_detail {
+namespace {
 
 // Rows per block of the backward's bias sums: each block sums its rows in order and the blocks are
-// added in order, so the bias gradient does not depend on the thread count.
+// added in order, so the bias gradient does not depend on the thread count. 256 rows of a 256-wide
+// layer are 128 KiB per tensor (y, the gradient, the masked gradient), which stay in L2 while the
+// block's columns are walked, and 10k rows give 40 blocks to share between the threads.
 constexpr int64_t kRowBlock = 256;
-constexpr uint16_t kBf16Nan = 0x7FC0;  // the quiet NaN LibTorch's float -> bf16 writes
+// Rows per task of the forward pass at least: 64 rows of a 256-wide layer are 32 KiB, more work
+// than a task's start costs.
+constexpr int64_t kForwardGrain = 64;
+constexpr uint16_t kBf16Nan = 0x7FC0;  // the quiet NaN c10::BFloat16's conversion writes
 
 inline float from_bf16(uint16_t h) {
   const uint32_t bits = uint32_t(h) << 16;
@@ -38,20 +46,26 @@ inline uint16_t to_bf16(float f) {
 
 inline float relu_keep_nan(float v) { return v > 0.0f || std::isnan(v) ? v : 0.0f; }
 
-// The forward pass over rows [r0, r1) of y [N, m]: bias per column (col_bias [m]) or per entry
-// (entry_bias [N, m]); exactly one is non-null.
+// Where the AVX-512 kernels' unpacks put column c (0-31) of a 32-column group: the 128-bit lanes'
+// words 0-3 in the first 16 floats, their words 4-7 in the next 16 (see unpack_bf16x32).
+inline int unpacked_position(int c) { return (c % 8 < 4 ? 0 : 16) + (c / 8) * 4 + c % 4; }
+
+// The forward pass over rows [r0, r1) of y [N, m]: bias per column (col_bias [m], and the same in
+// unpacked_position's order per 32 columns for the AVX-512 kernel) or per entry (entry_bias [N, m]).
 struct ForwardArgs {
   uint16_t* y;
   int64_t m;
-  const float* col_bias;
-  const uint16_t* entry_bias;
+  const float* col_bias;           // [m] or null
+  const float* col_bias_unpacked;  // [m / 32 * 32] or null
+  const uint16_t* entry_bias;      // [N, m] or null when col_bias is set
 };
 
-// The backward pass over rows [r0, r1): gz = g where !(y <= 0), else 0; bias_sum [m] += gz's rows.
+// The backward pass over rows [r0, r1): v_z = v_y where !(y <= 0), else 0; bias_sum [m] += v_z's
+// rows. y is the forward's output: its NaNs are kBf16Nan (positive).
 struct BackwardArgs {
-  const uint16_t* g;
-  const uint16_t* y;
-  uint16_t* gz;
+  const uint16_t* v_y;  // [N, m]
+  const uint16_t* y;    // [N, m]
+  uint16_t* v_z;        // [N, m]
   int64_t m;
 };
 
@@ -68,9 +82,9 @@ void backward_generic(const BackwardArgs& a, int64_t r0, int64_t r1, float* bias
   for (int64_t r = r0; r < r1; ++r)
     for (int64_t j = j0; j < a.m; ++j) {
       const int64_t i = r * a.m + j;
-      const uint16_t g = from_bf16(a.y[i]) <= 0.0f ? 0 : a.g[i];
-      a.gz[i] = g;
-      bias_sum[j] += from_bf16(g);
+      const uint16_t v_z = from_bf16(a.y[i]) <= 0.0f ? 0 : a.v_y[i];
+      a.v_z[i] = v_z;
+      bias_sum[j] += from_bf16(v_z);
     }
 }
 
@@ -89,9 +103,6 @@ inline void unpack_bf16x32(__m512i raw, __m512& low, __m512& high) {
   high = _mm512_castsi512_ps(_mm512_unpackhi_epi16(zero, raw));
 }
 
-// Where unpack_bf16x32 puts column c (0-31) of a 32-column group.
-inline int unpacked_position(int c) { return (c % 8 < 4 ? 0 : 16) + (c / 8) * 4 + c % 4; }
-
 // Floats rounded as to_bf16, each result in its 32-bit lane's low 16 bits.
 inline __m512i round_to_bf16_bits(__m512 v) {
   const __m512i bits = _mm512_castps_si512(v);
@@ -108,20 +119,14 @@ inline __m512 relu_keep_nan16(__m512 v) {
 
 void forward_avx512(const ForwardArgs& a, int64_t r0, int64_t r1) {
   const int64_t vector_end = a.m / 32 * 32;
-  std::vector<float> col_bias;  // the per-column bias in the unpacks' order
-  if (a.col_bias) {
-    col_bias.resize(static_cast<size_t>(vector_end));
-    for (int64_t j = 0; j < vector_end; j += 32)
-      for (int c = 0; c < 32; ++c) col_bias[j + unpacked_position(c)] = a.col_bias[j + c];
-  }
   for (int64_t r = r0; r < r1; ++r) {
     uint16_t* row = a.y + r * a.m;
     for (int64_t j = 0; j < vector_end; j += 32) {
       __m512 low, high, bias_low, bias_high;
       unpack_bf16x32(_mm512_loadu_si512(row + j), low, high);
       if (a.col_bias) {
-        bias_low = _mm512_loadu_ps(col_bias.data() + j);
-        bias_high = _mm512_loadu_ps(col_bias.data() + j + 16);
+        bias_low = _mm512_loadu_ps(a.col_bias_unpacked + j);
+        bias_high = _mm512_loadu_ps(a.col_bias_unpacked + j + 16);
       } else {
         unpack_bf16x32(_mm512_loadu_si512(a.entry_bias + r * a.m + j), bias_low, bias_high);
       }
@@ -139,7 +144,6 @@ void backward_avx512(const BackwardArgs& a, int64_t r0, int64_t r1, float* bias_
   // 32 bf16 values per register, kept as 16-bit lanes: the mask and the selection need no widening.
   const int64_t vector_end = a.m / 32 * 32;
   const __m512i zero = _mm512_setzero_si512();
-  const __m512i abs_mask = _mm512_set1_epi16(0x7FFF), inf = _mm512_set1_epi16(0x7F80);
   alignas(64) float sums[32];
   // Columns outer, rows inner: each column's sum stays in a register over the block's rows.
   for (int64_t j = 0; j < vector_end; j += 32) {
@@ -147,14 +151,14 @@ void backward_avx512(const BackwardArgs& a, int64_t r0, int64_t r1, float* bias_
     for (int64_t r = r0; r < r1; ++r) {
       const int64_t i = r * a.m + j;
       const __m512i y = _mm512_loadu_si512(a.y + i);
-      // !(y <= 0): positive (as a signed 16-bit integer) or NaN (either sign).
-      const __mmask32 pass = _mm512_cmpgt_epi16_mask(y, zero) |
-                             _mm512_cmpgt_epi16_mask(_mm512_and_si512(y, abs_mask), inf);
+      // !(y <= 0) for the forward's outputs (>= +0, NaN only as kBf16Nan): positive as a signed
+      // 16-bit integer.
+      const __mmask32 pass = _mm512_cmpgt_epi16_mask(y, zero);
       // A plain load, then the mask: a masked load was several times slower on Zen 4 (measured).
-      const __m512i g = _mm512_maskz_mov_epi16(pass, _mm512_loadu_si512(a.g + i));
-      _mm512_storeu_si512(a.gz + i, g);
+      const __m512i v_z = _mm512_maskz_mov_epi16(pass, _mm512_loadu_si512(a.v_y + i));
+      _mm512_storeu_si512(a.v_z + i, v_z);
       __m512 low, high;
-      unpack_bf16x32(g, low, high);
+      unpack_bf16x32(v_z, low, high);
       sum_low = _mm512_add_ps(sum_low, low);
       sum_high = _mm512_add_ps(sum_high, high);
     }
@@ -176,11 +180,11 @@ const uint16_t* bits_of(const torch::Tensor& t) {
   return reinterpret_cast<const uint16_t*>(t.data_ptr<at::BFloat16>());
 }
 
-// gz (the ReLU's mask applied to g) and the bias gradient, float [m].
-std::pair<torch::Tensor, torch::Tensor> relu_bias_backward(const torch::Tensor& g, const torch::Tensor& y) {
+// v_z (the ReLU's mask applied to v_y, the gradient of its output y) and the bias gradient, float [m].
+std::pair<torch::Tensor, torch::Tensor> relu_bias_bwd(const torch::Tensor& v_y, const torch::Tensor& y) {
   const int64_t n = y.size(0), m = y.size(1);
-  auto gz = torch::empty_like(y);
-  const BackwardArgs args{bits_of(g), bits_of(y), bits_of(gz), m};
+  auto v_z = torch::empty_like(y);
+  const BackwardArgs args{bits_of(v_y), bits_of(y), bits_of(v_z), m};
   const int64_t blocks = (n + kRowBlock - 1) / kRowBlock;
   std::vector<float> partial(static_cast<size_t>(blocks * m), 0.0f);
   const bool avx512 = use_avx512();
@@ -191,17 +195,21 @@ std::pair<torch::Tensor, torch::Tensor> relu_bias_backward(const torch::Tensor& 
       avx512 ? backward_avx512(args, r0, r1, sum) : backward_generic(args, r0, r1, sum);
     }
   });
-  auto bias_grad = torch::zeros({m}, torch::kFloat);
-  float* total = bias_grad.data_ptr<float>();
+  auto v_bias = torch::zeros({m}, torch::kFloat);
+  float* total = v_bias.data_ptr<float>();
   for (int64_t b = 0; b < blocks; ++b)
     for (int64_t j = 0; j < m; ++j) total[j] += partial[b * m + j];
-  return {gz, bias_grad};
+  return {v_z, v_bias};
 }
 
 using torch::autograd::AutogradContext;
 using torch::autograd::variable_list;
 
+// Once differentiable: the backward's pass is not itself recorded.
 struct LinearReluFunction : public torch::autograd::Function<LinearReluFunction> {
+  enum Slot { kX, kWeight, kBias, kNumSlots };  // inputs, and their gradients' places
+  enum Saved { kSavedX, kSavedWeight, kSavedY };
+
   static torch::Tensor forward(AutogradContext* ctx, const torch::Tensor& x, const torch::Tensor& weight,
                                const torch::Tensor& bias) {
     auto y = torch::mm(x, weight.t());
@@ -210,19 +218,20 @@ struct LinearReluFunction : public torch::autograd::Function<LinearReluFunction>
     return y;
   }
 
-  static variable_list backward(AutogradContext* ctx, variable_list grads) {
+  static variable_list backward(AutogradContext* ctx, variable_list grad_outputs) {
+    variable_list grads(kNumSlots);
+    if (!grad_outputs[0].defined()) return grads;
     const auto saved = ctx->get_saved_variables();
-    const auto& x = saved[0];
-    const auto& weight = saved[1];
-    const auto g = grads[0].to(torch::kBFloat16).contiguous();
-    const auto [gz, bias_grad] = relu_bias_backward(g, saved[2]);
-    torch::Tensor x_grad, weight_grad;
-    if (ctx->needs_input_grad(0)) x_grad = torch::mm(gz, weight);
-    if (ctx->needs_input_grad(1)) weight_grad = torch::mm(gz.t(), x);
-    return {x_grad, weight_grad, ctx->needs_input_grad(2) ? bias_grad : torch::Tensor()};
+    const auto v_y = grad_outputs[0].to(torch::kBFloat16).contiguous();
+    const auto [v_z, v_bias] = relu_bias_bwd(v_y, saved[kSavedY]);
+    if (ctx->needs_input_grad(kX)) grads[kX] = torch::mm(v_z, saved[kSavedWeight]);
+    if (ctx->needs_input_grad(kWeight)) grads[kWeight] = torch::mm(v_z.t(), saved[kSavedX]);
+    if (ctx->needs_input_grad(kBias)) grads[kBias] = v_bias;
+    return grads;
   }
 };
 
+}  // namespace
 }  // namespace linear_relu_detail
 
 void add_bias_relu_(torch::Tensor& y, const torch::Tensor& bias) {
@@ -230,6 +239,9 @@ void add_bias_relu_(torch::Tensor& y, const torch::Tensor& bias) {
   TORCH_CHECK(y.dim() == 2 && y.scalar_type() == torch::kBFloat16 && y.is_contiguous() && y.is_cpu(),
               "add_bias_relu_: y must be a contiguous CPU bf16 [N, M] tensor, got ", y.scalar_type(), " ",
               y.sizes());
+  TORCH_CHECK(!(torch::GradMode::is_enabled() && y.requires_grad()),
+              "add_bias_relu_: y requires grad; this in-place pass is not recorded (use linear_relu)");
+  TORCH_CHECK(bias.is_cpu(), "add_bias_relu_: bias must be a CPU tensor");
   const int64_t n = y.size(0), m = y.size(1);
   const bool per_column = bias.dim() == 1;
   if (per_column) {
@@ -241,11 +253,18 @@ void add_bias_relu_(torch::Tensor& y, const torch::Tensor& bias) {
                 "add_bias_relu_: a per-entry bias must be contiguous bf16 ", y.sizes(), ", got ",
                 bias.scalar_type(), " ", bias.sizes());
   }
-  const ForwardArgs args{bits_of(y), m, per_column ? bias.data_ptr<float>() : nullptr,
-                         per_column ? nullptr : bits_of(bias)};
   const bool avx512 = use_avx512();
+  std::vector<float> unpacked;  // the per-column bias in the AVX-512 kernel's order
+  if (per_column && avx512) {
+    const float* col = bias.data_ptr<float>();
+    unpacked.resize(static_cast<size_t>(m / 32 * 32));
+    for (int64_t j = 0; j + 32 <= m; j += 32)
+      for (int c = 0; c < 32; ++c) unpacked[j + unpacked_position(c)] = col[j + c];
+  }
+  const ForwardArgs args{bits_of(y), m, per_column ? bias.data_ptr<float>() : nullptr,
+                         per_column ? unpacked.data() : nullptr, per_column ? nullptr : bits_of(bias)};
   // Each row is independent: any split over threads gives the same bits.
-  at::parallel_for(0, n, kRowBlock / 4, [&](int64_t r0, int64_t r1) {
+  at::parallel_for(0, n, kForwardGrain, [&](int64_t r0, int64_t r1) {
     avx512 ? forward_avx512(args, r0, r1) : forward_generic(args, r0, r1);
   });
 }
