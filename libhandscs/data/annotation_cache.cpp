@@ -4,8 +4,6 @@
 #include <sys/stat.h>
 
 #include <algorithm>
-#include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -16,6 +14,7 @@
 #include "core/byte_stream.h"
 #include "core/error.h"
 #include "core/hash.h"
+#include "data/cache_files.h"
 
 namespace handscs {
 
@@ -30,7 +29,6 @@ constexpr uint32_t kFormatVersion = 1;
 // Bytes hashed at each end of a source file: catches a rewrite that kept the size and landed within
 // the file system's timestamp granularity, for the cost of two small reads.
 constexpr size_t kEdgeBytes = size_t{64} << 10;
-constexpr char kBesideFolder[] = ".handscs-cache";
 
 // What identifies one version of a source file.
 struct SourceStamp {
@@ -64,21 +62,6 @@ SourceStamp stamp_of(const std::string& source) {
   }
   stamp.edges_hash = fnv1a64(edges.data(), got);
   return stamp;
-}
-
-std::string hex16(uint64_t value) {
-  char text[17];
-  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(value));
-  return text;
-}
-
-// The user's cache folder for annotation caches, "" when neither variable is set.
-std::string user_cache_folder() {
-  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg)
-    return (fs::path(xdg) / "handscs" / "annotations").string();
-  if (const char* home = std::getenv("HOME"); home && *home)
-    return (fs::path(home) / ".cache" / "handscs" / "annotations").string();
-  return "";
 }
 
 // Why a cache file is not used. `damaged`: say so as a warning; otherwise (a changed source) the
@@ -301,20 +284,9 @@ T cached(const std::vector<std::string>& files, const std::string& source, int c
 AnnotationCache::AnnotationCache(std::string setting) : setting_(std::move(setting)) {}
 
 std::vector<std::string> AnnotationCache::files_for(const std::string& source, int capture) const {
-  if (setting_ == "off") return {};
-  const fs::path path(source);
-  const std::string name = path.filename().string() + ".capture" + std::to_string(capture) + ".cache";
-  std::error_code ec;
-  fs::path canonical = fs::weakly_canonical(fs::absolute(path, ec), ec);
-  if (ec) canonical = path;
-  const std::string key = canonical.string();
-  // Shared folders hold many datasets' caches: the source's full path keeps them apart.
-  const std::string shared_name = hex16(fnv1a64(key.data(), key.size())) + "-" + name;
-  if (setting_ != "auto") return {(fs::path(setting_) / shared_name).string()};
-  std::vector<std::string> files{(canonical.parent_path() / kBesideFolder / name).string()};
-  const std::string user = user_cache_folder();
-  if (!user.empty()) files.push_back((fs::path(user) / shared_name).string());
-  return files;
+  const std::string name =
+      fs::path(source).filename().string() + ".capture" + std::to_string(capture) + ".cache";
+  return cache_files_for(setting_, source, name, "annotations");
 }
 
 CaptureImages AnnotationCache::images(const std::string& data_json, int capture) const {

@@ -23,8 +23,9 @@ struct CaptureImages {
   ImageCatalogue catalogue;
 };
 
-// Where caches go: "auto" (a .handscs-cache folder beside the annotation file if writable, else
-// $XDG_CACHE_HOME/handscs/annotations or ~/.cache/handscs/annotations), "off", or a folder.
+// Where caches go (data/cache_files.h): "auto" (a .handscs-cache folder beside the annotation file
+// if writable, else $XDG_CACHE_HOME/handscs/annotations or ~/.cache/handscs/annotations), "off", or
+// a folder.
 class AnnotationCache {
  public:
   explicit AnnotationCache(std::string setting = "auto");

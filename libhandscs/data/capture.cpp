@@ -18,6 +18,7 @@
 #include "data/annotation_cache.h"
 #include "data/capture_impl.h"
 #include "data/image_checks.h"
+#include "data/scan_cache.h"
 #include "data/interhand_annotations.h"
 #include "data/mesh_mask.h"
 #include "hand/lbs.h"
@@ -342,21 +343,24 @@ struct ImageSelection {
   size_t dropped_monochrome = 0;
 };
 
-// Step 5: image checks (decoded at 1/8 scale) and hand-in-view checks in parallel, then the
-// monochrome cameras; failures are added to `skipped`, damaged JPEGs also logged.
-ImageSelection select_usable_images(const CaptureConfig& c, const std::vector<Candidate>& candidates,
+// Step 5: image checks (decoded at 1/8 scale, or their results from the scan cache) and hand-in-view
+// checks in parallel, then the monochrome cameras; failures are added to `skipped`, damaged JPEGs
+// also logged.
+ImageSelection select_usable_images(const CaptureConfig& c, const std::string& images_dir,
+                                    const std::vector<Candidate>& candidates,
                                     const std::vector<int>& candidate_pose,
                                     const std::vector<std::vector<float>>& posed, int64_t num_vertices,
                                     std::vector<SkippedImage>& skipped) {
   const int64_t num_candidates = static_cast<int64_t>(candidates.size());
-  std::vector<ImageScan> scans(candidates.size());
+  std::vector<std::string> paths;
+  for (const auto& cand : candidates) paths.push_back(cand.path);
+  const std::vector<ImageScan> scans =
+      scan_images(paths, scan_cache_files(c.scan_cache, images_dir, c.capture), images_dir);
   std::vector<uint8_t> in_view(candidates.size(), 0);
 #pragma omp parallel for schedule(dynamic, 4)
   for (int64_t i = 0; i < num_candidates; ++i) {  // nothing here throws
-    const Candidate& cand = candidates[i];
-    scans[i] = scan_image(cand.path);
     const std::vector<float>& vertices = posed[candidate_pose[i]];
-    in_view[i] = !projected_bounds(vertices.data(), num_vertices, cand.camera).empty();
+    in_view[i] = !projected_bounds(vertices.data(), num_vertices, candidates[i].camera).empty();
   }
 
   std::map<std::string, std::pair<int, int>> mono_votes;  // camera -> (grey, readable)
@@ -478,7 +482,8 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   for (size_t i = 0; i < candidates.size(); ++i)
     candidate_pose[i] = strided_pose.at(candidates[i].image->frame_idx);
   ImageSelection selection =
-      select_usable_images(c, candidates, candidate_pose, posed, impl->num_vertices, skipped);
+      select_usable_images(c, layout.images_dir, candidates, candidate_pose, posed, impl->num_vertices,
+                           skipped);
   std::vector<size_t>& usable = selection.usable;
   impl->monochrome_cameras = selection.monochrome;
   impl->skipped = skipped;

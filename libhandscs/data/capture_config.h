@@ -52,6 +52,9 @@ struct CaptureConfig {
   // multi-GB JSON (data/annotation_cache.h): "auto" (beside the annotations if writable, else
   // ~/.cache/handscs/annotations), "off", or a folder.
   std::string annotation_cache = "auto";
+  // Where the per-image checks' results are kept so that later opens check only new or changed
+  // images (data/scan_cache.h): the same choices as annotation_cache (beside the images folder).
+  std::string scan_cache = "auto";
   MaskRefineConfig mask_refine;
   CropCacheConfig cache;
 
@@ -85,6 +88,10 @@ struct CaptureConfig {
     v.field("annotation_cache", annotation_cache,
             "cache of the capture's annotations for fast reopening: auto (a .handscs-cache folder "
             "beside them if writable, else ~/.cache/handscs), off, or a folder");
+    v.field("scan_cache", scan_cache,
+            "cache of the per-image checks (JPEG structure, 1/8 decode) for fast reopening: auto (a "
+            ".handscs-cache folder beside the images if writable, else ~/.cache/handscs), off, or a "
+            "folder");
     v.section("mask_refine", mask_refine, "mask refinement against the image");
     v.section("cache", cache, "image cache and prefetching");
   }

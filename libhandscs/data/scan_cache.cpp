@@ -1,0 +1,235 @@
+#include "data/scan_cache.h"
+
+#include <spdlog/spdlog.h>
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+#include <unordered_map>
+
+#include "core/atomic_file.h"
+#include "core/byte_stream.h"
+#include "core/error.h"
+#include "core/hash.h"
+#include "data/cache_files.h"
+
+namespace handscs {
+
+namespace fs = std::filesystem;
+
+// A named namespace: unity builds compile this file with annotation_cache.cpp, whose unnamed
+// namespace has the same names.
+namespace scan_cache_detail {
+
+constexpr char kMagic[] = "HANDSCS-SCAN-CACHE";
+// Bump whenever the encoding below changes: files of another format are rewritten, never read.
+constexpr uint32_t kFormatVersion = 1;
+
+// What identifies one version of an image file.
+struct FileStamp {
+  uint64_t size = 0;
+  int64_t mtime_ns = 0;
+  bool operator==(const FileStamp& o) const { return size == o.size && mtime_ns == o.mtime_ns; }
+};
+
+struct Entry {
+  FileStamp stamp;
+  ImageScan scan;
+};
+
+using Entries = std::unordered_map<std::string, Entry>;  // relative path -> entry
+
+// Why a cache file is not used. `damaged`: say so as a warning; otherwise (another version wrote
+// it) rewriting it is routine.
+struct Rejected {
+  std::string reason;
+  bool damaged;
+};
+
+bool stamp_of(const std::string& path, FileStamp& stamp) {
+  struct stat info {};
+  if (::stat(path.c_str(), &info) != 0) return false;
+  stamp.size = static_cast<uint64_t>(info.st_size);
+  stamp.mtime_ns = static_cast<int64_t>(info.st_mtim.tv_sec) * 1000000000 + info.st_mtim.tv_nsec;
+  return true;
+}
+
+// The path as stored: relative to the images folder when it lies inside it.
+std::string key_of(const std::string& path, const fs::path& images_dir) {
+  const fs::path relative = fs::path(path).lexically_relative(images_dir);
+  if (relative.empty() || *relative.begin() == "..") return path;
+  return relative.generic_string();
+}
+
+// Everything a cached result depends on besides the file: written in the header, compared on read.
+void put_checks_signature(ByteWriter& out) {
+  out.put<int32_t>(kImageChecksVersion);
+  out.put<int32_t>(kBlackLevel);
+  out.put<int32_t>(kColourSpread);
+  out.put<double>(kMonochromeFraction);
+}
+
+// In path order, so the same entries always give the same bytes.
+std::string encode(const Entries& entries) {
+  std::vector<const Entries::value_type*> sorted;
+  for (const auto& item : entries) sorted.push_back(&item);
+  std::sort(sorted.begin(), sorted.end(), [](const auto* a, const auto* b) { return a->first < b->first; });
+  ByteWriter payload;
+  payload.put<uint64_t>(entries.size());
+  for (const auto* item : sorted) {
+    const auto& [key, entry] = *item;
+    payload.put_string(key);
+    payload.put(entry.stamp.size);
+    payload.put(entry.stamp.mtime_ns);
+    payload.put<uint8_t>(entry.scan.readable);
+    payload.put_string(entry.scan.damage);
+    payload.put<uint8_t>(entry.scan.black);
+    payload.put<uint8_t>(entry.scan.monochrome);
+    payload.put<int32_t>(entry.scan.scaled_width);
+    payload.put<int32_t>(entry.scan.scaled_height);
+  }
+  ByteWriter out;
+  out.put_array(kMagic, sizeof(kMagic));
+  out.put(kFormatVersion);
+  put_checks_signature(out);
+  out.put<uint64_t>(payload.bytes().size());
+  out.put<uint64_t>(fnv1a64(payload.bytes()));
+  return out.bytes() + payload.bytes();
+}
+
+// The entries of a cache file; throws Rejected when it is not a usable cache.
+Entries decode(const std::string& bytes) {
+  try {
+    ByteReader in(bytes.data(), bytes.size());
+    char magic[sizeof(kMagic)];
+    if (in.remaining() < sizeof(kMagic)) throw Rejected{"not a handscs image-check cache", true};
+    in.get_array(magic, sizeof(kMagic));
+    if (std::memcmp(magic, kMagic, sizeof(kMagic)) != 0)
+      throw Rejected{"not a handscs image-check cache", true};
+    if (in.get<uint32_t>() != kFormatVersion) throw Rejected{"written in another format", false};
+    ByteWriter want;
+    put_checks_signature(want);
+    std::string signature(want.bytes().size(), '\0');
+    in.get_array(&signature[0], signature.size());
+    if (signature != want.bytes()) throw Rejected{"written by another version of the checks", false};
+    const uint64_t payload_size = in.get<uint64_t>();
+    const uint64_t payload_hash = in.get<uint64_t>();
+    if (payload_size != in.remaining()) throw Rejected{"truncated", true};
+    const char* payload = bytes.data() + (bytes.size() - payload_size);
+    if (fnv1a64(payload, payload_size) != payload_hash) throw Rejected{"checksum mismatch", true};
+    ByteReader body(payload, payload_size);
+    Entries entries;
+    // Each entry is at least a path length, the stamp, three flags, a damage length and two sizes.
+    for (uint64_t n = body.get_count(8 + 16 + 3 + 8 + 8); n > 0; --n) {
+      const std::string key = body.get_string();
+      Entry& entry = entries[key];
+      entry.stamp.size = body.get<uint64_t>();
+      entry.stamp.mtime_ns = body.get<int64_t>();
+      entry.scan.readable = body.get<uint8_t>() != 0;
+      entry.scan.damage = body.get_string();
+      entry.scan.black = body.get<uint8_t>() != 0;
+      entry.scan.monochrome = body.get<uint8_t>() != 0;
+      entry.scan.scaled_width = body.get<int32_t>();
+      entry.scan.scaled_height = body.get<int32_t>();
+    }
+    if (body.remaining() != 0) throw Rejected{"bytes left after the entries", true};
+    return entries;
+  } catch (const ByteStreamError& e) {
+    throw Rejected{std::string("damaged: ") + e.what(), true};
+  }
+}
+
+// The entries of the first usable file and its path ("" when none is).
+std::pair<Entries, std::string> read_first_usable(const std::vector<std::string>& files) {
+  for (const auto& file : files) {
+    std::error_code ec;
+    if (!fs::is_regular_file(file, ec)) continue;
+    try {
+      return {decode(read_file(file)), file};
+    } catch (const Rejected& rejected) {
+      if (rejected.damaged)
+        spdlog::warn("{}: ignoring this image-check cache ({}); the images are checked again", file,
+                     rejected.reason);
+      else
+        spdlog::info("{}: {}; the images are checked again", file, rejected.reason);
+    } catch (const Error& e) {
+      spdlog::warn("ignoring an unreadable image-check cache ({}); the images are checked again", e.what());
+    }
+  }
+  return {};
+}
+
+void write_first_writable(const std::vector<std::string>& files, const Entries& entries) {
+  const std::string bytes = encode(entries);
+  std::string problem = "no folder";
+  for (const auto& file : files) {
+    try {
+      ensure_directory(fs::path(file).parent_path().string());
+      write_file_atomic(file, bytes);
+      spdlog::info("image checks of {} images cached in {} ({:.2f} MB); later opens read them",
+                   entries.size(), file, bytes.size() / 1e6);
+      return;
+    } catch (const Error& e) {
+      problem = e.what();
+    }
+  }
+  spdlog::warn("could not write an image-check cache ({}); later opens check the images again",
+               problem);
+}
+
+}  // namespace scan_cache_detail
+
+std::vector<std::string> scan_cache_files(const std::string& setting, const std::string& images_dir,
+                                          int capture) {
+  const std::string name = fs::path(images_dir).lexically_normal().filename().string() + ".capture" +
+                           std::to_string(capture) + ".scans";
+  return cache_files_for(setting, fs::path(images_dir).lexically_normal().string(), name, "scans");
+}
+
+std::vector<ImageScan> scan_images(const std::vector<std::string>& paths,
+                                   const std::vector<std::string>& cache_files,
+                                   const std::string& images_dir, ScanCounts* counts) {
+  using namespace scan_cache_detail;
+  auto [entries, source] = read_first_usable(cache_files);
+  const fs::path root = fs::path(images_dir).lexically_normal();
+  const int64_t n = static_cast<int64_t>(paths.size());
+  std::vector<ImageScan> scans(paths.size());
+  std::vector<std::string> keys(paths.size());
+  std::vector<FileStamp> stamps(paths.size());
+  // 0: read from the cache; 1: scanned, to be stored; 2: scanned, not stored (no stat).
+  std::vector<uint8_t> state(paths.size(), 0);
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int64_t i = 0; i < n; ++i) {  // nothing here throws but allocation
+    keys[i] = key_of(paths[i], root);
+    const bool stat_ok = stamp_of(paths[i], stamps[i]);
+    const auto found = stat_ok ? entries.find(keys[i]) : entries.end();
+    if (found != entries.end() && found->second.stamp == stamps[i]) {
+      scans[i] = found->second.scan;
+    } else {
+      scans[i] = scan_image(paths[i]);
+      state[i] = stat_ok ? 1 : 2;
+    }
+  }
+  ScanCounts counted;
+  bool changed = false;
+  for (int64_t i = 0; i < n; ++i) {
+    if (state[i] == 0) {
+      ++counted.cached;
+      continue;
+    }
+    ++counted.scanned;
+    if (state[i] == 1) {
+      entries[keys[i]] = {stamps[i], scans[i]};
+      changed = true;
+    }
+  }
+  if (!cache_files.empty())
+    spdlog::info("image checks: {} from the cache{}, {} scanned", counted.cached,
+                 source.empty() ? "" : " (" + source + ")", counted.scanned);
+  if (changed && !cache_files.empty()) write_first_writable(cache_files, entries);
+  if (counts) *counts = counted;
+  return scans;
+}
+
+}  // namespace handscs
