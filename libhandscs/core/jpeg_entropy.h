@@ -5,6 +5,8 @@
 // is decoded, or the end of the data before the last block (libjpeg then fills the rest of the
 // image with grey and only prints a warning without a path). Lossless and arithmetic-coded
 // files are not walked.
+// What this finds is cached per image (data/scan_cache.h): a change to what it reports for a file
+// must bump kImageChecksVersion in data/image_checks.h, or cached results of the old checks stay.
 #pragma once
 
 #include <string>

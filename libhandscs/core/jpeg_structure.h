@@ -1,6 +1,8 @@
 // A byte-level check of a JPEG file's marker structure, run before decoding: libjpeg decodes a
 // truncated or partly overwritten file into an image with a grey tail and only prints a warning
 // without a path, so damage has to be found before the decoder sees the bytes.
+// What this finds is cached per image (data/scan_cache.h): a change to what it reports for a file
+// must bump kImageChecksVersion in data/image_checks.h, or cached results of the old checks stay.
 #pragma once
 
 #include <string>

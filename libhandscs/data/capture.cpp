@@ -18,9 +18,9 @@
 #include "data/annotation_cache.h"
 #include "data/capture_impl.h"
 #include "data/image_checks.h"
-#include "data/scan_cache.h"
 #include "data/interhand_annotations.h"
 #include "data/mesh_mask.h"
+#include "data/scan_cache.h"
 #include "hand/lbs.h"
 #include "hand/rig.h"
 

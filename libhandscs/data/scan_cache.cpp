@@ -1,5 +1,6 @@
 #include "data/scan_cache.h"
 
+#include <opencv2/core/version.hpp>
 #include <spdlog/spdlog.h>
 #include <sys/stat.h>
 
@@ -12,6 +13,7 @@
 #include "core/byte_stream.h"
 #include "core/error.h"
 #include "core/hash.h"
+#include "core/text.h"
 #include "data/cache_files.h"
 
 namespace handscs {
@@ -55,19 +57,22 @@ bool stamp_of(const std::string& path, FileStamp& stamp) {
   return true;
 }
 
-// The path as stored: relative to the images folder when it lies inside it.
+// The path as stored: relative to the images folder (both normalised: "./x" and "x" are one key)
+// when it lies inside it.
 std::string key_of(const std::string& path, const fs::path& images_dir) {
-  const fs::path relative = fs::path(path).lexically_relative(images_dir);
+  const fs::path relative = fs::path(path).lexically_normal().lexically_relative(images_dir);
   if (relative.empty() || *relative.begin() == "..") return path;
   return relative.generic_string();
 }
 
 // Everything a cached result depends on besides the file: written in the header, compared on read.
+// OpenCV's version stands for its JPEG decoder's (the 1/8-scale decode).
 void put_checks_signature(ByteWriter& out) {
   out.put<int32_t>(kImageChecksVersion);
   out.put<int32_t>(kBlackLevel);
   out.put<int32_t>(kColourSpread);
   out.put<double>(kMonochromeFraction);
+  out.put_string(CV_VERSION);
 }
 
 // In path order, so the same entries always give the same bytes.
@@ -140,29 +145,39 @@ Entries decode(const std::string& bytes) {
   }
 }
 
-// The entries of the first usable file and its path ("" when none is).
-std::pair<Entries, std::string> read_first_usable(const std::vector<std::string>& files) {
+// The entries of every usable file, merged (earlier files first: each entry is checked against its
+// image's stamp anyway, so a valid entry is valid wherever it was found), and the files read. All
+// files, not the first: when the first place cannot be written, new entries go to a later one.
+std::pair<Entries, std::vector<std::string>> read_usable(const std::vector<std::string>& files) {
+  Entries merged;
+  std::vector<std::string> read;
   for (const auto& file : files) {
     std::error_code ec;
     if (!fs::is_regular_file(file, ec)) continue;
     try {
-      return {decode(read_file(file)), file};
+      Entries entries = decode(read_file(file));
+      merged.insert(entries.begin(), entries.end());  // keeps an earlier file's entry
+      read.push_back(file);
     } catch (const Rejected& rejected) {
       if (rejected.damaged)
-        spdlog::warn("{}: ignoring this image-check cache ({}); the images are checked again", file,
-                     rejected.reason);
+        spdlog::warn("{}: ignoring this image-check cache ({})", file, rejected.reason);
       else
-        spdlog::info("{}: {}; the images are checked again", file, rejected.reason);
-    } catch (const Error& e) {
-      spdlog::warn("ignoring an unreadable image-check cache ({}); the images are checked again", e.what());
+        spdlog::info("{}: {}; its images are checked again", file, rejected.reason);
+    } catch (const std::exception& e) {
+      spdlog::warn("ignoring an unreadable image-check cache ({})", e.what());
     }
   }
-  return {};
+  return {merged, read};
 }
 
 void write_first_writable(const std::vector<std::string>& files, const Entries& entries) {
-  const std::string bytes = encode(entries);
-  std::string problem = "no folder";
+  std::string bytes, problem = "no folder";
+  try {
+    bytes = encode(entries);
+  } catch (const std::exception& e) {
+    spdlog::warn("could not encode the image-check cache ({}); later opens check the images again", e.what());
+    return;
+  }
   for (const auto& file : files) {
     try {
       ensure_directory(fs::path(file).parent_path().string());
@@ -170,7 +185,7 @@ void write_first_writable(const std::vector<std::string>& files, const Entries& 
       spdlog::info("image checks of {} images cached in {} ({:.2f} MB); later opens read them",
                    entries.size(), file, bytes.size() / 1e6);
       return;
-    } catch (const Error& e) {
+    } catch (const std::exception& e) {
       problem = e.what();
     }
   }
@@ -190,25 +205,29 @@ std::vector<std::string> scan_cache_files(const std::string& setting, const std:
 std::vector<ImageScan> scan_images(const std::vector<std::string>& paths,
                                    const std::vector<std::string>& cache_files,
                                    const std::string& images_dir, ScanCounts* counts) {
-  using namespace scan_cache_detail;
-  auto [entries, source] = read_first_usable(cache_files);
+  namespace detail = scan_cache_detail;
+  auto [entries, sources] = detail::read_usable(cache_files);
   const fs::path root = fs::path(images_dir).lexically_normal();
   const int64_t n = static_cast<int64_t>(paths.size());
   std::vector<ImageScan> scans(paths.size());
   std::vector<std::string> keys(paths.size());
-  std::vector<FileStamp> stamps(paths.size());
-  // 0: read from the cache; 1: scanned, to be stored; 2: scanned, not stored (no stat).
+  std::vector<detail::FileStamp> stamps(paths.size());
+  // 0: read from the cache; 1: scanned, to be stored; 2: scanned, not stored.
   std::vector<uint8_t> state(paths.size(), 0);
 #pragma omp parallel for schedule(dynamic, 4)
   for (int64_t i = 0; i < n; ++i) {  // nothing here throws but allocation
-    keys[i] = key_of(paths[i], root);
-    const bool stat_ok = stamp_of(paths[i], stamps[i]);
+    keys[i] = detail::key_of(paths[i], root);
+    const bool stat_ok = detail::stamp_of(paths[i], stamps[i]);
     const auto found = stat_ok ? entries.find(keys[i]) : entries.end();
     if (found != entries.end() && found->second.stamp == stamps[i]) {
       scans[i] = found->second.scan;
     } else {
       scans[i] = scan_image(paths[i]);
-      state[i] = stat_ok ? 1 : 2;
+      // Not stored: a file that could not be stat-ed, or read or decoded with no damage named (a
+      // permission, an I/O error or memory can be the cause, and none of them changes the stamp
+      // when it is fixed); such a file is checked again at every open.
+      const bool unexplained = !scans[i].readable && scans[i].damage.empty();
+      state[i] = stat_ok && !unexplained ? 1 : 2;
     }
   }
   ScanCounts counted;
@@ -226,8 +245,8 @@ std::vector<ImageScan> scan_images(const std::vector<std::string>& paths,
   }
   if (!cache_files.empty())
     spdlog::info("image checks: {} from the cache{}, {} scanned", counted.cached,
-                 source.empty() ? "" : " (" + source + ")", counted.scanned);
-  if (changed && !cache_files.empty()) write_first_writable(cache_files, entries);
+                 sources.empty() ? "" : " (" + join(sources, ", ") + ")", counted.scanned);
+  if (changed && !cache_files.empty()) detail::write_first_writable(cache_files, entries);
   if (counts) *counts = counted;
   return scans;
 }

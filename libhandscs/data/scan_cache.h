@@ -5,12 +5,17 @@
 // size or time changed, and reads the others' results after a stat.
 //
 // A cache file is used only when its header matches (format, kImageChecksVersion, the checks'
-// constants) and its payload's checksum matches; a damaged or foreign file is reported, ignored and
-// rewritten. An image rewritten in place with the same size and the same nanosecond time stamp
-// would keep its old result. Writes are atomic; entries of images not opened this time are kept, so
-// opens of different selections of one capture share a file.
+// constants, OpenCV's version) and its payload's checksum matches; a damaged or foreign file is
+// reported, ignored and rewritten. Every usable file of the lookup order is read and merged, and the
+// first writable one written. Not stored: images that could not be stat-ed, and unreadable ones
+// with no damage named (a permission or I/O error looks the same and leaves the stamp unchanged
+// when fixed). Not noticed: a change that keeps an image's size and time stamp (tools that preserve
+// times, bit rot, a rewrite within the file system's time granularity). Writes are atomic and keep
+// the entries of images not opened this time; of two processes writing at once the last one wins,
+// and the other's new entries are checked again at a later open.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <vector>
 

@@ -82,15 +82,17 @@ int main(int argc, char** argv) {
                                   ("handscs_bench_masks_" + std::to_string(::getpid())))
                                      .string();
     std::filesystem::remove_all(mask_dir);
-    // Opens without the image-check cache (every image scanned; the annotation cache warmed), then
-    // with a fresh one (scanned and stored), then again (every result read from it).
+    // An untimed open (the process's one-off start costs; the annotation cache warmed), then opens
+    // without the image-check cache (every image checked), with a fresh one (checked and stored),
+    // and again (every result read from it).
     const std::string scan_dir = (std::filesystem::temp_directory_path() /
                                   ("handscs_bench_scans_" + std::to_string(::getpid())))
                                      .string();
     std::filesystem::remove_all(scan_dir);
     const double rss_start = status_mb("VmRSS");
-    auto start = Clock::now();
     config.scan_cache = "off";
+    (void)handscs::Capture::open(config, mask_dir);
+    auto start = Clock::now();
     (void)handscs::Capture::open(config, mask_dir);
     out["open_no_scan_cache_s"] = seconds_since(start);
     config.scan_cache = scan_dir;
@@ -99,7 +101,7 @@ int main(int argc, char** argv) {
     out["open_scan_cache_first_s"] = seconds_since(start);
     start = Clock::now();
     handscs::Capture capture = handscs::Capture::open(config, mask_dir);
-    out["open_s"] = seconds_since(start);  // the scan cache's results read
+    out["open_scan_cache_later_s"] = seconds_since(start);
     std::filesystem::remove_all(scan_dir);
     out["images"] = capture.frames().size();
     out["train_images"] = capture.train().size();

@@ -1,17 +1,18 @@
 // The image-check cache (data/scan_cache.h): its results equal scan_image's field for field, read or
-// scanned; a second open scans nothing; an image whose size or time changed is scanned again; a
-// damaged or foreign cache file is ignored and rewritten; entries of images not opened are kept; an
-// unwritable first place falls back to the next; "off" names no file; a capture opened twice
-// selects the same frames, the second time from the cache.
+// scanned; a second open scans nothing; an image whose size or time alone changed is scanned again;
+// an unreadable image with no damage named is not stored; a damaged, foreign or other-version cache
+// file is ignored and rewritten; entries of images not opened are kept; an unwritable first place
+// falls back to the next, whose entries later opens use; a capture opened twice selects the same
+// frames and skips the same images, the second time without writing the cache; "off" writes none.
 #include <catch2/catch.hpp>
 
+#include <chrono>
 #include <filesystem>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/atomic_file.h"
-#include "data/cache_files.h"
 #include "data/capture.h"
 #include "data/capture_layout.h"
 #include "data/scan_cache.h"
@@ -83,18 +84,32 @@ TEST_CASE("scan cache: an image whose size or time changed is scanned again") {
   handscs::ScanCounts counts;
   (void)handscs::scan_images(paths, files, images, &counts);
 
-  // The colour sample replaced by a black image (another size): scanned again, now black.
+  // The colour sample replaced by a black image of another size, its old time put back: only the
+  // size tells.
+  const auto time = fs::last_write_time(paths[0]);
   write_jpeg(paths[0], cv::Mat(334, 512, CV_8UC3, cv::Scalar(0, 0, 0)));
+  fs::last_write_time(paths[0], time);
   auto scans = handscs::scan_images(paths, files, images, &counts);
   CHECK(counts.scanned == 2);  // the changed image and the missing one
   CHECK(scans[0].black);
   check_same(scans, paths);
 
-  // Only the time changes (same bytes): scanned again as well.
-  fs::last_write_time(paths[1], fs::last_write_time(paths[1]) + std::chrono::seconds(5));
+  // Only the time changes, by a microsecond (same bytes): scanned again as well.
+  fs::last_write_time(paths[1], fs::last_write_time(paths[1]) + std::chrono::microseconds(1));
   scans = handscs::scan_images(paths, files, images, &counts);
   CHECK(counts.scanned == 2);
   check_same(scans, paths);
+
+  // An unreadable image with no damage named (a .png that is not one: only JPEGs are walked) is
+  // checked at every open.
+  auto with_broken = paths;
+  with_broken.push_back(write_text(images + "/seq/cam6/broken.png", "not an image"));
+  for (int open = 0; open < 2; ++open) {
+    scans = handscs::scan_images(with_broken, files, images, &counts);
+    CHECK_FALSE(scans.back().readable);
+    CHECK(scans.back().damage.empty());
+    CHECK(counts.scanned == 2);  // it and the missing one
+  }
 }
 
 TEST_CASE("scan cache: a damaged or foreign cache file is ignored and rewritten") {
@@ -105,11 +120,17 @@ TEST_CASE("scan cache: a damaged or foreign cache file is ignored and rewritten"
   handscs::ScanCounts counts;
   (void)handscs::scan_images(paths, {file}, images, &counts);
   const std::string good = handscs::read_file(file);
+  // The format version follows the magic (19 bytes with its NUL); the checks' version follows that.
+  std::string other_format = good, other_checks = good;
+  other_format[19] ^= 1;
+  other_checks[23] ^= 1;
   const std::vector<std::pair<std::string, std::string>> bad{
       {"garbage", "not a cache at all"},
       {"truncated", good.substr(0, good.size() - 3)},
       {"a flipped payload byte", good.substr(0, good.size() - 1) + char(good.back() ^ 0x20)},
-      {"empty", ""}};
+      {"empty", ""},
+      {"another format", other_format},
+      {"another version of the checks", other_checks}};
   for (const auto& [what, bytes] : bad) {
     INFO(what);
     write_text(file, bytes);
@@ -134,10 +155,14 @@ TEST_CASE("scan cache: entries of images not opened are kept; off writes nothing
   check_same(handscs::scan_images(paths, files, images, &counts), paths);
   CHECK(counts.cached == paths.size() - 1);  // both opens' images, all but the missing one
 
-  // "off": no files, so every image is scanned (and nothing can be written).
-  CHECK(handscs::scan_cache_files("off", images, 0).empty());
-  check_same(handscs::scan_images(paths, {}, images, &counts), paths);
-  CHECK(counts.scanned == paths.size());
+  // Every usable file is read: entries of the second place count while the first holds others (as
+  // when a valid first file cannot be rewritten and new entries went to the second).
+  const std::string other = dir + "/other/c.scans";
+  (void)handscs::scan_images(first, {other}, images, &counts);  // the first two images only
+  fs::remove(files[1]);
+  (void)handscs::scan_images(rest, {files[1]}, images, &counts);  // the others only
+  check_same(handscs::scan_images(paths, {other, files[1]}, images, &counts), paths);
+  CHECK(counts.cached == paths.size() - 1);
 }
 
 TEST_CASE("scan cache: where the files go") {
@@ -157,13 +182,34 @@ TEST_CASE("scan cache: a capture opened twice selects the same frames, the secon
   const std::string root = copy_of_tiny("scan_cache_capture");
   handscs::CaptureConfig config = tiny_config(root);
   config.annotation_cache = "off";
-  const auto a = handscs::Capture::open(config);
   const std::string images_dir = handscs::resolve_capture_layout(root, config.split).images_dir;
   const auto files = handscs::scan_cache_files(config.scan_cache, images_dir, config.capture);
   REQUIRE_FALSE(files.empty());
+  fs::remove_all(fs::path(files[0]).parent_path());  // a cache the tiny capture's earlier opens wrote
+  // One image black (skipped as such) and one cut short (a damaged JPEG).
+  const auto frames = handscs::Capture::open(config).frames();
+  REQUIRE(frames.size() > 2);
+  write_jpeg(frames[0].image_path, cv::Mat(frames[0].camera.height, frames[0].camera.width, CV_8UC3,
+                                           cv::Scalar(0, 0, 0)));
+  const std::string bytes = handscs::read_file(frames[1].image_path);
+  write_text(frames[1].image_path, bytes.substr(0, bytes.size() / 2));
+  fs::remove_all(fs::path(files[0]).parent_path());
+
+  const auto a = handscs::Capture::open(config);
   REQUIRE(fs::is_regular_file(files[0]));
+  const auto written = fs::last_write_time(files[0]);
   const auto b = handscs::Capture::open(config);
+  CHECK(fs::last_write_time(files[0]) == written);  // nothing new to store: every result was read
   REQUIRE(a.frames().size() == b.frames().size());
+  CHECK(a.frames().size() == frames.size() - 2);
   for (size_t i = 0; i < a.frames().size(); ++i) CHECK(a.frames()[i].image_path == b.frames()[i].image_path);
-  CHECK(a.skipped().size() == b.skipped().size());
+  REQUIRE(a.skipped().size() == b.skipped().size());
+  for (size_t i = 0; i < a.skipped().size(); ++i) CHECK(a.skipped()[i].reason == b.skipped()[i].reason);
+
+  // "off": no file is written.
+  fs::remove_all(fs::path(files[0]).parent_path());
+  config.scan_cache = "off";
+  const auto c = handscs::Capture::open(config);
+  CHECK(c.frames().size() == a.frames().size());
+  CHECK_FALSE(fs::exists(fs::path(files[0]).parent_path()));
 }
