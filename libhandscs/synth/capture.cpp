@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -40,6 +41,24 @@ const Vec3 kHandCentre = {0.03, -0.08, 1.05};
 constexpr double kDrift = 0.008;
 
 // "0000_synth_rom" (range of motion) or "0000_synth_gestures".
+// One row per pose: its sequence and frame index (the images' imageN.jpg), whether it is in the
+// held-out tail, the gesture the hand moves to ("" in range of motion) and whether training ever
+// sees that gesture; for scoring held-out frames by kind (scripts/frame_groups.py).
+std::string frames_csv(const SynthScene& scene, int held_out_frames) {
+  std::map<std::string, bool> unseen;
+  for (const Gesture& g : gesture_vocabulary()) unseen[g.name] = g.held_out_only;
+  std::string text = "seq_name,frame_idx,held_out,gesture,gesture_in_training\n";
+  const int64_t n = static_cast<int64_t>(scene.frames.size());
+  for (int64_t k = 0; k < n; ++k) {
+    const SynthFrame& f = scene.frames[k];
+    const bool known = !f.gesture.empty();
+    text += f.seq_name + "," + std::to_string(f.frame_idx) + "," +
+            (k >= n - held_out_frames ? "1" : "0") + "," + f.gesture + "," +
+            (known ? (unseen.at(f.gesture) ? "0" : "1") : "") + "\n";
+  }
+  return text;
+}
+
 std::string sequence_name(int index, const char* motion) {
   char name[48];
   std::snprintf(name, sizeof(name), "%04d_synth_%s", index, motion);
@@ -406,6 +425,7 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
   // The resolved generator settings, beside (not inside) the InterHand layout.
   SynthConfig resolved = c;
   write_file_atomic((root / "synth.json").string(), config_to_json(resolved).dump(2));
+  write_file_atomic((root / "frames.csv").string(), frames_csv(scene, c.held_out_frames));
   for (int64_t s : sizes) bytes += s;
   SynthReport report;
   report.images = num_images;

@@ -69,7 +69,7 @@ TEST_CASE("synth: output is a function of the seed, not of the thread count") {
     CHECK(read_file(entry.path().string()) == read_file(other.string()));
     ++files;
   }
-  CHECK(files == 4 * 2 + 4 + 1);  // images, the four annotation files, synth.json
+  CHECK(files == 4 * 2 + 4 + 2);  // images, the four annotation files, synth.json, frames.csv
   config.seed = 2;
   const SynthScene other_seed = make_synth_scene(config);
   const SynthScene same_seed = make_synth_scene(synth_preset("tiny"));

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <set>
+#include <sstream>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -298,6 +299,32 @@ TEST_CASE("synth effects: the realistic capture is the same on any thread count"
     regions += entry.path().extension() == ".png";
   }
   CHECK(regions == 4 * 12);
-  CHECK(files == 2 * 4 * 12 + 4 + 2);  // images, masks, annotations, legend, synth.json
+  CHECK(files == 2 * 4 * 12 + 4 + 3);  // images, masks, annotations, legend, synth.json, frames.csv
   CHECK(fs::exists(fs::path(one) / "regions" / "regions.json"));
+
+  // frames.csv: one row per pose, the held-out tail marked, gestures training never sees only there.
+  const SynthConfig preset = synth_preset("real_tiny");
+  std::istringstream csv(read_file((fs::path(one) / "frames.csv").string()));
+  std::string line;
+  std::getline(csv, line);
+  CHECK(line == "seq_name,frame_idx,held_out,gesture,gesture_in_training");
+  std::set<std::string> unseen;
+  for (const Gesture& g : gesture_vocabulary())
+    if (g.held_out_only) unseen.insert(g.name);
+  int rows = 0, held_out_rows = 0;
+  while (std::getline(csv, line)) {
+    std::vector<std::string> cells;
+    std::stringstream fields(line);
+    for (std::string cell; std::getline(fields, cell, ',');) cells.push_back(cell);
+    REQUIRE(cells.size() == 5);
+    CHECK(std::stoll(cells[1]) == rows * preset.frame_step);
+    const bool held_out = cells[2] == "1";
+    CHECK(held_out == (rows >= preset.num_frames - preset.held_out_frames));
+    held_out_rows += held_out;
+    CHECK(cells[4] == (unseen.count(cells[3]) ? "0" : "1"));
+    if (!held_out) CHECK(cells[4] == "1");
+    ++rows;
+  }
+  CHECK(rows == preset.num_frames);
+  CHECK(held_out_rows == preset.held_out_frames);
 }
