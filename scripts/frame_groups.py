@@ -1,14 +1,17 @@
 #!/usr/bin/python3
-"""Held-out scores split by what the pose is: a gesture training saw, or one it never saw.
+"""Held-out scores split by what the pose is: a gesture some training pose moves to, or one none does.
 
     /usr/bin/python3 scripts/frame_groups.py CAPTURE/frames.csv RUN_OR_CSV... [--csv OUT.csv]
 
 CAPTURE/frames.csv is written by handscs-synth (one row per pose: sequence, frame index, held out,
-the gesture the hand moves to, whether training ever sees that gesture). Each further argument is a
+the gesture the hand moves to, whether any training pose moves to that gesture). Its held-out rows
+are the poses a run holds out when data.held_out_poses equals the generator's held_out_frames and
+frame_stride is 1; a scored image of any other pose is an error. Each further argument is a
 handscs-eval per_image.csv, a run folder (RUN/eval/per_image.csv) or a handscs-bench sweep folder
 (every SWEEP/runs/*/eval/per_image.csv). Prints one Markdown row per run: images, PSNR, SSIM and
-LPIPS of the held-out images whose gesture training saw and of those it never saw. Images that
-failed, or whose metric is missing or not finite, are left out of that metric and counted.
+LPIPS of the held-out images of gestures training saw ("seen") and of those it never saw
+("unseen"). A metric value that is missing, not finite, or of an image that failed is left out of
+its mean and counted in "values left out" (unlike handscs-eval, a partial LPIPS mean is printed).
 """
 import csv
 import math
@@ -26,6 +29,9 @@ def read_frames(path):
     groups = {}
     with open(path, newline='') as f:
         for row in csv.DictReader(f):
+            missing = [c for c in ('seq_name', 'frame_idx', 'held_out', 'gesture_in_training') if c not in row]
+            if missing:
+                sys.exit(f'{path}: no column {missing[0]} (not a handscs-synth frames.csv?)')
             if row['held_out'] != '1':
                 continue
             if row['gesture_in_training'] not in ('0', '1'):
@@ -45,15 +51,21 @@ def per_image_files(arg):
     runs = os.path.join(arg, 'runs')
     if os.path.isdir(runs):
         found = [(name, os.path.join(runs, name, 'eval', 'per_image.csv')) for name in sorted(os.listdir(runs))]
+        for name, path in found:
+            if not os.path.isfile(path):
+                print(f'warning: {path} missing: run {name} left out', file=sys.stderr)
         return [(name, path) for name, path in found if os.path.isfile(path)]
     sys.exit(f'{arg}: not a per_image.csv, a run folder with eval/per_image.csv, or a sweep folder')
 
 
 def score(groups, path):
-    sums = {g: {m: [] for m in METRICS} for g in GROUPS}
+    values = {g: {m: [] for m in METRICS} for g in GROUPS}
     skipped = 0
     with open(path, newline='') as f:
-        for row in csv.DictReader(f):
+        reader = csv.DictReader(f)
+        if 'name' not in (reader.fieldnames or []):
+            sys.exit(f'{path}: no column name (not a handscs-eval per_image.csv?)')
+        for row in reader:
             match = NAME.match(row['name'])
             if not match:
                 sys.exit(f'{path}: image name {row["name"]!r} is not <capture>/<sequence>/cam<id>/image<frame>.jpg')
@@ -68,9 +80,9 @@ def score(groups, path):
                 if row.get('status', 'ok') != 'ok' or not math.isfinite(value):
                     skipped += 1
                     continue
-                sums[group][m].append(value)
+                values[group][m].append(value)
     return {g: {m: (sum(v) / len(v) if v else math.nan, len(v)) for m, v in ms.items()}
-            for g, ms in sums.items()}, skipped
+            for g, ms in values.items()}, skipped
 
 
 def main():
@@ -97,7 +109,7 @@ def main():
             row.append(scores[g]['psnr'][1])
             row += [scores[g][m][0] for m in METRICS]
         rows.append(row + [skipped])
-    print('| run | seen: images | PSNR | SSIM | LPIPS | unseen: images | PSNR | SSIM | LPIPS | left out |')
+    print('| run | seen: images | PSNR | SSIM | LPIPS | unseen: images | PSNR | SSIM | LPIPS | values left out |')
     print('|---|---|---|---|---|---|---|---|---|---|')
     for row in rows:
         cells = [row[0]] + [str(row[1]), f'{row[2]:.3f}', f'{row[3]:.4f}', f'{row[4]:.4f}',
@@ -105,7 +117,7 @@ def main():
         print('| ' + ' | '.join(cells) + ' |')
     if out_csv:
         with open(out_csv, 'w', newline='') as f:
-            writer = csv.writer(f)
+            writer = csv.writer(f, lineterminator='\n')
             writer.writerow(header)
             writer.writerows(rows)
 

@@ -6,7 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <map>
+#include <set>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -40,25 +40,27 @@ const Vec3 kHandCentre = {0.03, -0.08, 1.05};
 // Slow drift of the hand around its centre (m), so trans varies as in real captures.
 constexpr double kDrift = 0.008;
 
-// "0000_synth_rom" (range of motion) or "0000_synth_gestures".
 // One row per pose: its sequence and frame index (the images' imageN.jpg), whether it is in the
-// held-out tail, the gesture the hand moves to ("" in range of motion) and whether training ever
-// sees that gesture; for scoring held-out frames by kind (scripts/frame_groups.py).
+// held-out tail (the poses data.held_out_poses = held_out_frames holds out with frame_stride 1 and
+// no pose lost to skipped images), the gesture the hand moves to ("" in range of motion) and
+// whether any training pose moves to that gesture; for scoring held-out frames by kind
+// (scripts/frame_groups.py).
 std::string frames_csv(const SynthScene& scene, int held_out_frames) {
-  std::map<std::string, bool> unseen;
-  for (const Gesture& g : gesture_vocabulary()) unseen[g.name] = g.held_out_only;
-  std::string text = "seq_name,frame_idx,held_out,gesture,gesture_in_training\n";
   const int64_t n = static_cast<int64_t>(scene.frames.size());
+  const int64_t first_held_out = n - std::min<int64_t>(n, std::max(0, held_out_frames));
+  std::set<std::string> trained;
+  for (int64_t k = 0; k < first_held_out; ++k) trained.insert(scene.frames[k].gesture);
+  std::string text = "seq_name,frame_idx,held_out,gesture,gesture_in_training\n";
   for (int64_t k = 0; k < n; ++k) {
     const SynthFrame& f = scene.frames[k];
-    const bool known = !f.gesture.empty();
-    text += f.seq_name + "," + std::to_string(f.frame_idx) + "," +
-            (k >= n - held_out_frames ? "1" : "0") + "," + f.gesture + "," +
-            (known ? (unseen.at(f.gesture) ? "0" : "1") : "") + "\n";
+    const std::string in_training = f.gesture.empty() ? "" : trained.count(f.gesture) ? "1" : "0";
+    text += f.seq_name + "," + std::to_string(f.frame_idx) + "," + (k >= first_held_out ? "1" : "0") +
+            "," + f.gesture + "," + in_training + "\n";
   }
   return text;
 }
 
+// "0000_synth_rom" (range of motion) or "0000_synth_gestures".
 std::string sequence_name(int index, const char* motion) {
   char name[48];
   std::snprintf(name, sizeof(name), "%04d_synth_%s", index, motion);
