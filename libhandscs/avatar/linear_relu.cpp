@@ -5,11 +5,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <utility>
 #include <vector>
 
 #include <ATen/Parallel.h>
+#include <c10/util/BFloat16.h>
 #include <torch/autograd.h>
 
 #include "core/simd_level.h"
@@ -29,20 +29,10 @@ constexpr int64_t kRowBlock = 256;
 constexpr int64_t kForwardGrain = 64;
 constexpr uint16_t kBf16Nan = 0x7FC0;  // the quiet NaN c10::BFloat16's conversion writes
 
-inline float from_bf16(uint16_t h) {
-  const uint32_t bits = uint32_t(h) << 16;
-  float f;
-  std::memcpy(&f, &bits, sizeof f);
-  return f;
-}
-
-// Round to nearest even, NaN to kBf16Nan: c10::BFloat16's conversion.
-inline uint16_t to_bf16(float f) {
-  if (std::isnan(f)) return kBf16Nan;
-  uint32_t bits;
-  std::memcpy(&bits, &f, sizeof bits);
-  return static_cast<uint16_t>((bits + 0x7FFFu + ((bits >> 16) & 1u)) >> 16);
-}
+// c10's conversions (LibTorch's own): bits to float, and float to bits rounded to nearest even with
+// NaN as kBf16Nan.
+inline float from_bf16(uint16_t h) { return c10::detail::f32_from_bits(h); }
+inline uint16_t to_bf16(float f) { return c10::detail::round_to_nearest_even(f); }
 
 inline float relu_keep_nan(float v) { return v > 0.0f || std::isnan(v) ? v : 0.0f; }
 

@@ -14,6 +14,7 @@
 
 #include "core/atomic_file.h"
 #include "core/config.h"
+#include "core/csv_table.h"
 #include "core/error.h"
 #include "core/progress.h"
 #include "core/threads.h"
@@ -45,19 +46,20 @@ constexpr double kDrift = 0.008;
 // no pose lost to skipped images), the gesture the hand moves to ("" in range of motion) and
 // whether any training pose moves to that gesture; for scoring held-out frames by kind
 // (scripts/frame_groups.py).
-std::string frames_csv(const SynthScene& scene, int held_out_frames) {
+CsvTable frames_csv(const SynthScene& scene, int held_out_frames) {
   const int64_t n = static_cast<int64_t>(scene.frames.size());
   const int64_t first_held_out = n - std::min<int64_t>(n, std::max(0, held_out_frames));
   std::set<std::string> trained;
   for (int64_t k = 0; k < first_held_out; ++k) trained.insert(scene.frames[k].gesture);
-  std::string text = "seq_name,frame_idx,held_out,gesture,gesture_in_training\n";
+  CsvTable table;
+  table.header = {"seq_name", "frame_idx", "held_out", "gesture", "gesture_in_training"};
   for (int64_t k = 0; k < n; ++k) {
     const SynthFrame& f = scene.frames[k];
     const std::string in_training = f.gesture.empty() ? "" : trained.count(f.gesture) ? "1" : "0";
-    text += f.seq_name + "," + std::to_string(f.frame_idx) + "," + (k >= first_held_out ? "1" : "0") +
-            "," + f.gesture + "," + in_training + "\n";
+    table.rows.push_back({f.seq_name, std::to_string(f.frame_idx), k >= first_held_out ? "1" : "0",
+                          f.gesture, in_training});
   }
-  return text;
+  return table;
 }
 
 // "0000_synth_rom" (range of motion) or "0000_synth_gestures".
@@ -427,7 +429,7 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
   // The resolved generator settings, beside (not inside) the InterHand layout.
   SynthConfig resolved = c;
   write_file_atomic((root / "synth.json").string(), config_to_json(resolved).dump(2));
-  write_file_atomic((root / "frames.csv").string(), frames_csv(scene, c.held_out_frames));
+  write_csv_atomic((root / "frames.csv").string(), frames_csv(scene, c.held_out_frames));
   for (int64_t s : sizes) bytes += s;
   SynthReport report;
   report.images = num_images;

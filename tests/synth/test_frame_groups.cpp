@@ -5,11 +5,11 @@
 
 #include <cmath>
 #include <cstdlib>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "core/atomic_file.h"
+#include "core/csv_table.h"
 #include "data/data_test_helpers.h"
 
 namespace {
@@ -19,19 +19,6 @@ std::string python() {
     if (std::system((std::string(candidate) + " -c 'import csv' > /dev/null 2>&1").c_str()) == 0)
       return candidate;
   return "";
-}
-
-std::vector<std::vector<std::string>> read_csv(const std::string& path) {
-  std::vector<std::vector<std::string>> rows;
-  std::istringstream in(handscs::read_file(path));
-  for (std::string line; std::getline(in, line);) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();  // Python's csv writes \r\n
-    std::vector<std::string> cells;
-    std::stringstream fields(line);
-    for (std::string cell; std::getline(fields, cell, ',');) cells.push_back(cell);
-    rows.push_back(cells);
-  }
-  return rows;
 }
 
 }  // namespace
@@ -74,16 +61,17 @@ TEST_CASE("frame_groups.py: held-out means per gesture kind equal the means comp
   const std::string command = py + " '" + script + "' '" + dir + "/frames.csv' '" + dir + "/run' --csv '" +
                               dir + "/out.csv' > '" + dir + "/log' 2>&1";
   REQUIRE(std::system(command.c_str()) == 0);
-  const auto rows = read_csv(dir + "/out.csv");
-  REQUIRE(rows.size() == 2);
-  REQUIRE(rows[1].size() == 10);
-  CHECK(rows[1][0] == "run");
+  const handscs::CsvTable out = handscs::read_csv(dir + "/out.csv");
+  REQUIRE(out.rows.size() == 1);
+  const auto& row = out.rows[0];
+  REQUIRE(row.size() == 10);
+  CHECK(row[0] == "run");
   for (int group = 0; group < 2; ++group) {
     INFO((group ? "unseen" : "seen"));
-    CHECK(std::stoi(rows[1][1 + 4 * group]) == count[group][0]);
-    for (int m = 0; m < 3; ++m) CHECK(std::stod(rows[1][2 + 4 * group + m]) == Approx(sum[group][m] / count[group][m]).epsilon(1e-9));
+    CHECK(std::stoi(row[1 + 4 * group]) == count[group][0]);
+    for (int m = 0; m < 3; ++m) CHECK(std::stod(row[2 + 4 * group + m]) == Approx(sum[group][m] / count[group][m]).epsilon(1e-9));
   }
-  CHECK(rows[1][9] == "4");  // the failed image's three metrics and one missing LPIPS
+  CHECK(row[9] == "4");  // the failed image's three metrics and one missing LPIPS
 
   // An image that is not a held-out frame of frames.csv: refused, naming it.
   data_test::write_text(dir + "/bad/eval/per_image.csv",

@@ -7,11 +7,11 @@
 #include <cmath>
 #include <filesystem>
 #include <set>
-#include <sstream>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "core/atomic_file.h"
+#include "core/csv_table.h"
 #include "core/threads.h"
 #include "data/capture.h"
 #include "data/data_test_helpers.h"
@@ -307,18 +307,10 @@ TEST_CASE("synth effects: the realistic capture is the same on any thread count"
   // "in training" exactly when a training row moves to it, and the vocabulary's held-out-only
   // gestures never are.
   const SynthConfig preset = synth_preset("real_tiny");
-  std::istringstream csv(read_file((fs::path(one) / "frames.csv").string()));
-  std::string line;
-  std::getline(csv, line);
-  CHECK(line == "seq_name,frame_idx,held_out,gesture,gesture_in_training");
-  std::vector<std::vector<std::string>> rows;
-  while (std::getline(csv, line)) {
-    std::vector<std::string> cells;
-    std::stringstream fields(line);
-    for (std::string cell; std::getline(fields, cell, ',');) cells.push_back(cell);
-    REQUIRE(cells.size() == 5);
-    rows.push_back(cells);
-  }
+  const CsvTable frames = read_csv((fs::path(one) / "frames.csv").string());
+  CHECK(frames.header ==
+        std::vector<std::string>{"seq_name", "frame_idx", "held_out", "gesture", "gesture_in_training"});
+  const auto& rows = frames.rows;
   REQUIRE(rows.size() == static_cast<size_t>(preset.num_frames));
   std::set<std::string> trained, unseen;
   std::set<int64_t> held_out_frames;
