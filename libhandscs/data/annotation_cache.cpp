@@ -64,13 +64,6 @@ SourceStamp stamp_of(const std::string& source) {
   return stamp;
 }
 
-// Why a cache file is not used. `damaged`: say so as a warning; otherwise (a changed source) the
-// rebuild is routine.
-struct Rejected {
-  std::string reason;
-  bool damaged;
-};
-
 void write_header(ByteWriter& out, const char* kind, int capture, const SourceStamp& stamp) {
   out.put_array(kMagic, sizeof(kMagic));
   out.put(kFormatVersion);
@@ -82,24 +75,24 @@ void write_header(ByteWriter& out, const char* kind, int capture, const SourceSt
   out.put(stamp.edges_hash);
 }
 
-// Checks the header against what is wanted; throws Rejected or ByteStreamError.
+// Checks the header against what is wanted; throws CacheRejected or ByteStreamError.
 void check_header(ByteReader& in, const char* kind, int capture, const SourceStamp& stamp) {
   char magic[sizeof(kMagic)];
-  if (in.remaining() < sizeof(kMagic)) throw Rejected{"not a handscs annotation cache", true};
+  if (in.remaining() < sizeof(kMagic)) throw CacheRejected{"not a handscs annotation cache", true};
   in.get_array(magic, sizeof(kMagic));
   if (std::memcmp(magic, kMagic, sizeof(kMagic)) != 0)
-    throw Rejected{"not a handscs annotation cache", true};
+    throw CacheRejected{"not a handscs annotation cache", true};
   const uint32_t version = in.get<uint32_t>();
   if (version != kFormatVersion)
-    throw Rejected{"written by another version (format " + std::to_string(version) + ")", false};
-  if (in.get_string() != kind) throw Rejected{"holds another kind of annotation", true};
-  if (in.get<int32_t>() != capture) throw Rejected{"holds another capture", true};
+    throw CacheRejected{"written by another version (format " + std::to_string(version) + ")", false};
+  if (in.get_string() != kind) throw CacheRejected{"holds another kind of annotation", true};
+  if (in.get<int32_t>() != capture) throw CacheRejected{"holds another capture", true};
   SourceStamp cached;
   cached.name = in.get_string();
   cached.size = in.get<uint64_t>();
   cached.mtime_ns = in.get<int64_t>();
   cached.edges_hash = in.get<uint64_t>();
-  if (!(cached == stamp)) throw Rejected{stamp.name + " changed since it was cached", false};
+  if (!(cached == stamp)) throw CacheRejected{stamp.name + " changed since it was cached", false};
 }
 
 // ---- encodings of the three extracts ----
@@ -228,19 +221,12 @@ T cached(const std::vector<std::string>& files, const std::string& source, int c
       const std::string bytes = read_file(file);
       ByteReader in(bytes.data(), bytes.size());
       check_header(in, kind, capture, stamp);
-      const uint64_t payload_size = in.get<uint64_t>();
-      const uint64_t payload_hash = in.get<uint64_t>();
-      if (payload_size != in.remaining())
-        throw Rejected{"truncated (" + std::to_string(in.remaining()) + " of " +
-                       std::to_string(payload_size) + " payload bytes)", true};
-      const char* payload = bytes.data() + (bytes.size() - payload_size);
-      if (fnv1a64(payload, payload_size) != payload_hash) throw Rejected{"checksum mismatch", true};
-      ByteReader body(payload, payload_size);
+      ByteReader body = sealed_payload(in, bytes);
       T value = decode(body);
-      if (body.remaining() != 0) throw Rejected{"bytes left after the data", true};
+      if (body.remaining() != 0) throw CacheRejected{"bytes left after the data", true};
       spdlog::debug("{}: capture {} read from {}", source, capture, file);
       return value;
-    } catch (const Rejected& rejected) {
+    } catch (const CacheRejected& rejected) {
       if (rejected.damaged)
         spdlog::warn("{}: ignoring this annotation cache ({}); reading {} again", file,
                      rejected.reason, source);
@@ -257,25 +243,17 @@ T cached(const std::vector<std::string>& files, const std::string& source, int c
   T value = read();
   ByteWriter payload;
   encode(payload, value);
-  ByteWriter out;
-  write_header(out, kind, capture, stamp);
-  out.put<uint64_t>(payload.bytes().size());
-  out.put<uint64_t>(fnv1a64(payload.bytes().data(), payload.bytes().size()));
-  const std::string bytes = out.bytes() + payload.bytes();
-  std::vector<std::string> problems;
-  for (const auto& file : files) {
-    try {
-      ensure_directory(fs::path(file).parent_path().string());
-      write_file_atomic(file, bytes);
-      spdlog::info("{}: capture {} cached in {} ({:.2f} MB); later opens read it from there",
-                   source, capture, file, bytes.size() / 1e6);
-      return value;
-    } catch (const Error& e) {
-      problems.push_back(e.what());
-    }
-  }
-  spdlog::warn("{}: could not write an annotation cache ({}); later opens read the file again",
-               source, problems.empty() ? std::string("no folder") : problems.back());
+  ByteWriter header;
+  write_header(header, kind, capture, stamp);
+  const std::string bytes = sealed_cache(header.bytes(), payload.bytes());
+  std::string problem;
+  const std::string written = write_first_writable(files, bytes, problem);
+  if (!written.empty())
+    spdlog::info("{}: capture {} cached in {} ({:.2f} MB); later opens read it from there", source,
+                 capture, written, bytes.size() / 1e6);
+  else
+    spdlog::warn("{}: could not write an annotation cache ({}); later opens read the file again",
+                 source, problem);
   return value;
 }
 

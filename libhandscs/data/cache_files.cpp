@@ -4,6 +4,8 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "core/hash.h"
 
 namespace handscs {
@@ -45,6 +47,40 @@ std::vector<std::string> cache_files_for(const std::string& setting, const std::
   const std::string user = user_cache_folder(kind);
   if (!user.empty()) files.push_back((fs::path(user) / shared_name).string());
   return files;
+}
+
+std::string sealed_cache(const std::string& header, const std::string& payload) {
+  ByteWriter sizes;
+  sizes.put<uint64_t>(payload.size());
+  sizes.put<uint64_t>(fnv1a64(payload));
+  return header + sizes.bytes() + payload;
+}
+
+ByteReader sealed_payload(ByteReader& in, const std::string& bytes) {
+  const uint64_t payload_size = in.get<uint64_t>();
+  const uint64_t payload_hash = in.get<uint64_t>();
+  if (payload_size != in.remaining())
+    throw CacheRejected{"truncated (" + std::to_string(in.remaining()) + " of " +
+                            std::to_string(payload_size) + " payload bytes)",
+                        true};
+  const char* payload = bytes.data() + (bytes.size() - payload_size);
+  if (fnv1a64(payload, payload_size) != payload_hash) throw CacheRejected{"checksum mismatch", true};
+  return ByteReader(payload, payload_size);
+}
+
+std::string write_first_writable(const std::vector<std::string>& files, const std::string& bytes,
+                                 std::string& problem) {
+  problem = "no folder";
+  for (const auto& file : files) {
+    try {
+      ensure_directory(fs::path(file).parent_path().string());
+      write_file_atomic(file, bytes);
+      return file;
+    } catch (const std::exception& e) {
+      problem = e.what();
+    }
+  }
+  return "";
 }
 
 }  // namespace handscs

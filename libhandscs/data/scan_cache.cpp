@@ -12,7 +12,6 @@
 #include "core/atomic_file.h"
 #include "core/byte_stream.h"
 #include "core/error.h"
-#include "core/hash.h"
 #include "core/text.h"
 #include "data/cache_files.h"
 
@@ -41,13 +40,6 @@ struct Entry {
 };
 
 using Entries = std::unordered_map<std::string, Entry>;  // relative path -> entry
-
-// Why a cache file is not used. `damaged`: say so as a warning; otherwise (another version wrote
-// it) rewriting it is routine.
-struct Rejected {
-  std::string reason;
-  bool damaged;
-};
 
 bool stamp_of(const std::string& path, FileStamp& stamp) {
   struct stat info {};
@@ -94,36 +86,29 @@ std::string encode(const Entries& entries) {
     payload.put<int32_t>(entry.scan.scaled_width);
     payload.put<int32_t>(entry.scan.scaled_height);
   }
-  ByteWriter out;
-  out.put_array(kMagic, sizeof(kMagic));
-  out.put(kFormatVersion);
-  put_checks_signature(out);
-  out.put<uint64_t>(payload.bytes().size());
-  out.put<uint64_t>(fnv1a64(payload.bytes()));
-  return out.bytes() + payload.bytes();
+  ByteWriter header;
+  header.put_array(kMagic, sizeof(kMagic));
+  header.put(kFormatVersion);
+  put_checks_signature(header);
+  return sealed_cache(header.bytes(), payload.bytes());
 }
 
-// The entries of a cache file; throws Rejected when it is not a usable cache.
+// The entries of a cache file; throws CacheRejected when it is not a usable cache.
 Entries decode(const std::string& bytes) {
   try {
     ByteReader in(bytes.data(), bytes.size());
     char magic[sizeof(kMagic)];
-    if (in.remaining() < sizeof(kMagic)) throw Rejected{"not a handscs image-check cache", true};
+    if (in.remaining() < sizeof(kMagic)) throw CacheRejected{"not a handscs image-check cache", true};
     in.get_array(magic, sizeof(kMagic));
     if (std::memcmp(magic, kMagic, sizeof(kMagic)) != 0)
-      throw Rejected{"not a handscs image-check cache", true};
-    if (in.get<uint32_t>() != kFormatVersion) throw Rejected{"written in another format", false};
+      throw CacheRejected{"not a handscs image-check cache", true};
+    if (in.get<uint32_t>() != kFormatVersion) throw CacheRejected{"written in another format", false};
     ByteWriter want;
     put_checks_signature(want);
     std::string signature(want.bytes().size(), '\0');
     in.get_array(&signature[0], signature.size());
-    if (signature != want.bytes()) throw Rejected{"written by another version of the checks", false};
-    const uint64_t payload_size = in.get<uint64_t>();
-    const uint64_t payload_hash = in.get<uint64_t>();
-    if (payload_size != in.remaining()) throw Rejected{"truncated", true};
-    const char* payload = bytes.data() + (bytes.size() - payload_size);
-    if (fnv1a64(payload, payload_size) != payload_hash) throw Rejected{"checksum mismatch", true};
-    ByteReader body(payload, payload_size);
+    if (signature != want.bytes()) throw CacheRejected{"written by another version of the checks", false};
+    ByteReader body = sealed_payload(in, bytes);
     Entries entries;
     // Each entry is at least a path length, the stamp, three flags, a damage length and two sizes.
     for (uint64_t n = body.get_count(8 + 16 + 3 + 8 + 8); n > 0; --n) {
@@ -138,10 +123,10 @@ Entries decode(const std::string& bytes) {
       entry.scan.scaled_width = body.get<int32_t>();
       entry.scan.scaled_height = body.get<int32_t>();
     }
-    if (body.remaining() != 0) throw Rejected{"bytes left after the entries", true};
+    if (body.remaining() != 0) throw CacheRejected{"bytes left after the entries", true};
     return entries;
   } catch (const ByteStreamError& e) {
-    throw Rejected{std::string("damaged: ") + e.what(), true};
+    throw CacheRejected{std::string("damaged: ") + e.what(), true};
   }
 }
 
@@ -158,7 +143,7 @@ std::pair<Entries, std::vector<std::string>> read_usable(const std::vector<std::
       Entries entries = decode(read_file(file));
       merged.insert(entries.begin(), entries.end());  // keeps an earlier file's entry
       read.push_back(file);
-    } catch (const Rejected& rejected) {
+    } catch (const CacheRejected& rejected) {
       if (rejected.damaged)
         spdlog::warn("{}: ignoring this image-check cache ({})", file, rejected.reason);
       else
@@ -170,27 +155,21 @@ std::pair<Entries, std::vector<std::string>> read_usable(const std::vector<std::
   return {merged, read};
 }
 
-void write_first_writable(const std::vector<std::string>& files, const Entries& entries) {
-  std::string bytes, problem = "no folder";
+void write(const std::vector<std::string>& files, const Entries& entries) {
+  std::string bytes, problem;
   try {
     bytes = encode(entries);
   } catch (const std::exception& e) {
     spdlog::warn("could not encode the image-check cache ({}); later opens check the images again", e.what());
     return;
   }
-  for (const auto& file : files) {
-    try {
-      ensure_directory(fs::path(file).parent_path().string());
-      write_file_atomic(file, bytes);
-      spdlog::info("image checks of {} images cached in {} ({:.2f} MB); later opens read them",
-                   entries.size(), file, bytes.size() / 1e6);
-      return;
-    } catch (const std::exception& e) {
-      problem = e.what();
-    }
-  }
-  spdlog::warn("could not write an image-check cache ({}); later opens check the images again",
-               problem);
+  const std::string written = write_first_writable(files, bytes, problem);
+  if (!written.empty())
+    spdlog::info("image checks of {} images cached in {} ({:.2f} MB); later opens read them",
+                 entries.size(), written, bytes.size() / 1e6);
+  else
+    spdlog::warn("could not write an image-check cache ({}); later opens check the images again",
+                 problem);
 }
 
 }  // namespace scan_cache_detail
@@ -246,7 +225,7 @@ std::vector<ImageScan> scan_images(const std::vector<std::string>& paths,
   if (!cache_files.empty())
     spdlog::info("image checks: {} from the cache{}, {} scanned", counted.cached,
                  sources.empty() ? "" : " (" + join(sources, ", ") + ")", counted.scanned);
-  if (changed && !cache_files.empty()) detail::write_first_writable(cache_files, entries);
+  if (changed && !cache_files.empty()) detail::write(cache_files, entries);
   if (counts) *counts = counted;
   return scans;
 }
