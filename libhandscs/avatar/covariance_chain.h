@@ -6,7 +6,9 @@
 // 1e-24 floor of render/rotation.h), without their ~150 small kernels and temporaries. Under
 // autograd it is one op whose backward is written out here (the forward recomputed per Gaussian):
 // in training the ops' forward + backward took 7.5 ms at 10k Gaussians. Equal to the ops to
-// rounding (tests/avatar/test_covariance_chain.cpp, in double, values and gradients).
+// rounding (tests/avatar/test_covariance_chain.cpp, in double, values and gradients). On AVX-512
+// CPUs float runs 16 Gaussians per pass (avatar/covariance_chain_lanes.inc, core/lanes.h), with the
+// plain loop's values and gradients bit for bit (tested): 2.6 -> 0.8 ms forward + backward at 10k.
 #pragma once
 
 #include <torch/types.h>

@@ -4,11 +4,15 @@
 // central finite differences of a scalar loss.
 #include "catch_torch.h"
 
+#include <cmath>
+#include <limits>
+
 #include <torch/csrc/autograd/autograd.h>
 #include <torch/types.h>
 
 #include "avatar/covariance_chain.h"
 #include "avatar/decoders.h"
+#include "core/simd_level.h"
 
 namespace {
 
@@ -95,6 +99,56 @@ TEST_CASE("covariance chain under autograd: values and gradients equal the LibTo
       // The floored quaternion's row is not trivially zero (so its branch is exercised).
       if (k == 0) CHECK(row_scale[0].item<double>() > 1e6);
     }
+  }
+}
+
+// The same bits: NaN patterns included (compared as integers).
+bool same_bits(const torch::Tensor& a, const torch::Tensor& b) {
+  return a.sizes() == b.sizes() && a.contiguous().view(torch::kInt32).equal(b.contiguous().view(torch::kInt32));
+}
+
+TEST_CASE("covariance chain: the AVX-512 pass gives the plain loop's values and gradients bit for bit") {
+  if (handscs::detected_simd_level() != handscs::SimdLevel::avx512) {
+    WARN("no AVX-512 here: the 16-lane pass is not checked");
+    return;
+  }
+  torch::manual_seed(5);
+  // 515 rows: two parallel tasks of 256 and 259, so full 16-lane blocks and a tail of 3 in each
+  // (and of 0 with the 512-row case below).
+  for (const int64_t n : {515, 512, 7}) {
+    INFO("n = " << n);
+    const auto in = random_inputs(n, torch::kFloat);
+    {
+      torch::NoGradGuard no_grad;
+      // Overflowing and non-finite values in a few rows: the lanes carry them as the loop does.
+      in.log_scales[2][1] = 100.0;
+      in.geometry_out[3][4] = std::nan("");
+      in.fusion_out[4][0] = std::numeric_limits<float>::infinity();
+    }
+    std::vector<torch::Tensor> cotangents;
+    for (const auto& o : chain_outputs(reference(in))) cotangents.push_back(torch::randn_like(o));
+    std::vector<torch::Tensor> values[2], grads[2];
+    for (const auto level : {handscs::SimdLevel::generic, handscs::SimdLevel::avx512}) {
+      handscs::set_simd_level(level);
+      const int k = level == handscs::SimdLevel::avx512;
+      {
+        torch::NoGradGuard no_grad;  // the inference loop
+        values[k] = chain_outputs(fused(in));
+      }
+      const auto under_autograd = fused(in);
+      const auto outs = chain_outputs(under_autograd);
+      for (size_t m = 0; m < outs.size(); ++m) CHECK(same_bits(outs[m], values[k][m]));
+      grads[k] = torch::autograd::grad({loss(under_autograd, cotangents)}, in.leaves());
+    }
+    handscs::set_simd_level(handscs::detected_simd_level());
+    for (size_t m = 0; m < values[0].size(); ++m) CHECK(same_bits(values[0][m], values[1][m]));
+    const char* names[] = {"rotations", "log_scales", "geometry output", "fusion output", "transforms"};
+    for (size_t m = 0; m < grads[0].size(); ++m) {
+      INFO(names[m]);
+      CHECK(same_bits(grads[0][m], grads[1][m]));
+    }
+    // The non-finite rows reach the outputs (so the comparison covers them).
+    CHECK_FALSE(torch::isfinite(values[0][0][3]).all().item<bool>());
   }
 }
 
