@@ -37,6 +37,10 @@ inline double lane_exp(double v) { return std::exp(v); }
 inline float lane_select_ge(float a, float b, float x, float y) { return a >= b ? x : y; }
 inline double lane_select_ge(double a, double b, double x, double y) { return a >= b ? x : y; }
 
+// Lane l's value (one item: itself).
+inline float lane_get(float v, int) { return v; }
+inline double lane_get(double v, int) { return v; }
+
 // v = p[0] (the stride is unused for one item); p[0] = v.
 inline void lane_load(float& v, const float* p, int64_t) { v = *p; }
 inline void lane_load(double& v, const double* p, int64_t) { v = *p; }
@@ -69,6 +73,8 @@ inline Lanes16 lane_exp(Lanes16 v) {
   return v;
 }
 inline Lanes16 lane_select_ge(Lanes16 a, Lanes16 b, Lanes16 x, Lanes16 y) { return a >= b ? x : y; }
+
+inline float lane_get(const Lanes16& v, int l) { return v[l]; }
 
 // Lane l is p[l * stride].
 inline void lane_load(Lanes16& v, const float* p, int64_t stride) {

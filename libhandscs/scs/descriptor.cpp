@@ -2,11 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 #include <vector>
 
 #include <ATen/Parallel.h>
 #include <torch/csrc/autograd/custom_function.h>
 #include <torch/types.h>
+
+#include "core/lanes.h"
+#include "core/simd_level.h"
 
 namespace handscs {
 
@@ -66,30 +70,53 @@ struct BoneArrays {
 // joints' gradient is summed per task in task order, so it does not depend on the thread count.
 constexpr int64_t kGaussiansPerTask = 256;
 
+// What the loops read: the Gaussians' x [N, 3] (contiguous), the bones, and the constants.
+template <class E>
+struct DescriptorArgs {
+  const E* x;
+  const E *ju, *b, *b_sq, *b_norm;  // BoneArrays
+  int64_t edges;
+  E eps_sq, tau_sq;
+};
+
+// One copy of the loops per instruction set (no FMA contraction in this file: CMakeLists), so each
+// gives the other's values bit for bit.
+namespace generic {
+#include "scs/static_descriptor_lanes.inc"
+}  // namespace generic
+
+#pragma GCC push_options
+#pragma GCC target("avx512f")
+namespace avx512 {
+#include "scs/static_descriptor_lanes.inc"
+}  // namespace avx512
+#pragma GCC pop_options
+
+// 16 Gaussians per AVX-512 pass where the CPU has it (float only).
+template <class T>
+bool use_avx512() {
+  return std::is_same_v<T, float> && active_simd_level() == SimdLevel::avx512;
+}
+
 template <class T>
 torch::Tensor static_descriptor_loop_typed(const torch::Tensor& x_in, const torch::Tensor& joints_in,
                                            const BoneTopology& topology, double tau, double eps) {
   const auto x = x_in.contiguous();
   const auto joints = joints_in.contiguous();
   const int64_t n = x.size(0), edges = topology.size();
-  const T* xp = x.data_ptr<T>();
   const T eps_sq = static_cast<T>(eps * eps);
   const T tau_sq = static_cast<T>(tau * tau);
   const BoneArrays<T> bones(joints.data_ptr<T>(), topology, eps_sq);
-  const T *ju = bones.ju.data(), *b = bones.b.data(), *b_norm = bones.b_norm.data();
+  const DescriptorArgs<T> args{x.data_ptr<T>(), bones.ju.data(), bones.b.data(), bones.b_sq.data(),
+                               bones.b_norm.data(), edges, eps_sq, tau_sq};
   auto out = torch::empty({n, edges}, x.options());
   T* op = out.data_ptr<T>();
+  const bool simd = use_avx512<T>();
   at::parallel_for(0, n, kGaussiansPerTask, [&](int64_t begin, int64_t end) {
-    for (int64_t i = begin; i < end; ++i) {
-      const T* xi = xp + 3 * i;
-      for (int64_t e = 0; e < edges; ++e) {
-        const T r0 = ju[3 * e] - xi[0], r1 = ju[3 * e + 1] - xi[1], r2 = ju[3 * e + 2] - xi[2];
-        const T r_sq = r0 * r0 + r1 * r1 + r2 * r2;
-        const T r_norm = std::sqrt(std::max(r_sq, eps_sq));
-        const T rho = (r0 * b[3 * e] + r1 * b[3 * e + 1] + r2 * b[3 * e + 2]) / (r_norm * b_norm[e]);
-        op[i * edges + e] = std::exp(-r_sq / tau_sq) * rho;
-      }
+    if constexpr (std::is_same_v<T, float>) {
+      if (simd) return avx512::static_descriptor_rows<Lanes16>(args, op, begin, end);
     }
+    generic::static_descriptor_rows<T>(args, op, begin, end);
   });
   return out;
 }
@@ -107,50 +134,31 @@ std::vector<torch::Tensor> static_descriptor_backward_typed(const torch::Tensor&
                                                             double tau, double eps) {
   const auto x = x_in.contiguous(), joints = joints_in.contiguous(), grad = grad_in.contiguous();
   const int64_t n = x.size(0), edges = topology.size();
-  const T* xp = x.data_ptr<T>();
   const T* gp = grad.data_ptr<T>();
   const T eps_sq = static_cast<T>(eps * eps);
   const T tau_sq = static_cast<T>(tau * tau);
   const BoneArrays<T> bones(joints.data_ptr<T>(), topology, eps_sq);
-  const T *ju = bones.ju.data(), *b = bones.b.data(), *b_norm = bones.b_norm.data();
+  const DescriptorArgs<T> args{x.data_ptr<T>(), bones.ju.data(), bones.b.data(), bones.b_sq.data(),
+                               bones.b_norm.data(), edges, eps_sq, tau_sq};
   auto grad_x = torch::empty({n, 3}, x.options());
   T* gxp = grad_x.data_ptr<T>();
   const int64_t tasks = (n + kGaussiansPerTask - 1) / kGaussiansPerTask;
   // Per task and bone: the sums of dP/dr and dP/db (weighted by the incoming gradient).
   const size_t sums = kJoints ? size_t(tasks * edges * 3) : 0;
   std::vector<T> sum_r(sums, T(0)), sum_b(sums, T(0));
+  const bool simd = use_avx512<T>();
   at::parallel_for(0, tasks, 1, [&](int64_t first, int64_t last) {
     for (int64_t task = first; task < last; ++task) {
       T* sr = kJoints ? sum_r.data() + task * edges * 3 : nullptr;
       T* sb = kJoints ? sum_b.data() + task * edges * 3 : nullptr;
-      const int64_t end = std::min(n, (task + 1) * kGaussiansPerTask);
-      for (int64_t i = task * kGaussiansPerTask; i < end; ++i) {
-        const T* xi = xp + 3 * i;
-        T gx[3] = {0, 0, 0};
-        for (int64_t e = 0; e < edges; ++e) {
-          const T g = gp[i * edges + e];
-          const T* be = b + 3 * e;
-          // The forward's terms written again: sharing one inlined helper with the forward loop made
-          // that loop (the render path) 15-18% slower (measured, 2026-11-26).
-          const T r[3] = {ju[3 * e] - xi[0], ju[3 * e + 1] - xi[1], ju[3 * e + 2] - xi[2]};
-          const T r_sq = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-          const T r_norm = std::sqrt(std::max(r_sq, eps_sq));
-          const T denom = r_norm * b_norm[e];
-          const T rho = (r[0] * be[0] + r[1] * be[1] + r[2] * be[2]) / denom;
-          const T d = std::exp(-r_sq / tau_sq);
-          const T r_term = r_sq >= eps_sq ? rho / (r_norm * r_norm) : T(0);
-          const T b_term = bones.b_sq[e] >= eps_sq ? rho / (b_norm[e] * b_norm[e]) : T(0);
-          for (int c = 0; c < 3; ++c) {
-            const T dr = g * (d * (be[c] / denom - r_term * r[c]) - 2 * d * rho * r[c] / tau_sq);
-            gx[c] -= dr;
-            if constexpr (kJoints) {
-              sr[3 * e + c] += dr;
-              sb[3 * e + c] += g * d * (r[c] / denom - b_term * be[c]);
-            }
-          }
+      const int64_t begin = task * kGaussiansPerTask, end = std::min(n, begin + kGaussiansPerTask);
+      if constexpr (std::is_same_v<T, float>) {
+        if (simd) {
+          avx512::static_descriptor_backward_rows<Lanes16, T, kJoints>(args, gp, gxp, sr, sb, begin, end);
+          continue;
         }
-        for (int c = 0; c < 3; ++c) gxp[3 * i + c] = gx[c];
       }
+      generic::static_descriptor_backward_rows<T, T, kJoints>(args, gp, gxp, sr, sb, begin, end);
     }
   });
   if constexpr (!kJoints) return {grad_x, torch::Tensor()};

@@ -8,10 +8,12 @@
 #include <torch/csrc/autograd/autograd.h>
 #include <torch/types.h>
 
+#include "core/simd_level.h"
 #include "hand/lbs.h"
 #include "scs/descriptor.h"
 #include "scs/topology.h"
 #include "scs/virtual_bones.h"
+#include "tensor_bits.h"
 
 namespace {
 
@@ -265,6 +267,49 @@ TEST_CASE("descriptor: the one-pass static descriptor's gradients equal the LibT
       CHECK((diff <= (is_double ? 1e-10 : 1e-4) * (scale + 1e-6)).all().item<bool>());
       CHECK(scale.max().item<double>() > 0);
     }
+  }
+}
+
+TEST_CASE("descriptor: the one-pass static descriptor's AVX-512 pass gives the plain loop's bits") {
+  if (handscs::detected_simd_level() != handscs::SimdLevel::avx512) {
+    WARN("no AVX-512 here: the 16-lane pass is not checked");
+    return;
+  }
+  torch::manual_seed(7);
+  const auto topology = handscs::make_static_topology(handscs::ScsConfig{});
+  using handscs_test::same_float_bits;
+  // 700 rows: three parallel tasks (256, 256, 188), each with full 16-lane blocks and a tail of
+  // 12; 9 rows: a tail only; 40 rows with a NaN centre (which makes the joints' sums NaN).
+  for (const auto [n, with_nan] : {std::pair<int64_t, bool>{700, false}, {9, false}, {40, true}}) {
+    INFO("n = " << n);
+    auto joints = torch::randn({21, 3}) * 0.05;
+    joints[2] = joints[1].clone();  // a zero-length bone
+    auto x = torch::randn({n, 3}) * 0.05;
+    x.slice(0, 0, 5).copy_(joints.slice(0, 0, 5));  // |r| = 0 for some bones
+    if (with_nan) x[6][1] = std::nan("");
+    torch::Tensor value[2], grad_x[2], grad_joints[2];
+    const auto cotangent = torch::randn({n, topology.size()});
+    for (const auto level : {handscs::SimdLevel::generic, handscs::SimdLevel::avx512}) {
+      handscs::set_simd_level(level);
+      const int k = level == handscs::SimdLevel::avx512;
+      const auto xl = x.clone().requires_grad_(true), jl = joints.clone().requires_grad_(true);
+      value[k] = handscs::static_descriptor_loop(xl, jl, topology, 0.08, 1e-8);
+      const auto g = torch::autograd::grad({(value[k] * cotangent).sum()}, {xl, jl});
+      grad_x[k] = g[0];
+      grad_joints[k] = g[1];
+      // Without the joints' gradient (the usual fixed pose): the same x gradient.
+      const auto xf = x.clone().requires_grad_(true);
+      const auto gf = torch::autograd::grad(
+          {(handscs::static_descriptor_loop(xf, joints, topology, 0.08, 1e-8) * cotangent).sum()}, {xf});
+      CHECK(same_float_bits(gf[0], grad_x[k]));
+    }
+    handscs::set_simd_level(handscs::detected_simd_level());
+    CHECK(same_float_bits(value[0], value[1]));
+    CHECK(same_float_bits(grad_x[0], grad_x[1]));
+    CHECK(same_float_bits(grad_joints[0], grad_joints[1]));
+    // The comparisons cover finite values, and the NaN row where there is one.
+    CHECK(torch::isfinite(grad_joints[0]).all().item<bool>() == !with_nan);
+    if (with_nan) CHECK_FALSE(torch::isfinite(value[0][6]).all().item<bool>());
   }
 }
 
