@@ -11,7 +11,6 @@
 
 #include "avatar/avatar.h"
 #include "core/lanes.h"
-#include "core/simd_level.h"
 #include "render/rotation.h"
 
 namespace handscs {
@@ -81,12 +80,6 @@ ChainArgs<T> chain_args(const torch::Tensor& rotations, const torch::Tensor& log
           linear.stride(2)};
 }
 
-// 16 Gaussians per AVX-512 pass where the CPU has it (float only).
-template <class T>
-bool use_avx512() {
-  return std::is_same_v<T, float> && active_simd_level() == SimdLevel::avx512;
-}
-
 template <class T>
 CovarianceChain run(const torch::Tensor& rotations, const torch::Tensor& log_scales,
                     const torch::Tensor& geometry_raw, const torch::Tensor& fusion_raw,
@@ -99,7 +92,7 @@ CovarianceChain run(const torch::Tensor& rotations, const torch::Tensor& log_sca
   const auto args = chain_args<T>(q, s, geometry_raw, fusion_raw, linear);
   const ChainOutputs<T> outputs{out.dsigma.data_ptr<T>(), out.dsigma_f.data_ptr<T>(), out.canonical.data_ptr<T>(),
                                 out.posed_upper.data_ptr<T>()};
-  const bool simd = use_avx512<T>();
+  const bool simd = lanes16_active<T>();
   at::parallel_for(0, n, kGrain, [&](int64_t begin, int64_t end) {
     if constexpr (std::is_same_v<T, float>) {
       if (simd) return avx512::chain_forward<Lanes16>(args, outputs, begin, end);
@@ -130,7 +123,7 @@ std::vector<torch::Tensor> run_backward(const torch::Tensor& rotations, const to
   const ChainGrads<T> grads{gds.data_ptr<T>(),         gdf.data_ptr<T>(),          gc.data_ptr<T>(),
                             gu.data_ptr<T>(),          g_rotations.data_ptr<T>(),  g_log_scales.data_ptr<T>(),
                             g_geometry.data_ptr<T>(),  g_fusion.data_ptr<T>(),     g_linear.data_ptr<T>()};
-  const bool simd = use_avx512<T>();
+  const bool simd = lanes16_active<T>();
   at::parallel_for(0, n, kGrain, [&](int64_t begin, int64_t end) {
     if constexpr (std::is_same_v<T, float>) {
       if (simd) return avx512::chain_backward<Lanes16>(args, grads, begin, end);

@@ -13,6 +13,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <type_traits>
+
+#include "core/simd_level.h"
 
 namespace handscs {
 
@@ -85,5 +88,11 @@ inline void lane_store(const Lanes16& v, float* p, int64_t stride) {
 }
 
 #pragma GCC pop_options
+
+// Whether kernels over T run 16 lanes at a time: float, at the active SIMD level AVX-512.
+template <class T>
+bool lanes16_active() {
+  return std::is_same_v<T, float> && active_simd_level() == SimdLevel::avx512;
+}
 
 }  // namespace handscs

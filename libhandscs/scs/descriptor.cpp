@@ -10,7 +10,6 @@
 #include <torch/types.h>
 
 #include "core/lanes.h"
-#include "core/simd_level.h"
 
 namespace handscs {
 
@@ -92,12 +91,6 @@ namespace avx512 {
 }  // namespace avx512
 #pragma GCC pop_options
 
-// 16 Gaussians per AVX-512 pass where the CPU has it (float only).
-template <class T>
-bool use_avx512() {
-  return std::is_same_v<T, float> && active_simd_level() == SimdLevel::avx512;
-}
-
 template <class T>
 torch::Tensor static_descriptor_loop_typed(const torch::Tensor& x_in, const torch::Tensor& joints_in,
                                            const BoneTopology& topology, double tau, double eps) {
@@ -111,7 +104,7 @@ torch::Tensor static_descriptor_loop_typed(const torch::Tensor& x_in, const torc
                                bones.b_norm.data(), edges, eps_sq, tau_sq};
   auto out = torch::empty({n, edges}, x.options());
   T* op = out.data_ptr<T>();
-  const bool simd = use_avx512<T>();
+  const bool simd = lanes16_active<T>();
   at::parallel_for(0, n, kGaussiansPerTask, [&](int64_t begin, int64_t end) {
     if constexpr (std::is_same_v<T, float>) {
       if (simd) return avx512::static_descriptor_rows<Lanes16>(args, op, begin, end);
@@ -146,7 +139,7 @@ std::vector<torch::Tensor> static_descriptor_backward_typed(const torch::Tensor&
   // Per task and bone: the sums of dP/dr and dP/db (weighted by the incoming gradient).
   const size_t sums = kJoints ? size_t(tasks * edges * 3) : 0;
   std::vector<T> sum_r(sums, T(0)), sum_b(sums, T(0));
-  const bool simd = use_avx512<T>();
+  const bool simd = lanes16_active<T>();
   at::parallel_for(0, tasks, 1, [&](int64_t first, int64_t last) {
     for (int64_t task = first; task < last; ++task) {
       T* sr = kJoints ? sum_r.data() + task * edges * 3 : nullptr;
