@@ -2,6 +2,7 @@
 
 #include <torch/types.h>
 
+#include "avatar/decoder_inputs.h"
 #include "avatar/gaussians.h"
 #include "avatar/linear_relu.h"
 #include "render/rotation.h"
@@ -22,7 +23,8 @@ GatedMlpImpl::GatedMlpImpl(int64_t inputs, int64_t hidden, int64_t outputs, bool
 }
 
 torch::Tensor GatedMlpImpl::forward(const torch::Tensor& x) {
-  if (!bf16_ || x.scalar_type() != torch::kFloat) {
+  const bool mixed = bf16_ && (x.scalar_type() == torch::kFloat || x.scalar_type() == torch::kBFloat16);
+  if (!mixed) {
     auto h = torch::relu(layer1_->forward(x));
     h = torch::relu(layer2_->forward(h));
     return gate * layer3_->forward(h);
@@ -61,6 +63,13 @@ DecoderOutputs OffsetDecodersImpl::outputs(const torch::Tensor& descriptor,
                                            const torch::Tensor& embed_geometry,
                                            const torch::Tensor& embed_appearance,
                                            const torch::Tensor& transforms) {
+  const bool all_float = descriptor.scalar_type() == torch::kFloat && embed_geometry.scalar_type() == torch::kFloat &&
+                         embed_appearance.scalar_type() == torch::kFloat && transforms.scalar_type() == torch::kFloat;
+  if (geometry->bf16() && all_float) {
+    // The bf16 inputs in one pass (the same values and gradients as the casts of the cats below).
+    const auto in = bf16_decoder_inputs(descriptor, embed_geometry, embed_appearance, transforms);
+    return {geometry->forward(in.geometry), appearance->forward(in.appearance), fusion->forward(in.fusion)};
+  }
   const auto geometry_in = torch::cat({descriptor, embed_geometry, transforms}, 1);
   const auto appearance_in = torch::cat({descriptor, embed_appearance, transforms}, 1);
   const auto fusion_in = torch::cat({descriptor, embed_geometry, embed_appearance, transforms}, 1);

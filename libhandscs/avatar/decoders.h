@@ -10,9 +10,9 @@
 
 namespace handscs {
 
-// One gated MLP: gate * L3(relu(L2(relu(L1(x))))). With bf16 set, a float input runs its matmuls
-// in bfloat16 (float accumulation) and returns float, the hidden layers adding their float bias after
-// the GEMM (avatar/linear_relu.h); other dtypes are computed as they come.
+// One gated MLP: gate * L3(relu(L2(relu(L1(x))))). With bf16 set, a float or bfloat16 input runs
+// its matmuls in bfloat16 (float accumulation) and returns float, the hidden layers adding their
+// float bias after the GEMM (avatar/linear_relu.h); other dtypes are computed as they come.
 class GatedMlpImpl : public torch::nn::Module {
  public:
   GatedMlpImpl(int64_t inputs, int64_t hidden, int64_t outputs, bool bf16 = false);

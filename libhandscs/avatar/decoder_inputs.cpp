@@ -1,0 +1,152 @@
+#include "avatar/decoder_inputs.h"
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <cstring>
+
+#include <ATen/Parallel.h>
+#include <torch/csrc/autograd/custom_function.h>
+
+#include "core/simd_level.h"
+
+namespace handscs {
+
+namespace decoder_inputs_detail {
+namespace {
+
+constexpr int kParts = 4;     // descriptor, e_g, e_a, vec(T)
+constexpr int kDecoders = 3;  // geometry, appearance, fusion
+// Which parts each decoder's input holds, in column order.
+constexpr bool kHolds[kDecoders][kParts] = {{true, true, false, true}, {true, false, true, true}, {true, true, true, true}};
+// The order autograd adds the decoders' gradients of a shared part in (it runs the last-built
+// node first: fusion, appearance, geometry); matched bit for bit by the tests.
+constexpr int kSumOrder[kDecoders] = {2, 1, 0};
+constexpr uint16_t kBf16QuietNan = 0x7FC0;  // the NaN c10::BFloat16's conversion writes
+constexpr int64_t kRowsPerTask = 256;         // ~0.2 MB of output per task
+
+template <class T>
+using PartPointers = std::array<T*, kParts>;
+template <class T>
+using DecoderPointers = std::array<T*, kDecoders>;
+
+struct InputLayout {
+  int64_t width[kParts];               // columns of each part
+  int64_t offset[kDecoders][kParts];   // where a part starts in a decoder's row; -1: not there
+  int64_t row_width[kDecoders];        // I_k
+  explicit InputLayout(const std::array<int64_t, kParts>& widths) {
+    for (int k = 0; k < kDecoders; ++k) {
+      row_width[k] = 0;
+      for (int part = 0; part < kParts; ++part) {
+        width[part] = widths[part];
+        offset[k][part] = kHolds[k][part] ? row_width[k] : -1;
+        if (kHolds[k][part]) row_width[k] += widths[part];
+      }
+    }
+  }
+};
+
+namespace generic {
+#include "avatar/decoder_inputs_rows.inc"
+}  // namespace generic
+
+#pragma GCC push_options
+#pragma GCC target("avx512f")
+namespace avx512 {
+#include "avatar/decoder_inputs_rows.inc"
+}  // namespace avx512
+#pragma GCC pop_options
+
+bool use_avx512() { return active_simd_level() == SimdLevel::avx512; }
+
+std::array<int64_t, kParts> widths_of(const torch::autograd::variable_list& parts) {
+  std::array<int64_t, kParts> widths{};
+  for (int part = 0; part < kParts; ++part) widths[part] = parts[part].size(1);
+  return widths;
+}
+
+using torch::autograd::AutogradContext;
+using torch::autograd::variable_list;
+
+struct DecoderInputsFunction : public torch::autograd::Function<DecoderInputsFunction> {
+  static variable_list forward(AutogradContext* ctx, const torch::Tensor& descriptor, const torch::Tensor& e_g,
+                               const torch::Tensor& e_a, const torch::Tensor& transforms) {
+    ctx->set_materialize_grads(false);  // an unused decoder input's gradient stays undefined (none)
+    const variable_list parts = {descriptor.contiguous(), e_g.contiguous(), e_a.contiguous(), transforms.contiguous()};
+    const auto widths = widths_of(parts);
+    ctx->saved_data["widths"] = std::vector<int64_t>(widths.begin(), widths.end());
+    const InputLayout layout(widths);
+    const int64_t n = descriptor.size(0);
+    variable_list rows;
+    DecoderPointers<uint16_t> row_ptrs{};
+    for (int k = 0; k < kDecoders; ++k) {
+      rows.push_back(torch::empty({n, layout.row_width[k]}, descriptor.options().dtype(torch::kBFloat16)));
+      row_ptrs[k] = reinterpret_cast<uint16_t*>(rows[k].data_ptr<at::BFloat16>());
+    }
+    PartPointers<const float> part_ptrs{};
+    for (int part = 0; part < kParts; ++part) part_ptrs[part] = parts[part].data_ptr<float>();
+    const bool simd = use_avx512();
+    at::parallel_for(0, n, kRowsPerTask, [&](int64_t r0, int64_t r1) {
+      if (simd) return avx512::write_rows(layout, part_ptrs, row_ptrs, r0, r1);
+      generic::write_rows(layout, part_ptrs, row_ptrs, r0, r1);
+    });
+    return rows;
+  }
+
+  static variable_list backward(AutogradContext* ctx, variable_list grads) {
+    const auto widths_saved = ctx->saved_data["widths"].toIntVector();
+    std::array<int64_t, kParts> widths{};
+    std::copy(widths_saved.begin(), widths_saved.end(), widths.begin());
+    const InputLayout layout(widths);
+    int64_t n = -1;
+    DecoderPointers<const uint16_t> grad_ptrs{};
+    variable_list kept(kDecoders);  // contiguous bf16 gradients (undefined: none)
+    for (int k = 0; k < kDecoders; ++k) {
+      if (!grads[k].defined()) continue;
+      kept[k] = grads[k].to(torch::kBFloat16).contiguous();
+      grad_ptrs[k] = reinterpret_cast<const uint16_t*>(kept[k].data_ptr<at::BFloat16>());
+      n = kept[k].size(0);
+    }
+    variable_list out(kParts);
+    if (n < 0) return out;
+    PartPointers<float> out_ptrs{};
+    for (int part = 0; part < kParts; ++part) {
+      // None where autograd has none: the part is not asked for or no gradient reaches it.
+      bool reached = false;
+      for (int k = 0; k < kDecoders; ++k) reached = reached || (grad_ptrs[k] && kHolds[k][part]);
+      if (!ctx->needs_input_grad(part) || !reached) continue;
+      out[part] = torch::empty({n, widths[part]}, torch::TensorOptions().dtype(torch::kFloat));
+      out_ptrs[part] = out[part].data_ptr<float>();
+    }
+    const bool simd = use_avx512();
+    at::parallel_for(0, n, kRowsPerTask, [&](int64_t r0, int64_t r1) {
+      if (simd) return avx512::sum_rows(layout, grad_ptrs, out_ptrs, r0, r1);
+      generic::sum_rows(layout, grad_ptrs, out_ptrs, r0, r1);
+    });
+    return out;
+  }
+};
+
+}  // namespace
+}  // namespace decoder_inputs_detail
+
+Bf16DecoderInputs bf16_decoder_inputs(const torch::Tensor& descriptor, const torch::Tensor& embed_geometry,
+                                      const torch::Tensor& embed_appearance, const torch::Tensor& transforms) {
+  const torch::Tensor parts[] = {descriptor, embed_geometry, embed_appearance, transforms};
+  const char* names[] = {"descriptor", "embed_geometry", "embed_appearance", "transforms"};
+  for (int part = 0; part < 4; ++part) {
+    TORCH_CHECK(parts[part].dim() == 2 && parts[part].size(0) == descriptor.size(0),
+                "bf16_decoder_inputs: ", names[part], " must be [", descriptor.size(0), ", columns], got ",
+                parts[part].sizes());
+    TORCH_CHECK(parts[part].scalar_type() == torch::kFloat && parts[part].is_cpu(), "bf16_decoder_inputs: ",
+                names[part], " must be a float CPU tensor, got ", parts[part].scalar_type());
+  }
+  TORCH_CHECK(embed_geometry.size(1) == embed_appearance.size(1),
+              "bf16_decoder_inputs: the embeddings must have one width, got ", embed_geometry.size(1), " and ",
+              embed_appearance.size(1));
+  const auto rows = decoder_inputs_detail::DecoderInputsFunction::apply(descriptor, embed_geometry,
+                                                                        embed_appearance, transforms);
+  return {rows[0], rows[1], rows[2]};
+}
+
+}  // namespace handscs

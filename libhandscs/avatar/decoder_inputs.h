@@ -1,0 +1,23 @@
+// The three decoders' inputs in bfloat16, built in one pass (issue 13): geometry [P, e_g, vec(T)],
+// appearance [P, e_a, vec(T)], fusion [P, e_g, e_a, vec(T)] (avatar/decoders.h). The LibTorch form,
+// three cats and three casts, and in the backward three casts, slices and the sums autograd adds
+// for the shared parts, took ~1 ms of a 10k-Gaussian step. Values and gradients are that form's bit
+// for bit: the same rounding (c10's round to nearest even, NaN as 0x7FC0) and each shared part's
+// gradient summed in float in the order autograd adds it (tests/avatar/test_decoder_inputs.cpp).
+#pragma once
+
+#include <torch/types.h>
+
+namespace handscs {
+
+struct Bf16DecoderInputs {
+  torch::Tensor geometry, appearance, fusion;  // [N, I_k] bfloat16, contiguous
+};
+
+// descriptor [N, |P|] (|P| may be 0), embed_geometry, embed_appearance [N, d] (d may be 0),
+// transforms [N, 12]: float. Differentiable in each input that requires grad (once: no double
+// backward).
+Bf16DecoderInputs bf16_decoder_inputs(const torch::Tensor& descriptor, const torch::Tensor& embed_geometry,
+                                      const torch::Tensor& embed_appearance, const torch::Tensor& transforms);
+
+}  // namespace handscs
