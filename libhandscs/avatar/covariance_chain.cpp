@@ -55,16 +55,8 @@ struct ChainGrads {
 
 // One copy of the per-Gaussian arithmetic per instruction set (no FMA contraction in this file:
 // CMakeLists), so each gives the other's values bit for bit.
-namespace generic {
-#include "avatar/covariance_chain_lanes.inc"
-}  // namespace generic
-
-#pragma GCC push_options
-#pragma GCC target("avx512f")
-namespace avx512 {
-#include "avatar/covariance_chain_lanes.inc"
-}  // namespace avx512
-#pragma GCC pop_options
+#define HANDSCS_KERNELS "avatar/covariance_chain_lanes.inc"
+#include "core/generic_and_avx512.inc"
 
 // Gaussians per parallel task.
 constexpr int64_t kGrain = 256;

@@ -46,16 +46,8 @@ struct InputLayout {
   }
 };
 
-namespace generic {
-#include "avatar/decoder_inputs_rows.inc"
-}  // namespace generic
-
-#pragma GCC push_options
-#pragma GCC target("avx512f")
-namespace avx512 {
-#include "avatar/decoder_inputs_rows.inc"
-}  // namespace avx512
-#pragma GCC pop_options
+#define HANDSCS_KERNELS "avatar/decoder_inputs_rows.inc"
+#include "core/generic_and_avx512.inc"
 
 bool use_avx512() { return active_simd_level() == SimdLevel::avx512; }
 

@@ -80,16 +80,8 @@ struct DescriptorArgs {
 
 // One copy of the loops per instruction set (no FMA contraction in this file: CMakeLists), so each
 // gives the other's values bit for bit.
-namespace generic {
-#include "scs/static_descriptor_lanes.inc"
-}  // namespace generic
-
-#pragma GCC push_options
-#pragma GCC target("avx512f")
-namespace avx512 {
-#include "scs/static_descriptor_lanes.inc"
-}  // namespace avx512
-#pragma GCC pop_options
+#define HANDSCS_KERNELS "scs/static_descriptor_lanes.inc"
+#include "core/generic_and_avx512.inc"
 
 template <class T>
 torch::Tensor static_descriptor_loop_typed(const torch::Tensor& x_in, const torch::Tensor& joints_in,
