@@ -4,6 +4,7 @@
 #include <array>
 #include <cstdint>
 #include <cstring>
+#include <vector>
 
 #include <ATen/Parallel.h>
 #include <torch/csrc/autograd/custom_function.h>
@@ -19,9 +20,13 @@ constexpr int kParts = 4;     // descriptor, e_g, e_a, vec(T)
 constexpr int kDecoders = 3;  // geometry, appearance, fusion
 // Which parts each decoder's input holds, in column order.
 constexpr bool kHolds[kDecoders][kParts] = {{true, true, false, true}, {true, false, true, true}, {true, true, true, true}};
-// The order autograd adds the decoders' gradients of a shared part in (it runs the last-built
-// node first: fusion, appearance, geometry); matched bit for bit by the tests.
-constexpr int kSumOrder[kDecoders] = {2, 1, 0};
+// The op's inputs: each part once per decoder input that holds it (10 slots), so that its backward
+// returns each decoder's share of a part's gradient separately and autograd adds the shares, and
+// any other consumer's gradient, in the order it did for the three cats: fusion's first (autograd
+// runs the last-built node first), then appearance's, then geometry's (tested bit for bit).
+constexpr int kSlots = 10;
+constexpr int kSlotDecoder[kSlots] = {2, 2, 2, 2, 1, 1, 1, 0, 0, 0};
+constexpr int kSlotPart[kSlots] = {0, 1, 2, 3, 0, 2, 3, 0, 1, 3};
 constexpr uint16_t kBf16QuietNan = 0x7FC0;  // the NaN c10::BFloat16's conversion writes
 constexpr int64_t kRowsPerTask = 256;         // ~0.2 MB of output per task
 
@@ -29,6 +34,8 @@ template <class T>
 using PartPointers = std::array<T*, kParts>;
 template <class T>
 using DecoderPointers = std::array<T*, kDecoders>;
+template <class T>
+using SlotPointers = std::array<T*, kSlots>;
 
 struct InputLayout {
   int64_t width[kParts];               // columns of each part
@@ -51,28 +58,25 @@ struct InputLayout {
 
 bool use_avx512() { return active_simd_level() == SimdLevel::avx512; }
 
-std::array<int64_t, kParts> widths_of(const torch::autograd::variable_list& parts) {
-  std::array<int64_t, kParts> widths{};
-  for (int part = 0; part < kParts; ++part) widths[part] = parts[part].size(1);
-  return widths;
-}
-
 using torch::autograd::AutogradContext;
 using torch::autograd::variable_list;
 
 struct DecoderInputsFunction : public torch::autograd::Function<DecoderInputsFunction> {
-  static variable_list forward(AutogradContext* ctx, const torch::Tensor& descriptor, const torch::Tensor& e_g,
-                               const torch::Tensor& e_a, const torch::Tensor& transforms) {
+  // slots: the parts in kSlotPart's order (the same four tensors repeated).
+  static variable_list forward(AutogradContext* ctx, at::TensorList slots) {
     ctx->set_materialize_grads(false);  // an unused decoder input's gradient stays undefined (none)
-    const variable_list parts = {descriptor.contiguous(), e_g.contiguous(), e_a.contiguous(), transforms.contiguous()};
-    const auto widths = widths_of(parts);
+    std::array<torch::Tensor, kParts> parts;
+    for (int slot = 0; slot < kSlots; ++slot)
+      if (!parts[kSlotPart[slot]].defined()) parts[kSlotPart[slot]] = slots[slot].contiguous();
+    std::array<int64_t, kParts> widths{};
+    for (int part = 0; part < kParts; ++part) widths[part] = parts[part].size(1);
     ctx->saved_data["widths"] = std::vector<int64_t>(widths.begin(), widths.end());
     const InputLayout layout(widths);
-    const int64_t n = descriptor.size(0);
+    const int64_t n = parts[0].size(0);
     variable_list rows;
     DecoderPointers<uint16_t> row_ptrs{};
     for (int k = 0; k < kDecoders; ++k) {
-      rows.push_back(torch::empty({n, layout.row_width[k]}, descriptor.options().dtype(torch::kBFloat16)));
+      rows.push_back(torch::empty({n, layout.row_width[k]}, parts[0].options().dtype(torch::kBFloat16)));
       row_ptrs[k] = reinterpret_cast<uint16_t*>(rows[k].data_ptr<at::BFloat16>());
     }
     PartPointers<const float> part_ptrs{};
@@ -90,30 +94,27 @@ struct DecoderInputsFunction : public torch::autograd::Function<DecoderInputsFun
     std::array<int64_t, kParts> widths{};
     std::copy(widths_saved.begin(), widths_saved.end(), widths.begin());
     const InputLayout layout(widths);
-    int64_t n = -1;
     DecoderPointers<const uint16_t> grad_ptrs{};
     variable_list kept(kDecoders);  // contiguous bf16 gradients (undefined: none)
+    int64_t n = 0;
     for (int k = 0; k < kDecoders; ++k) {
       if (!grads[k].defined()) continue;
       kept[k] = grads[k].to(torch::kBFloat16).contiguous();
       grad_ptrs[k] = reinterpret_cast<const uint16_t*>(kept[k].data_ptr<at::BFloat16>());
       n = kept[k].size(0);
     }
-    variable_list out(kParts);
-    if (n < 0) return out;
-    PartPointers<float> out_ptrs{};
-    for (int part = 0; part < kParts; ++part) {
-      // None where autograd has none: the part is not asked for or no gradient reaches it.
-      bool reached = false;
-      for (int k = 0; k < kDecoders; ++k) reached = reached || (grad_ptrs[k] && kHolds[k][part]);
-      if (!ctx->needs_input_grad(part) || !reached) continue;
-      out[part] = torch::empty({n, widths[part]}, torch::TensorOptions().dtype(torch::kFloat));
-      out_ptrs[part] = out[part].data_ptr<float>();
+    variable_list out(kSlots);
+    SlotPointers<float> out_ptrs{};
+    for (int slot = 0; slot < kSlots; ++slot) {
+      // None where autograd has none: the slot is not asked for or its decoder input is unused.
+      if (!ctx->needs_input_grad(slot) || !grad_ptrs[kSlotDecoder[slot]]) continue;
+      out[slot] = torch::empty({n, widths[kSlotPart[slot]]}, torch::TensorOptions().dtype(torch::kFloat));
+      out_ptrs[slot] = out[slot].data_ptr<float>();
     }
     const bool simd = use_avx512();
     at::parallel_for(0, n, kRowsPerTask, [&](int64_t r0, int64_t r1) {
-      if (simd) return avx512::sum_rows(layout, grad_ptrs, out_ptrs, r0, r1);
-      generic::sum_rows(layout, grad_ptrs, out_ptrs, r0, r1);
+      if (simd) return avx512::gradient_rows(layout, grad_ptrs, out_ptrs, r0, r1);
+      generic::gradient_rows(layout, grad_ptrs, out_ptrs, r0, r1);
     });
     return out;
   }
@@ -136,8 +137,10 @@ Bf16DecoderInputs bf16_decoder_inputs(const torch::Tensor& descriptor, const tor
   TORCH_CHECK(embed_geometry.size(1) == embed_appearance.size(1),
               "bf16_decoder_inputs: the embeddings must have one width, got ", embed_geometry.size(1), " and ",
               embed_appearance.size(1));
-  const auto rows = decoder_inputs_detail::DecoderInputsFunction::apply(descriptor, embed_geometry,
-                                                                        embed_appearance, transforms);
+  using decoder_inputs_detail::kSlotPart;
+  std::vector<torch::Tensor> slots;
+  for (const int part : kSlotPart) slots.push_back(parts[part]);
+  const auto rows = decoder_inputs_detail::DecoderInputsFunction::apply(at::TensorList(slots));
   return {rows[0], rows[1], rows[2]};
 }
 

@@ -1,9 +1,11 @@
 // The three decoders' inputs in bfloat16, built in one pass (issue 13): geometry [P, e_g, vec(T)],
-// appearance [P, e_a, vec(T)], fusion [P, e_g, e_a, vec(T)] (avatar/decoders.h). The LibTorch form,
-// three cats and three casts, and in the backward three casts, slices and the sums autograd adds
-// for the shared parts, took ~1 ms of a 10k-Gaussian step. Values and gradients are that form's bit
-// for bit: the same rounding (c10's round to nearest even, NaN as 0x7FC0) and each shared part's
-// gradient summed in float in the order autograd adds it (tests/avatar/test_decoder_inputs.cpp).
+// appearance [P, e_a, vec(T)], fusion [P, e_g, e_a, vec(T)] (avatar/decoders.h), in place of the
+// LibTorch form: three cats and three casts, and in the backward three casts and the slices. Values
+// and gradients are that form's bit for bit: the same rounding (c10's round to nearest even; NaN as
+// 0x7FC0), and each decoder's share of a shared part's gradient handed to autograd separately, in
+// the order the cats' backwards handed them, so that autograd adds the shares (and any other
+// consumer's gradient, e.g. the inter-pose loss's of the embeddings) as it did
+// (tests/avatar/test_decoder_inputs.cpp).
 #pragma once
 
 #include <torch/types.h>

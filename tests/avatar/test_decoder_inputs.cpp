@@ -108,6 +108,41 @@ TEST_CASE("decoder inputs: values and gradients are the cat-and-cast form's, bit
   handscs::set_simd_level(handscs::detected_simd_level());
 }
 
+TEST_CASE("decoder inputs: a part with a consumer outside the decoders gets its gradient added as before") {
+  // As the inter-pose loss uses the embeddings after the decoders have: its gradient and the
+  // decoders' shares reach the embedding in one order, which the sum's rounding shows here with
+  // terms {1, -1, 2^-30}: exact only if the tiny one comes last.
+  torch::manual_seed(12);
+  const int64_t n = 40, p = 6, d = 4;
+  const auto parts = random_parts(n, p, d);
+  const float tiny = std::ldexp(1.0f, -30);
+  const auto run = [&](bool one_pass) {
+    const auto inputs = one_pass ? fused(parts) : reference(parts);
+    const auto other = torch::cat({parts.e_g, parts.descriptor}, 1);  // built after the inputs
+    std::vector<torch::Tensor> cot;
+    for (const auto& in : inputs) cot.push_back(torch::zeros(in.sizes()));
+    auto cot_other = torch::zeros(other.sizes());
+    // Rows 0-2: the tiny term from the other consumer, from fusion, from geometry (e_g's column 0
+    // is column p of geometry's and fusion's inputs).
+    const float terms[3][3] = {{tiny, 1, -1}, {1, tiny, -1}, {1, -1, tiny}};  // other, fusion, geometry
+    for (int row = 0; row < 3; ++row) {
+      cot_other[row][0] = terms[row][0];
+      cot[2][row][p] = terms[row][1];
+      cot[0][row][p] = terms[row][2];
+    }
+    auto loss = (other * cot_other).sum();
+    for (int k = 0; k < 3; ++k) loss = loss + (inputs[k].to(torch::kFloat) * cot[k]).sum();
+    return torch::autograd::grad({loss}, parts.all());
+  };
+  const auto mine = run(true), ref = run(false);
+  for (int part = 0; part < 4; ++part) {
+    INFO("part " << part);
+    CHECK(same_float_bits(mine[part], ref[part]));
+  }
+  // The order shows: one of the three rows keeps the tiny term.
+  CHECK((ref[1].select(1, 0).slice(0, 0, 3) != 0).any().item<bool>());
+}
+
 TEST_CASE("decoder inputs: the bf16 decoders give the outputs and gradients of their float-input form") {
   torch::manual_seed(10);
   const int64_t n = 300, p = 36, d = 32;
