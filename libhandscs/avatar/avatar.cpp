@@ -108,10 +108,13 @@ AvatarState Avatar::pose(const torch::Tensor& pose_in, const torch::Tensor& shap
   const auto trans = trans_in.to(dtype).reshape({1, 3});
 
   AvatarState s;
-  // Inference: the same skinning in plain loops (hand/lbs_one_pose.h).
+  // The skinning in plain loops (hand/lbs_one_pose.h, in double, rounded once) unless a gradient
+  // must reach the pose, shape or translation (pose refinement): the rig itself is never learnt.
   const LbsOptions lbs_options{config_.flat_hand_mean};
-  s.lbs = torch::GradMode::is_enabled() ? lbs(rig_, pose, shape, trans, lbs_options)
-                                        : lbs_one_pose(rig_, pose, shape, trans, lbs_options);
+  const bool lbs_graph = torch::GradMode::is_enabled() &&
+                         (pose.requires_grad() || shape.requires_grad() || trans.requires_grad());
+  s.lbs = lbs_graph ? lbs(rig_, pose, shape, trans, lbs_options)
+                    : lbs_one_pose(rig_, pose, shape, trans, lbs_options);
   auto& g = gaussians_;
   // Per-Gaussian blend transform T = sum_k w_k A_k and blend offset of the nearest rig vertex.
   const auto transforms =

@@ -10,6 +10,7 @@
 #include "avatar/avatar.h"
 #include "core/error.h"
 #include "hand/lbs.h"
+#include "hand/lbs_one_pose.h"
 #include "scs/descriptor.h"
 #include "small_avatar.h"
 #include "render/rotation.h"
@@ -33,9 +34,10 @@ TEST_CASE("avatar: with zero gates the render equals LBS of the canonical Gaussi
   handscs::RasterSettings settings;
   const auto out = avatar.forward(pose, shape, trans, camera, settings);
 
-  // Plain LBS by hand: per-Gaussian T from the rig's skinning weights, Sigma = R S S R^T.
+  // Plain LBS by hand: per-Gaussian T from the rig's skinning weights, Sigma = R S S R^T. No
+  // gradient reaches the pose, so the avatar skins with the plain loops (double, rounded once).
   auto& g = avatar.gaussians();
-  const auto l = handscs::lbs(avatar.rig(), pose.view({1, 48}), shape.view({1, 10}), trans.view({1, 3}));
+  const auto l = handscs::lbs_one_pose(avatar.rig(), pose.view({1, 48}), shape.view({1, 10}), trans.view({1, 3}));
   const auto t = g.skin_weights.matmul(l.joint_transforms[0].reshape({16, 16})).view({-1, 4, 4});
   const auto lin = t.slice(1, 0, 3).slice(2, 0, 3);
   const auto x = g.means + l.blend_offsets[0];
@@ -56,6 +58,17 @@ TEST_CASE("avatar: with zero gates the render equals LBS of the canonical Gaussi
   CHECK((out.render.rgb - expected.rgb).abs().max().item<double>() <= 1e-5);
   CHECK((out.render.alpha - expected.alpha).abs().max().item<double>() <= 1e-5);
   CHECK(out.render.alpha.max().item<float>() > 0.5f);  // the hand is in view
+
+  // A pose that needs a gradient (pose refinement) is skinned by lbs() in LibTorch ops, and the
+  // gradient reaches it.
+  const auto learnt_pose = pose.clone().requires_grad_(true);
+  const auto refined = avatar.pose(learnt_pose, shape, trans);
+  const auto l_graph =
+      handscs::lbs(avatar.rig(), learnt_pose.view({1, 48}), shape.view({1, 10}), trans.view({1, 3}));
+  CHECK(torch::equal(refined.lbs.joints, l_graph.joints));
+  refined.posed.means.sum().backward();
+  REQUIRE(learnt_pose.grad().defined());
+  CHECK(learnt_pose.grad().abs().sum().item<double>() > 0);
 }
 
 TEST_CASE("avatar: gradients reach every parameter group") {
