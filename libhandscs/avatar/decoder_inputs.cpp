@@ -7,9 +7,10 @@
 #include <vector>
 
 #include <ATen/Parallel.h>
+#include <c10/util/BFloat16.h>
 #include <torch/csrc/autograd/custom_function.h>
 
-#include "core/simd_level.h"
+#include "core/lanes.h"
 
 namespace handscs {
 
@@ -27,7 +28,17 @@ constexpr bool kHolds[kDecoders][kParts] = {{true, true, false, true}, {true, fa
 constexpr int kSlots = 10;
 constexpr int kSlotDecoder[kSlots] = {2, 2, 2, 2, 1, 1, 1, 0, 0, 0};
 constexpr int kSlotPart[kSlots] = {0, 1, 2, 3, 0, 2, 3, 0, 1, 3};
-constexpr uint16_t kBf16QuietNan = 0x7FC0;  // the NaN c10::BFloat16's conversion writes
+
+// Every slot names a part its decoder holds, and every held part has a slot.
+constexpr bool slots_match_holds() {
+  int held = 0;
+  for (int k = 0; k < kDecoders; ++k)
+    for (int part = 0; part < kParts; ++part) held += kHolds[k][part];
+  for (int slot = 0; slot < kSlots; ++slot)
+    if (!kHolds[kSlotDecoder[slot]][kSlotPart[slot]]) return false;
+  return held == kSlots;
+}
+static_assert(slots_match_holds(), "decoder input slots and kHolds disagree");
 constexpr int64_t kRowsPerTask = 256;         // ~0.2 MB of output per task
 
 template <class T>
@@ -56,8 +67,6 @@ struct InputLayout {
 #define HANDSCS_KERNELS "avatar/decoder_inputs_rows.inc"
 #include "core/generic_and_avx512.inc"
 
-bool use_avx512() { return active_simd_level() == SimdLevel::avx512; }
-
 using torch::autograd::AutogradContext;
 using torch::autograd::variable_list;
 
@@ -81,7 +90,7 @@ struct DecoderInputsFunction : public torch::autograd::Function<DecoderInputsFun
     }
     PartPointers<const float> part_ptrs{};
     for (int part = 0; part < kParts; ++part) part_ptrs[part] = parts[part].data_ptr<float>();
-    const bool simd = use_avx512();
+    const bool simd = lanes16_active<float>();
     at::parallel_for(0, n, kRowsPerTask, [&](int64_t r0, int64_t r1) {
       if (simd) return avx512::write_rows(layout, part_ptrs, row_ptrs, r0, r1);
       generic::write_rows(layout, part_ptrs, row_ptrs, r0, r1);
@@ -107,11 +116,11 @@ struct DecoderInputsFunction : public torch::autograd::Function<DecoderInputsFun
     SlotPointers<float> out_ptrs{};
     for (int slot = 0; slot < kSlots; ++slot) {
       // None where autograd has none: the slot is not asked for or its decoder input is unused.
-      if (!ctx->needs_input_grad(slot) || !grad_ptrs[kSlotDecoder[slot]]) continue;
+      if (!ctx->needs_input_grad(slot) || !kept[kSlotDecoder[slot]].defined()) continue;
       out[slot] = torch::empty({n, widths[kSlotPart[slot]]}, torch::TensorOptions().dtype(torch::kFloat));
       out_ptrs[slot] = out[slot].data_ptr<float>();
     }
-    const bool simd = use_avx512();
+    const bool simd = lanes16_active<float>();
     at::parallel_for(0, n, kRowsPerTask, [&](int64_t r0, int64_t r1) {
       if (simd) return avx512::gradient_rows(layout, grad_ptrs, out_ptrs, r0, r1);
       generic::gradient_rows(layout, grad_ptrs, out_ptrs, r0, r1);
@@ -132,8 +141,10 @@ Bf16DecoderInputs bf16_decoder_inputs(const torch::Tensor& descriptor, const tor
                 "bf16_decoder_inputs: ", names[part], " must be [", descriptor.size(0), ", columns], got ",
                 parts[part].sizes());
     TORCH_CHECK(parts[part].scalar_type() == torch::kFloat && parts[part].is_cpu(), "bf16_decoder_inputs: ",
-                names[part], " must be a float CPU tensor, got ", parts[part].scalar_type());
+                names[part], " must be a float CPU tensor, got ", parts[part].scalar_type(), " on ",
+                parts[part].device());
   }
+  TORCH_CHECK(transforms.size(1) == 12, "bf16_decoder_inputs: transforms must be [N, 12], got ", transforms.sizes());
   TORCH_CHECK(embed_geometry.size(1) == embed_appearance.size(1),
               "bf16_decoder_inputs: the embeddings must have one width, got ", embed_geometry.size(1), " and ",
               embed_appearance.size(1));

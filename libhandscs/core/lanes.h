@@ -25,9 +25,10 @@ struct LaneTraits {  // plain float or double: one item
   static constexpr int kWidth = 1;
 };
 
+// c in every lane, rounded to the element type.
 template <class V>
 inline V lane_splat(double c) {
-  return V{} + static_cast<typename LaneTraits<V>::Element>(c);
+  return static_cast<V>(c);
 }
 
 inline float lane_sqrt(float v) { return std::sqrt(v); }
@@ -63,7 +64,9 @@ struct LaneTraits<Lanes16> {
 
 template <>
 inline Lanes16 lane_splat<Lanes16>(double c) {
-  return Lanes16{} + static_cast<float>(c);
+  Lanes16 v;
+  for (int l = 0; l < 16; ++l) v[l] = static_cast<float>(c);
+  return v;
 }
 inline Lanes16 lane_sqrt(Lanes16 v) {
   for (int l = 0; l < 16; ++l) v[l] = std::sqrt(v[l]);

@@ -1,7 +1,6 @@
 // Rotation matrices of quaternions, one home for the rasterizer's covariances and the avatar.
 #pragma once
 
-
 #include <torch/types.h>
 
 namespace handscs {

@@ -48,6 +48,7 @@ TEST_CASE("avatar: with zero gates the render equals LBS of the canonical Gaussi
   const auto expected = handscs::rasterize_gaussians(
       means, handscs::symmetric_upper(cov), g.colors, torch::sigmoid(g.opacity_logits), camera,
       settings);
+  CHECK(torch::equal(out.state.lbs.joint_transforms, l.joint_transforms));  // the loops' bits
   CHECK(torch::equal(out.state.posed.means, means));
   // The covariances come from the one-pass 3x3 chain (avatar/covariance_chain.h), whose products
   // round in another order than these matmuls: equal to float rounding of their scale.

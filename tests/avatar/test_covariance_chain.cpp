@@ -109,8 +109,8 @@ TEST_CASE("covariance chain: the AVX-512 pass gives the plain loop's values and 
     return;
   }
   torch::manual_seed(5);
-  // 515 rows: two parallel tasks of 256 and 259, so full 16-lane blocks and a tail of 3 in each
-  // (and of 0 with the 512-row case below).
+  // 515 rows: split between the threads (at::parallel_for), e.g. 258 + 257 on two, so each part
+  // has full 16-lane blocks and a tail; 512 rows on two threads: no tail; 7 rows: a tail only.
   for (const int64_t n : {515, 512, 7}) {
     INFO("n = " << n);
     const auto in = random_inputs(n, torch::kFloat);

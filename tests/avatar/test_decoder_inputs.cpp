@@ -38,13 +38,13 @@ Parts random_parts(int64_t n, int64_t p, int64_t d) {
   return {leaf(parts.descriptor), leaf(parts.e_g), leaf(parts.e_a), leaf(parts.transforms)};
 }
 
-std::vector<torch::Tensor> reference(const Parts& p) {
+std::vector<torch::Tensor> cat_and_cast(const Parts& p) {
   return {torch::cat({p.descriptor, p.e_g, p.transforms}, 1).to(torch::kBFloat16),
           torch::cat({p.descriptor, p.e_a, p.transforms}, 1).to(torch::kBFloat16),
           torch::cat({p.descriptor, p.e_g, p.e_a, p.transforms}, 1).to(torch::kBFloat16)};
 }
 
-std::vector<torch::Tensor> fused(const Parts& p) {
+std::vector<torch::Tensor> one_pass(const Parts& p) {
   const auto in = handscs::bf16_decoder_inputs(p.descriptor, p.e_g, p.e_a, p.transforms);
   return {in.geometry, in.appearance, in.fusion};
 }
@@ -79,7 +79,7 @@ TEST_CASE("decoder inputs: values and gradients are the cat-and-cast form's, bit
     for (const auto& [n, p, d] : {std::tuple<int64_t, int64_t, int64_t>{700, 36, 32}, {37, 5, 3}, {9, 0, 4}, {6, 7, 0}}) {
       INFO("n " << n << ", |P| " << p << ", d " << d);
       const auto parts = random_parts(n, p, d);
-      const auto mine = fused(parts), ref = reference(parts);
+      const auto mine = one_pass(parts), ref = cat_and_cast(parts);
       for (int k = 0; k < 3; ++k) CHECK(same_bf16_bits(mine[k], ref[k]));
       std::vector<torch::Tensor> cot;
       for (const auto& r : ref) cot.push_back(torch::randn(r.sizes()).to(torch::kBFloat16).to(torch::kFloat));
@@ -116,8 +116,8 @@ TEST_CASE("decoder inputs: a part with a consumer outside the decoders gets its 
   const int64_t n = 40, p = 6, d = 4;
   const auto parts = random_parts(n, p, d);
   const float tiny = std::ldexp(1.0f, -30);
-  const auto run = [&](bool one_pass) {
-    const auto inputs = one_pass ? fused(parts) : reference(parts);
+  const auto run = [&](bool fused_op) {
+    const auto inputs = fused_op ? one_pass(parts) : cat_and_cast(parts);
     const auto other = torch::cat({parts.e_g, parts.descriptor}, 1);  // built after the inputs
     std::vector<torch::Tensor> cot;
     for (const auto& in : inputs) cot.push_back(torch::zeros(in.sizes()));
@@ -181,6 +181,22 @@ TEST_CASE("decoder inputs: the bf16 decoders give the outputs and gradients of t
   }
 }
 
+TEST_CASE("decoder inputs: strided parts and zero rows") {
+  torch::manual_seed(13);
+  // Parts that are column slices of wider tensors (as the culled or sliced tensors of callers may be).
+  const auto wide = torch::randn({50, 20});
+  const auto d = wide.slice(1, 0, 6), e_g = wide.slice(1, 6, 10), e_a = wide.slice(1, 10, 14);
+  const auto t = torch::randn({12, 50}).t();
+  const Parts strided{d, e_g, e_a, t};
+  const auto mine = one_pass(strided), ref = cat_and_cast(strided);
+  for (int k = 0; k < 3; ++k) CHECK(same_bf16_bits(mine[k], ref[k]));
+  const auto empty = random_parts(0, 5, 3);
+  const auto none = one_pass(empty);
+  CHECK(none[2].sizes() == torch::IntArrayRef({0, 5 + 3 + 3 + 12}));
+  const auto g = torch::autograd::grad({none[2].to(torch::kFloat).sum()}, empty.all(), {}, false, false, true);
+  CHECK(g[0].sizes() == torch::IntArrayRef({0, 5}));
+}
+
 TEST_CASE("decoder inputs: wrong shapes and dtypes are refused with their sizes") {
   const auto f = [](std::vector<int64_t> s) { return torch::zeros(s); };
   CHECK_THROWS_WITH(handscs::bf16_decoder_inputs(f({4, 3}), f({3, 2}), f({4, 2}), f({4, 12})),
@@ -189,4 +205,6 @@ TEST_CASE("decoder inputs: wrong shapes and dtypes are refused with their sizes"
                     Catch::Contains("embed_appearance must be a float CPU tensor"));
   CHECK_THROWS_WITH(handscs::bf16_decoder_inputs(f({4, 3}), f({4, 2}), f({4, 5}), f({4, 12})),
                     Catch::Contains("one width"));
+  CHECK_THROWS_WITH(handscs::bf16_decoder_inputs(f({4, 3}), f({4, 2}), f({4, 2}), f({4, 9})),
+                    Catch::Contains("transforms must be [N, 12], got [4, 9]"));
 }

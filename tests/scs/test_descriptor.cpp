@@ -278,9 +278,10 @@ TEST_CASE("descriptor: the one-pass static descriptor's AVX-512 pass gives the p
   torch::manual_seed(7);
   const auto topology = handscs::make_static_topology(handscs::ScsConfig{});
   using handscs_test::same_float_bits;
-  // 700 rows: three parallel tasks (256, 256, 188), each with full 16-lane blocks and a tail of
-  // 12; 9 rows: a tail only; 40 rows with a NaN centre (which makes the joints' sums NaN).
-  for (const auto [n, with_nan] : {std::pair<int64_t, bool>{700, false}, {9, false}, {40, true}}) {
+  // 700 rows: the backward's three tasks of 256, 256 and 188 rows (the last with a tail of 12) and
+  // the forward's split between the threads; 9 rows: a tail only; 40 rows with a NaN centre (which
+  // makes the joints' sums NaN).
+  for (const auto& [n, with_nan] : {std::pair<int64_t, bool>{700, false}, {9, false}, {40, true}}) {
     INFO("n = " << n);
     auto joints = torch::randn({21, 3}) * 0.05;
     joints[2] = joints[1].clone();  // a zero-length bone
