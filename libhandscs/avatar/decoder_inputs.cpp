@@ -17,8 +17,8 @@ namespace handscs {
 namespace decoder_inputs_detail {
 namespace {
 
-constexpr int kParts = 4;     // descriptor, e_g, e_a, vec(T)
-constexpr int kDecoders = 3;  // geometry, appearance, fusion
+enum Part { kDescriptor, kEmbedGeometry, kEmbedAppearance, kTransforms, kParts };
+enum Decoder { kGeometry, kAppearance, kFusion, kDecoders };
 // Which parts each decoder's input holds, in column order.
 constexpr bool kHolds[kDecoders][kParts] = {{true, true, false, true}, {true, false, true, true}, {true, true, true, true}};
 // The op's inputs: each part once per decoder input that holds it (10 slots), so that its backward
@@ -26,8 +26,10 @@ constexpr bool kHolds[kDecoders][kParts] = {{true, true, false, true}, {true, fa
 // any other consumer's gradient, in the order it did for the three cats: fusion's first (autograd
 // runs the last-built node first), then appearance's, then geometry's (tested bit for bit).
 constexpr int kSlots = 10;
-constexpr int kSlotDecoder[kSlots] = {2, 2, 2, 2, 1, 1, 1, 0, 0, 0};
-constexpr int kSlotPart[kSlots] = {0, 1, 2, 3, 0, 2, 3, 0, 1, 3};
+constexpr Decoder kSlotDecoder[kSlots] = {kFusion,     kFusion,     kFusion,    kFusion,    kAppearance,
+                                          kAppearance, kAppearance, kGeometry,  kGeometry,  kGeometry};
+constexpr Part kSlotPart[kSlots] = {kDescriptor, kEmbedGeometry,   kEmbedAppearance, kTransforms,    kDescriptor,
+                                    kEmbedAppearance, kTransforms, kDescriptor,      kEmbedGeometry, kTransforms};
 
 // Every slot names a part its decoder holds, and every held part has a slot.
 constexpr bool slots_match_holds() {
@@ -39,7 +41,7 @@ constexpr bool slots_match_holds() {
   return held == kSlots;
 }
 static_assert(slots_match_holds(), "decoder input slots and kHolds disagree");
-constexpr int64_t kRowsPerTask = 256;         // ~0.2 MB of output per task
+constexpr int64_t kRowsPerTask = 256;  // ~0.2 MB of output per task: more work than a task's start
 
 template <class T>
 using PartPointers = std::array<T*, kParts>;
@@ -150,7 +152,7 @@ Bf16DecoderInputs bf16_decoder_inputs(const torch::Tensor& descriptor, const tor
               embed_appearance.size(1));
   using decoder_inputs_detail::kSlotPart;
   std::vector<torch::Tensor> slots;
-  for (const int part : kSlotPart) slots.push_back(parts[part]);
+  for (const auto part : kSlotPart) slots.push_back(parts[part]);
   const auto rows = decoder_inputs_detail::DecoderInputsFunction::apply(at::TensorList(slots));
   return {rows[0], rows[1], rows[2]};
 }
