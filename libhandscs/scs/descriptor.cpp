@@ -78,6 +78,13 @@ struct DescriptorArgs {
   E eps_sq, tau_sq;
 };
 
+// The loops' view of x [N, 3] (contiguous) and of the bones.
+template <class T>
+DescriptorArgs<T> descriptor_args(const torch::Tensor& x, const BoneArrays<T>& bones, T eps_sq, T tau_sq) {
+  return {x.data_ptr<T>(),     bones.ju.data(), bones.b.data(), bones.b_sq.data(), bones.b_norm.data(),
+          static_cast<int64_t>(bones.b_norm.size()), eps_sq, tau_sq};
+}
+
 // One copy of the loops per instruction set (no FMA contraction in this file: CMakeLists), so each
 // gives the other's values bit for bit.
 #define HANDSCS_KERNELS "scs/static_descriptor_lanes.inc"
@@ -92,8 +99,7 @@ torch::Tensor static_descriptor_loop_typed(const torch::Tensor& x_in, const torc
   const T eps_sq = static_cast<T>(eps * eps);
   const T tau_sq = static_cast<T>(tau * tau);
   const BoneArrays<T> bones(joints.data_ptr<T>(), topology, eps_sq);
-  const DescriptorArgs<T> args{x.data_ptr<T>(), bones.ju.data(), bones.b.data(), bones.b_sq.data(),
-                               bones.b_norm.data(), edges, eps_sq, tau_sq};
+  const auto args = descriptor_args(x, bones, eps_sq, tau_sq);
   auto out = torch::empty({n, edges}, x.options());
   T* op = out.data_ptr<T>();
   const bool simd = lanes16_active<T>();
@@ -123,8 +129,7 @@ std::vector<torch::Tensor> static_descriptor_backward_typed(const torch::Tensor&
   const T eps_sq = static_cast<T>(eps * eps);
   const T tau_sq = static_cast<T>(tau * tau);
   const BoneArrays<T> bones(joints.data_ptr<T>(), topology, eps_sq);
-  const DescriptorArgs<T> args{x.data_ptr<T>(), bones.ju.data(), bones.b.data(), bones.b_sq.data(),
-                               bones.b_norm.data(), edges, eps_sq, tau_sq};
+  const auto args = descriptor_args(x, bones, eps_sq, tau_sq);
   auto grad_x = torch::empty({n, 3}, x.options());
   T* gxp = grad_x.data_ptr<T>();
   const int64_t tasks = (n + kGaussiansPerTask - 1) / kGaussiansPerTask;

@@ -133,15 +133,15 @@ TEST_CASE("covariance chain: the AVX-512 pass gives the plain loop's values and 
       }
       const auto under_autograd = fused(in);
       const auto outs = chain_outputs(under_autograd);
-      for (size_t m = 0; m < outs.size(); ++m) CHECK(handscs_test::same_float_bits(outs[m], values[k][m]));
+      for (size_t m = 0; m < outs.size(); ++m) CHECK(handscs_test::same_bits(outs[m], values[k][m]));
       grads[k] = torch::autograd::grad({loss(under_autograd, cotangents)}, in.leaves());
     }
     handscs::set_simd_level(handscs::detected_simd_level());
-    for (size_t m = 0; m < values[0].size(); ++m) CHECK(handscs_test::same_float_bits(values[0][m], values[1][m]));
+    for (size_t m = 0; m < values[0].size(); ++m) CHECK(handscs_test::same_bits(values[0][m], values[1][m]));
     const char* names[] = {"rotations", "log_scales", "geometry output", "fusion output", "transforms"};
     for (size_t m = 0; m < grads[0].size(); ++m) {
       INFO(names[m]);
-      CHECK(handscs_test::same_float_bits(grads[0][m], grads[1][m]));
+      CHECK(handscs_test::same_bits(grads[0][m], grads[1][m]));
     }
     // The non-finite rows reach the outputs (so the comparison covers them).
     CHECK_FALSE(torch::isfinite(values[0][0][3]).all().item<bool>());

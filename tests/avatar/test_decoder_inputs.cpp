@@ -16,7 +16,7 @@
 
 namespace {
 
-using handscs_test::same_float_bits;
+using handscs_test::same_bits;
 
 struct Parts {
   torch::Tensor descriptor, e_g, e_a, transforms;  // float leaves
@@ -49,13 +49,6 @@ std::vector<torch::Tensor> one_pass(const Parts& p) {
   return {in.geometry, in.appearance, in.fusion};
 }
 
-// The same bf16 values, NaNs by place: LibTorch's own cast writes a NaN as 0x7FC0 or 0xFFFF
-// depending on where it falls in its vectors (the one-pass form always writes c10's 0x7FC0).
-bool same_bf16_bits(const torch::Tensor& a, const torch::Tensor& b) {
-  return a.scalar_type() == torch::kBFloat16 && b.scalar_type() == torch::kBFloat16 &&
-         same_float_bits(a.to(torch::kFloat), b.to(torch::kFloat));
-}
-
 // Gradients of sum(output_k * cotangent_k) over the used outputs, for the parts.
 std::vector<torch::Tensor> grads_of(const std::vector<torch::Tensor>& outputs, const std::vector<torch::Tensor>& cot,
                                     const std::vector<bool>& used, const Parts& p) {
@@ -80,7 +73,7 @@ TEST_CASE("decoder inputs: values and gradients are the cat-and-cast form's, bit
       INFO("n " << n << ", |P| " << p << ", d " << d);
       const auto parts = random_parts(n, p, d);
       const auto mine = one_pass(parts), ref = cat_and_cast(parts);
-      for (int k = 0; k < 3; ++k) CHECK(same_bf16_bits(mine[k], ref[k]));
+      for (int k = 0; k < 3; ++k) CHECK(same_bits(mine[k], ref[k]));
       std::vector<torch::Tensor> cot;
       for (const auto& r : ref) cot.push_back(torch::randn(r.sizes()).to(torch::kBFloat16).to(torch::kFloat));
       if (p > 0) {
@@ -100,7 +93,7 @@ TEST_CASE("decoder inputs: values and gradients are the cat-and-cast form's, bit
         for (int part = 0; part < 4; ++part) {
           INFO("part " << part);
           REQUIRE(g[part].defined() == g_ref[part].defined());
-          if (g[part].defined()) CHECK(same_float_bits(g[part], g_ref[part]));
+          if (g[part].defined()) CHECK(same_bits(g[part], g_ref[part]));
         }
       }
     }
@@ -137,7 +130,7 @@ TEST_CASE("decoder inputs: a part with a consumer outside the decoders gets its 
   const auto mine = run(true), ref = run(false);
   for (int part = 0; part < 4; ++part) {
     INFO("part " << part);
-    CHECK(same_float_bits(mine[part], ref[part]));
+    CHECK(same_bits(mine[part], ref[part]));
   }
   // The order shows: one of the three rows keeps the tiny term.
   CHECK((ref[1].select(1, 0).slice(0, 0, 3) != 0).any().item<bool>());
@@ -164,9 +157,9 @@ TEST_CASE("decoder inputs: the bf16 decoders give the outputs and gradients of t
   const auto appearance = decoders->appearance->forward(torch::cat({parts.descriptor, parts.e_a, parts.transforms}, 1));
   const auto fusion =
       decoders->fusion->forward(torch::cat({parts.descriptor, parts.e_g, parts.e_a, parts.transforms}, 1));
-  CHECK(same_float_bits(mine.geometry, geometry));
-  CHECK(same_float_bits(mine.appearance, appearance));
-  CHECK(same_float_bits(mine.fusion, fusion));
+  CHECK(same_bits(mine.geometry, geometry));
+  CHECK(same_bits(mine.appearance, appearance));
+  CHECK(same_bits(mine.fusion, fusion));
   const auto loss = [&](const torch::Tensor& g, const torch::Tensor& a, const torch::Tensor& f) {
     torch::manual_seed(11);
     return (g * torch::randn_like(g)).sum() + (a * torch::randn_like(a)).sum() + (f * torch::randn_like(f)).sum();
@@ -177,7 +170,7 @@ TEST_CASE("decoder inputs: the bf16 decoders give the outputs and gradients of t
   const auto g_ref = torch::autograd::grad({loss(geometry, appearance, fusion)}, inputs);
   for (size_t k = 0; k < g.size(); ++k) {
     INFO("input " << k);
-    CHECK(same_float_bits(g[k], g_ref[k]));
+    CHECK(same_bits(g[k], g_ref[k]));
   }
 }
 
@@ -189,7 +182,7 @@ TEST_CASE("decoder inputs: strided parts and zero rows") {
   const auto t = torch::randn({12, 50}).t();
   const Parts strided{d, e_g, e_a, t};
   const auto mine = one_pass(strided), ref = cat_and_cast(strided);
-  for (int k = 0; k < 3; ++k) CHECK(same_bf16_bits(mine[k], ref[k]));
+  for (int k = 0; k < 3; ++k) CHECK(same_bits(mine[k], ref[k]));
   const auto empty = random_parts(0, 5, 3);
   const auto none = one_pass(empty);
   CHECK(none[2].sizes() == torch::IntArrayRef({0, 5 + 3 + 3 + 12}));

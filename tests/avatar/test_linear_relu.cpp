@@ -11,15 +11,9 @@
 #include "avatar/linear_relu.h"
 #include "core/simd_level.h"
 #include "core/threads.h"
+#include "tensor_bits.h"
 
 namespace {
-
-// Bits equal, NaN where NaN (torch::equal is false for NaN).
-bool same_bf16(const torch::Tensor& a, const torch::Tensor& b) {
-  const auto nan_a = torch::isnan(a), nan_b = torch::isnan(b);
-  return torch::equal(nan_a, nan_b) &&
-         torch::equal(a.masked_fill(nan_a, 0).view(torch::kInt16), b.masked_fill(nan_b, 0).view(torch::kInt16));
-}
 
 // bf16 values of either sign, some exactly 0 and some NaN.
 torch::Tensor random_bf16(int64_t n, int64_t m, bool with_nan) {
@@ -53,7 +47,7 @@ TEST_CASE("add_bias_relu_: equals relu(float(y) + bias) cast to bf16, bit for bi
       const auto column_bias = torch::randn({m});
       auto got = y.clone();
       handscs::add_bias_relu_(got, column_bias);
-      CHECK(same_bf16(got, torch::relu(y.to(torch::kFloat) + column_bias).to(torch::kBFloat16)));
+      CHECK(handscs_test::same_bits(got, torch::relu(y.to(torch::kFloat) + column_bias).to(torch::kBFloat16)));
       const auto nan = torch::isnan(got);
       CHECK(nan.sum().item<int64_t>() > 0);  // NaN kept, as LibTorch's relu
       CHECK((got.view(torch::kInt16).masked_select(nan) == 0x7FC0).all().item<bool>());  // c10's NaN
@@ -61,7 +55,7 @@ TEST_CASE("add_bias_relu_: equals relu(float(y) + bias) cast to bf16, bit for bi
       const auto entry_bias = random_bf16(300, m, /*with_nan=*/false);
       got = y.clone();
       handscs::add_bias_relu_(got, entry_bias);
-      CHECK(same_bf16(got, torch::relu(y.to(torch::kFloat) + entry_bias.to(torch::kFloat)).to(torch::kBFloat16)));
+      CHECK(handscs_test::same_bits(got, torch::relu(y.to(torch::kFloat) + entry_bias.to(torch::kFloat)).to(torch::kBFloat16)));
     }
   }
 }
@@ -117,10 +111,10 @@ TEST_CASE("linear_relu: values and gradients equal LibTorch's ops on the same fo
       INFO("level " << handscs::simd_level_name(handscs::active_simd_level()));
       const auto got = run(false);
       CHECK(got[0].scalar_type() == torch::kBFloat16);
-      CHECK(same_bf16(got[0], want[0]));
-      CHECK(same_bf16(got[1], want[1]));  // input gradient (row nan_row is NaN in both)
+      CHECK(handscs_test::same_bits(got[0], want[0]));
+      CHECK(handscs_test::same_bits(got[1], want[1]));  // input gradient (row nan_row is NaN in both)
       CHECK(torch::isnan(got[1][nan_row]).all().item<bool>());
-      CHECK(same_bf16(got[2], want[2]));  // weight gradient
+      CHECK(handscs_test::same_bits(got[2], want[2]));  // weight gradient
       // The bias gradient: float sums of the same bf16 terms in another order.
       CHECK(got[3].scalar_type() == torch::kFloat);
       CHECK(torch::equal(torch::isnan(got[3]), torch::isnan(want[3])));
@@ -144,7 +138,7 @@ TEST_CASE("linear_relu: values and gradients equal LibTorch's ops on the same fo
     torch::NoGradGuard no_grad;
     const auto plain = handscs::linear_relu(x0, w0, b0);
     CHECK_FALSE(plain.requires_grad());
-    CHECK(same_bf16(plain, want[0]));
+    CHECK(handscs_test::same_bits(plain, want[0]));
   }
 }
 

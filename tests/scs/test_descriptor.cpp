@@ -277,7 +277,7 @@ TEST_CASE("descriptor: the one-pass static descriptor's AVX-512 pass gives the p
   }
   torch::manual_seed(7);
   const auto topology = handscs::make_static_topology(handscs::ScsConfig{});
-  using handscs_test::same_float_bits;
+  using handscs_test::same_bits;
   // 700 rows: the backward's three tasks of 256, 256 and 188 rows (the last with a tail of 12) and
   // the forward's split between the threads; 9 rows: a tail only; 40 rows with a NaN centre (which
   // makes the joints' sums NaN).
@@ -302,12 +302,12 @@ TEST_CASE("descriptor: the one-pass static descriptor's AVX-512 pass gives the p
       const auto xf = x.clone().requires_grad_(true);
       const auto gf = torch::autograd::grad(
           {(handscs::static_descriptor_loop(xf, joints, topology, 0.08, 1e-8) * cotangent).sum()}, {xf});
-      CHECK(same_float_bits(gf[0], grad_x[k]));
+      CHECK(same_bits(gf[0], grad_x[k]));
     }
     handscs::set_simd_level(handscs::detected_simd_level());
-    CHECK(same_float_bits(value[0], value[1]));
-    CHECK(same_float_bits(grad_x[0], grad_x[1]));
-    CHECK(same_float_bits(grad_joints[0], grad_joints[1]));
+    CHECK(same_bits(value[0], value[1]));
+    CHECK(same_bits(grad_x[0], grad_x[1]));
+    CHECK(same_bits(grad_joints[0], grad_joints[1]));
     // The comparisons cover finite values, and the NaN row where there is one.
     CHECK(torch::isfinite(grad_joints[0]).all().item<bool>() == !with_nan);
     if (with_nan) CHECK_FALSE(torch::isfinite(value[0][6]).all().item<bool>());
