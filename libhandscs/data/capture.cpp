@@ -137,14 +137,23 @@ std::string mask_folder(const CaptureConfig& c, const CaptureLayout& layout,
 
 // Train/test lists from the frames: novel_pose splits by held-out pose (each side filtered by its
 // camera list), novel_view by camera list.
+// novel_pose trains on the poses in [poses.first_train, poses.first_test) and tests on those in
+// [poses.first_test, poses.end) (data.train_poses, data.validation_poses).
+struct PoseRanges {
+  int first_train = 0, first_test = 0, end = 0;
+};
+
 void split_frames(const std::vector<FrameInfo>& frames, const std::string& rule,
                   const std::set<std::string>& train_cams, const std::set<std::string>& test_cams,
-                  std::vector<FrameInfo>& train, std::vector<FrameInfo>& test) {
+                  const PoseRanges& poses, std::vector<FrameInfo>& train,
+                  std::vector<FrameInfo>& test) {
   for (const FrameInfo& f : frames) {
     const bool in_train = train_cams.empty() || train_cams.count(f.camera_id);
     const bool in_test = test_cams.empty() || test_cams.count(f.camera_id);
-    const bool train_pose = rule != "novel_pose" || !f.held_out;
-    const bool test_pose = rule != "novel_pose" || f.held_out;
+    const int p = f.pose_index;
+    const bool novel_pose = rule == "novel_pose";
+    const bool train_pose = !novel_pose || (p >= poses.first_train && p < poses.first_test);
+    const bool test_pose = !novel_pose || (p >= poses.first_test && p < poses.end);
     if (in_train && train_pose) train.push_back(f);
     if (in_test && test_pose) test.push_back(f);
   }
@@ -182,6 +191,37 @@ namespace {
 // Capture::open, step by step. Messages name keys as the user wrote them ("data.held_out_poses" in
 // a run config): `prefix` is the config section ("data").
 std::string key_name(const std::string& prefix, const char* name) { return prefix + "." + name; }
+
+// novel_pose's pose ranges: the held-out tail, the validation poses before it when asked for, and
+// the training poses before those (all of them, or the last data.train_poses).
+PoseRanges novel_pose_ranges(const CaptureConfig& c, int num_poses, const std::string& prefix) {
+  for (const auto& [name, value] : {std::pair<const char*, int>{"train_poses", c.train_poses},
+                                    {"validation_poses", c.validation_poses}})
+    require(value == 0 || c.split_rule == "novel_pose",
+            key_name(prefix, name) + ": only split_rule novel_pose selects poses (it is " +
+                std::to_string(value) + " with " + c.split_rule + ")");
+  PoseRanges r;
+  r.end = num_poses - c.held_out_poses;  // the training poses end where the held-out ones start
+  if (c.validation_poses > 0) {
+    if (c.validation_poses >= r.end)
+      throw Error(key_name(prefix, "validation_poses") + ": " +
+                  std::to_string(c.validation_poses) + " validation poses leave nothing to train on "
+                  "(the selection has " + std::to_string(r.end) + " poses before its " +
+                  std::to_string(c.held_out_poses) + " held-out ones)");
+    r.first_test = r.end - c.validation_poses;
+  } else {
+    r.first_test = r.end;
+    r.end = num_poses;
+  }
+  if (c.train_poses > r.first_test)
+    throw Error(key_name(prefix, "train_poses") + ": " + std::to_string(c.train_poses) +
+                " training poses asked for; the selection has " + std::to_string(r.first_test) +
+                " before its " +
+                (c.validation_poses > 0 ? std::to_string(c.validation_poses) + " validation poses"
+                                        : std::to_string(c.held_out_poses) + " held-out poses"));
+  r.first_train = c.train_poses == 0 ? 0 : r.first_test - c.train_poses;
+  return r;
+}
 
 // What the annotation files hold for the selected images.
 struct CaptureAnnotations {
@@ -509,6 +549,7 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
                 " held-out poses leave nothing to train on (the selection has " +
                 std::to_string(impl->num_poses) + " poses)");
   const int first_held_out = impl->num_poses - c.held_out_poses;
+  const PoseRanges pose_ranges = novel_pose_ranges(c, impl->num_poses, config_key);
   impl->posed_vertices.resize(impl->num_poses);
   for (const auto& [frame, index] : pose_of)
     impl->posed_vertices[index] = posed[strided_pose.at(frame)];
@@ -529,7 +570,8 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   }
   impl->cameras.assign(kept_cameras.begin(), kept_cameras.end());
 
-  split_frames(impl->frames, c.split_rule, cams.train, cams.test, impl->train, impl->test);
+  split_frames(impl->frames, c.split_rule, cams.train, cams.test, pose_ranges, impl->train,
+               impl->test);
 
   if (!mask_cache_dir.empty() && c.cache.disk_masks)
     impl->mask_folder = mask_folder(c, layout, mask_cache_dir);

@@ -40,6 +40,13 @@ struct CaptureConfig {
   bool skip_black_images = true;           // skip frames whose image is black (camera dropout)
   std::string split_rule = "novel_pose";   // novel_pose: last held_out_poses poses are the test set
   int held_out_poses = 50;                 // poses held out by novel_pose (the paper: 50)
+  // novel_pose: train on only the last train_poses poses before the held-out tail (0 = all of
+  // them). Runs with different counts on one capture then share the same test images, so a
+  // study of the number of training poses changes nothing else.
+  int train_poses = 0;
+  // novel_pose: > 0 makes the last validation_poses training poses the test set and leaves the
+  // held-out poses unused, so that a choice is made without ever seeing the test poses.
+  int validation_poses = 0;
   // novel_view without camera lists: this many cameras, evenly spaced over the sorted ids, test
   // views interleaved between training views (the paper: 10 train, 15 test; its exact ids are in a
   // supplement we do not have). Counted before monochrome cameras are dropped.
@@ -77,6 +84,11 @@ struct CaptureConfig {
     v.choice("split_rule", split_rule, {"novel_pose", "novel_view"},
              "novel_pose: hold out the last poses; novel_view: train vs test cameras");
     v.field("held_out_poses", held_out_poses, "poses held out by novel_pose", 1, 1000000);
+    v.field("train_poses", train_poses,
+            "novel_pose: train on the last N poses before the held-out ones (0 = all)", 0, 1000000);
+    v.field("validation_poses", validation_poses,
+            "novel_pose: test on the last N training poses instead of the held-out ones, which "
+            "are then unused (0 = off)", 0, 1000000);
     v.field("novel_view_train_views", novel_view_train_views,
             "novel_view without camera lists: number of training cameras chosen", 1, 100000);
     v.field("novel_view_test_views", novel_view_test_views,

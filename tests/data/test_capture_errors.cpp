@@ -162,6 +162,27 @@ TEST_CASE("capture errors: bad configuration values name the key") {
         "poses)");
 
   config = data_test::tiny_config(root);
+  config.train_poses = 10;
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        "data.train_poses: 10 training poses asked for; the selection has 9 before its 3 "
+        "held-out poses");
+  config.train_poses = 8;
+  config.validation_poses = 2;
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        "data.train_poses: 8 training poses asked for; the selection has 7 before its 2 "
+        "validation poses");
+  config.train_poses = 0;
+  config.validation_poses = 9;
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        "data.validation_poses: 9 validation poses leave nothing to train on (the selection has "
+        "9 poses before its 3 held-out ones)");
+  config.validation_poses = 0;
+  config.train_poses = 10;
+  config.split_rule = "novel_view";
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        "data.train_poses: only split_rule novel_pose selects poses (it is 10 with novel_view)");
+
+  config = data_test::tiny_config(root);
   config.split_rule = "novel_view";
   config.train_cameras = {"400002"};
   CHECK(error_of([&] { Capture::open(config); }) ==

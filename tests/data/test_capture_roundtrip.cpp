@@ -221,6 +221,37 @@ TEST_CASE("capture roundtrip: novel_view split, sequences and frame stride") {
   CHECK(Capture::open(config).frames().size() == 48);
 }
 
+TEST_CASE("capture roundtrip: train_poses and validation_poses choose poses before the held-out ones") {
+  const auto& tiny = data_test::tiny_capture();
+  CaptureConfig config = data_test::tiny_config(tiny.root);
+  const Capture all = Capture::open(config);
+  config.train_poses = 4;
+  const Capture fewer = Capture::open(config);
+  // 12 poses, 3 held out: poses 5-8 train, from the 4 cameras; the test images are unchanged.
+  CHECK(fewer.train().size() == 4 * 4);
+  std::set<int> train_poses;
+  for (const auto& f : fewer.train()) train_poses.insert(f.pose_index);
+  CHECK(train_poses == std::set<int>{5, 6, 7, 8});
+  REQUIRE(fewer.test().size() == all.test().size());
+  for (size_t i = 0; i < all.test().size(); ++i)
+    CHECK(fewer.test()[i].image_path == all.test()[i].image_path);
+  // Every pose before the tail is the same as 0.
+  config.train_poses = 9;
+  CHECK(Capture::open(config).train().size() == all.train().size());
+
+  // validation_poses: the last 2 training poses (7, 8) are the test set, the held-out poses
+  // (9-11) are neither trained nor tested on; with train_poses 3, poses 4-6 train.
+  config.train_poses = 3;
+  config.validation_poses = 2;
+  const Capture validation = Capture::open(config);
+  std::set<int> trained, tested;
+  for (const auto& f : validation.train()) trained.insert(f.pose_index);
+  for (const auto& f : validation.test()) tested.insert(f.pose_index);
+  CHECK(trained == std::set<int>{4, 5, 6});
+  CHECK(tested == std::set<int>{7, 8});
+  CHECK(validation.test().size() == 2 * 4);
+}
+
 TEST_CASE("capture roundtrip: novel_view cameras chosen like the paper's 10 train / 15 test") {
   std::set<std::string> available;
   for (int k = 0; k < 40; ++k) available.insert(std::to_string(400002 + 2 * k));
