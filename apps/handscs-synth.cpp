@@ -11,17 +11,19 @@
 int main(int argc, char** argv) {
   CLI::App app{
       "handscs-synth: render a synthetic InterHand2.6M-layout capture of the built-in hand.\n"
-      "Easy presets (the avatar's own rig under fixed light): tiny, demo, bench. Realistic presets\n"
-      "(tissue, fit error, flexion creases, cast shadows, gestures, forearm, camera response,\n"
-      "region masks): real_tiny, real_demo, real_bench. Switch one effect off with e.g.\n"
-      "--set effects.cast_shadows=false (keys: docs/CONFIG.md, section handscs-synth)."};
+      "Easy presets (the avatar's own rig under fixed light): tiny, demo, bench, paper.\n"
+      "Realistic presets (tissue, fit error, flexion creases, cast shadows, gestures, forearm,\n"
+      "camera response, region masks): real_tiny, real_demo, real_bench, real_paper. Switch one\n"
+      "effect off with e.g. --set effects.cast_shadows=false (keys: docs/CONFIG.md, section\n"
+      "handscs-synth)."};
   handscs::CommonOptions common;
   handscs::add_common_options(app, common, true);
   std::string preset = "tiny", out;
   int64_t seed = 1;
   app.add_option("--preset", preset,
-                 "tiny (4 cameras x 12 frames), demo (12 x 100), bench (24 x 150), or real_tiny, "
-                 "real_demo, real_bench (same sizes, every realistic effect on)")
+                 "tiny (4 cameras x 12 frames), demo (12 x 100), bench (24 x 150), paper (30 x 400: "
+                 "the paper's scale), or real_tiny, real_demo, real_bench, real_paper (same "
+                 "sizes, every realistic effect on)")
       ->capture_default_str();
   app.add_option("--out", out, "output folder (gets images/, annotations/, regions/, synth.json)")
       ->required();

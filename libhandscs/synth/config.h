@@ -58,8 +58,9 @@ struct SynthConfig {
 };
 
 // Named presets: "tiny" (4 cameras x 12 frames, 167x256, for CI), "demo" (12 x 100, 334x512),
-// "bench" (24 x 150, 334x512), and "real_tiny", "real_demo", "real_bench" of the same sizes with
-// every effect of synth/effects.h on. Throws Error listing the known names for anything else.
+// "bench" (24 x 150, 334x512), "paper" (30 x 400, 334x512: the paper's scale), and "real_tiny",
+// "real_demo", "real_bench", "real_paper" of the same sizes with every effect of synth/effects.h
+// on. Throws Error listing the known names for anything else.
 SynthConfig synth_preset(const std::string& name);
 
 // `config` with "key.path=value" overrides applied (handscs-synth --set); unknown keys and values

@@ -31,7 +31,12 @@ TEST_CASE("synth: presets and unknown names") {
   const SynthConfig bench = synth_preset("bench");
   CHECK(bench.num_cameras * bench.num_frames == 3600);
   CHECK(data_test::error_of([] { synth_preset("huge"); }) ==
-        "--preset: unknown preset \"huge\" (known: tiny, demo, bench, real_tiny, real_demo, real_bench)");
+        "--preset: unknown preset \"huge\" (known: tiny, demo, bench, paper, real_tiny, real_demo, "
+        "real_bench, real_paper)");
+  // The paper's scale: 350 training poses, and 25 colour cameras for 10 training + 15 test views.
+  const SynthConfig paper = synth_preset("real_paper");
+  CHECK(paper.num_frames - paper.held_out_frames == 350);
+  CHECK(paper.num_cameras - paper.num_cameras / paper.effects.monochrome_every == 25);
   // The settings round-trip through JSON (config visitor).
   SynthConfig back;
   SynthConfig copy = bench;
