@@ -30,6 +30,20 @@ Avatar::Avatar(const AvatarConfig& config, Rig rig)
                      has_native_bf16_matmul());
   decoders_ = OffsetDecoders(config_.scs.enabled ? descriptor_dim() : 0, embedding,
                              config_.decoder_hidden, bf16);
+  if (config_.scs.enabled && config_.scs.input_norm == ScsConfig::InputNorm::rest &&
+      descriptor_dim() > 0) {
+    // P of the initial Gaussians (the rig's vertices) in the zero pose, without the decoders'
+    // view applied (the statistics are not set yet).
+    torch::NoGradGuard no_grad;
+    const auto zero = torch::zeros({kPoseDim});
+    const AvatarState rest = pose(zero, torch::zeros({kShapeDim}), torch::zeros({3}), true);
+    descriptor_mean_ = rest.descriptor.mean(0).to(torch::kFloat32);
+    // The floor keeps a dimension that is constant at rest (never seen so far) from being blown
+    // up: P's values are O(0.01-1) (unitless static terms, metres for the virtual ones).
+    constexpr double kStdFloor = 1e-4;
+    descriptor_scale_ = (config_.embedding_init_std /
+                         rest.descriptor.std(0).clamp_min(kStdFloor)).to(torch::kFloat32);
+  }
 }
 
 bool Avatar::uses_static_bones() const {
@@ -62,25 +76,34 @@ torch::Tensor Avatar::compute_descriptor(const torch::Tensor& pose, const LbsOut
                                          const torch::Tensor& lbs_means, VirtualBones* bones) {
   require(bones != nullptr, "Avatar::compute_descriptor: bones must point to a VirtualBones");
   std::vector<torch::Tensor> parts;
+  // scs.detach_means: P's gradient reaches the generator (and the joints), not the means.
+  const bool detach = config_.scs.detach_means;
+  const torch::Tensor& means_in = detach ? lbs_means.detach() : lbs_means;
   const auto posed_joints = lbs.joints[0];      // [21, 3]
   const auto canonical_joints = lbs.rest_joints[0];
   if (uses_static_bones()) {
     // One pass over the Gaussians, with its own backward under autograd (scs/descriptor.h).
     parts.push_back(
-        static_descriptor_loop(lbs_means, posed_joints, topology_, config_.scs.tau, config_.scs.norm_eps));
+        static_descriptor_loop(means_in, posed_joints, topology_, config_.scs.tau, config_.scs.norm_eps));
   }
   if (generator_) {
     const bool posed_space = config_.scs.virtual_space == ScsConfig::VirtualSpace::posed;
     *bones = generator_->forward(pose, canonical_joints, posed_space ? posed_joints : canonical_joints);
     // Canonical space is the shaped rest hand, the space of rest_joints and so of the bones: the
     // Gaussians' template centres get their rig vertex's shape offset (not the pose offset).
+    const auto means = detach ? gaussians_.means.detach() : gaussians_.means;
     const auto centres =
-        posed_space ? lbs_means
-                    : gaussians_.means + lbs.shape_offsets[0].index_select(0, gaussians_.vertex_ids);
+        posed_space ? means_in : means + lbs.shape_offsets[0].index_select(0, gaussians_.vertex_ids);
     parts.push_back(virtual_descriptor(centres, bones->start, bones->end, config_.scs.norm_eps));
   }
   if (parts.empty()) return torch::zeros({gaussians_.size(), 0}, lbs_means.options());
   return torch::cat(parts, 1);
+}
+
+torch::Tensor Avatar::decoder_view(const torch::Tensor& descriptor) const {
+  if (!descriptor_scale_.defined()) return descriptor;
+  const auto dtype = descriptor.scalar_type();
+  return (descriptor - descriptor_mean_.to(dtype)) * descriptor_scale_.to(dtype);
 }
 
 const FrozenDecoders& Avatar::frozen_decoders() {
@@ -132,8 +155,8 @@ AvatarState Avatar::pose(const torch::Tensor& pose_in, const torch::Tensor& shap
   const bool use_descriptor = config_.scs.enabled && descriptor_dim() > 0;
   if (use_descriptor || need_descriptor)
     s.descriptor = compute_descriptor(pose[0], s.lbs, s.lbs_means, &s.virtual_bones);
-  const auto descriptor_in =
-      use_descriptor ? s.descriptor : torch::zeros({g.size(), 0}, s.lbs_means.options());
+  const auto descriptor_in = use_descriptor ? decoder_view(s.descriptor)
+                                            : torch::zeros({g.size(), 0}, s.lbs_means.options());
   const auto transform_in = transforms.slice(1, 0, 3).reshape({-1, 12});
   if (cull) {
     // facing_rows takes the means' dtype.

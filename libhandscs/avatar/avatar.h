@@ -95,6 +95,10 @@ class Avatar {
   torch::Tensor compute_descriptor(const torch::Tensor& pose, const LbsOutput& lbs,
                                    const torch::Tensor& lbs_means, VirtualBones* bones);
 
+  // What the decoders see of P [N, descriptor_dim()]: P itself, or with scs.input_norm = rest
+  // (P - mean) * scale per dimension, the statistics fixed at construction.
+  torch::Tensor decoder_view(const torch::Tensor& descriptor) const;
+
   // Network parameters by group name: "generator", "decoders", "gates".
   std::vector<std::pair<std::string, std::vector<torch::Tensor>>> network_parameter_groups();
 
@@ -110,6 +114,10 @@ class Avatar {
   OffsetDecoders decoders_{nullptr};
   std::optional<FrozenDecoders> frozen_;
   torch::Tensor rest_normals_;  // [V, 3] float64 outward normals of the rig's template vertices
+  // scs.input_norm = rest: the decoders see (P - descriptor_mean_) * descriptor_scale_, both
+  // [descriptor_dim()] float32, fixed at construction (recomputed, not stored, on loading: they
+  // depend only on the config, the rig and the seeded initial generator).
+  torch::Tensor descriptor_mean_, descriptor_scale_;
 };
 
 // Upper triangle [N, 6] of symmetric matrices [N, 3, 3].

@@ -20,6 +20,15 @@ struct ScsConfig {
   double max_offset = 0.02;  // m: |dp|, |dq| <= this (tanh-scaled), a fraction of a finger width
   int generator_hidden = 128;  // width of the generator MLP's two hidden layers ("lightweight")
   double norm_eps = 1e-8;  // m: floor of |r| and |b| so Gaussians on joints stay finite
+  // Choices the paper leaves open (docs/SCALING.md, "The open choices"):
+  // P built from the Gaussians' means with their gradient (false, as the paper's formulas read
+  // literally) or from detached means, so that P's gradient reaches the generator only.
+  bool detach_means = false;
+  // The decoders' view of P: "none" (P as computed) or "rest": each dimension standardised by its
+  // mean and std over the rig's vertices in the zero pose at initialisation, times the
+  // embeddings' initial std, so that P and the embeddings enter the decoders at one scale.
+  enum class InputNorm { none, rest };
+  InputNorm input_norm = InputNorm::none;
   // E_s = (E_MANO \ removed) U cross, on MANO21 joint ids (DESIGN.md §4).
   std::vector<std::array<int, 2>> removed_edges = {{0, 1}, {0, 4}, {0, 10}, {0, 7}};
   std::vector<std::array<int, 2>> cross_edges = {{13, 1}, {1, 4}, {4, 10}, {10, 7}};
@@ -39,6 +48,11 @@ struct ScsConfig {
     v.field("generator_hidden", generator_hidden, "hidden width of the virtual-bone generator", 1,
             4096);
     v.field("norm_eps", norm_eps, "floor of vector norms (m)", 1e-12, 1e-3);
+    v.field("detach_means", detach_means,
+            "build P from detached Gaussian means (its gradient reaches the generator only)");
+    v.choice("input_norm", input_norm, {{"none", InputNorm::none}, {"rest", InputNorm::rest}},
+             "decoders' view of P: as computed, or standardised at the zero pose and scaled to "
+             "the embeddings' initial std");
     v.field("removed_edges", removed_edges, "MANO21 edges removed from E_MANO");
     v.field("cross_edges", cross_edges, "MANO21 cross-finger edges added to the basis");
   }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <functional>
 
+#include <torch/csrc/autograd/autograd.h>
 #include <torch/types.h>
 
 #include "avatar/avatar.h"
@@ -270,4 +271,60 @@ TEST_CASE("avatar: virtual bones and Gaussian centres share the shaped canonical
   const auto template_only = handscs::virtual_descriptor(g.means, state.virtual_bones.start,
                                                          state.virtual_bones.end, config.scs.norm_eps);
   CHECK((template_only - expected).abs().max().item<double>() > 1e-4);
+}
+
+TEST_CASE("avatar: scs.input_norm rest gives the decoders P at the embeddings' scale") {
+  handscs::AvatarConfig config;
+  config.scs.input_norm = handscs::ScsConfig::InputNorm::rest;
+  handscs::Avatar avatar(config, handscs::load_rig_source("builtin"));
+  const auto zero_pose = torch::zeros({48});
+  const auto rest = avatar.pose(zero_pose, torch::zeros({10}), torch::zeros({3}), true);
+  const auto view = avatar.decoder_view(rest.descriptor);
+  REQUIRE(view.sizes() == rest.descriptor.sizes());
+  // Invariant: at the zero pose, over the initial Gaussians, every dimension has mean 0 and the
+  // embeddings' initial std (every dimension of the built-in hand varies well above the floor).
+  CHECK(rest.descriptor.std(0).min().item<double>() > 1e-3);
+  CHECK(view.mean(0).abs().max().item<double>() < 1e-6);
+  const auto std = view.std(0);
+  CHECK(std.min().item<double>() == Approx(config.embedding_init_std).epsilon(1e-4));
+  CHECK(std.max().item<double>() == Approx(config.embedding_init_std).epsilon(1e-4));
+  // The statistics depend on the config and rig only: a second avatar (as on loading a
+  // checkpoint) views P bit for bit the same.
+  handscs::Avatar again(config, handscs::load_rig_source("builtin"));
+  const auto posed = avatar.pose(small_pose(5), torch::zeros({10}), torch::zeros({3}), true);
+  CHECK(torch::equal(again.decoder_view(posed.descriptor), avatar.decoder_view(posed.descriptor)));
+  // The default leaves P as it is.
+  handscs::Avatar plain(handscs::AvatarConfig{}, handscs::load_rig_source("builtin"));
+  CHECK(torch::equal(plain.decoder_view(posed.descriptor), posed.descriptor));
+}
+
+TEST_CASE("avatar: scs.detach_means keeps P's gradient from the means, not from the generator") {
+  torch::Tensor first;  // P without detaching: detaching changes no value
+  for (const bool detach : {false, true}) {
+    INFO("detach_means " << detach);
+    handscs::AvatarConfig config;
+    config.scs.detach_means = detach;
+    handscs::Avatar avatar(config, handscs::load_rig_source("builtin"));
+    const auto state = avatar.pose(small_pose(6), torch::zeros({10}), torch::zeros({3}), true);
+    if (detach)
+      CHECK(torch::equal(state.descriptor, first));
+    else
+      first = state.descriptor.detach();
+    // A fixed random weighting of P, so no gradient cancels by symmetry.
+    const auto weights = torch::randn(state.descriptor.sizes(),
+                                      at::detail::createCPUGenerator(7), torch::kFloat32);
+    const auto loss = (state.descriptor * weights).sum();
+    std::vector<torch::Tensor> inputs = {avatar.gaussians().means};
+    for (const auto& p : avatar.generator()->parameters()) inputs.push_back(p);
+    const auto grads = torch::autograd::grad({loss}, inputs, {}, false, false, true);
+    const double means_grad = grads[0].defined() ? grads[0].abs().sum().item<double>() : 0.0;
+    double generator_grad = 0;
+    for (size_t i = 1; i < grads.size(); ++i)
+      if (grads[i].defined()) generator_grad += grads[i].abs().sum().item<double>();
+    CHECK(generator_grad > 0);
+    if (detach)
+      CHECK(means_grad == 0);
+    else
+      CHECK(means_grad > 0);
+  }
 }
