@@ -1,0 +1,194 @@
+#!/usr/bin/python3
+"""Paired gains of a seeded study: what one row adds over another, cell by cell, seed by seed.
+
+    /usr/bin/python3 scripts/paired_gains.py SWEEP_OUT... --gain NAME=ROW-BASE ... [--out PREFIX]
+        [--plot-gain NAME] [--title TEXT]
+
+Each SWEEP_OUT is a handscs-bench output folder (results.csv, and runs/<point>_<budget>/eval/
+summary.json for the region metrics). Points are named <row>.<cell>.s<seed> (for example
+full.p350.s10: row full, cell p350, seed 10), or <row>.s<seed> (one cell). A cell is the pair
+(cell name, budget). For every --gain NAME=ROW-BASE (e.g. scs=full-inter_pose) and cell, the gain of
+each seed present in both rows is ROW's metric minus BASE's, for PSNR, SSIM, LPIPS and the region
+PSNRs. Writes PREFIX.md (a Markdown table: mean +- sample std over the seeds, each seed's value, and
+the reading rule of docs/SCALING.md: "pays" if the PSNR gain is positive on every seed and there are
+at least 2, "costs" if negative on every seed, otherwise "no difference shown"), PREFIX.csv (one line
+per gain, cell and metric) and, with --plot-gain, PREFIX.png / .pdf: that gain's PSNR mean and
+seeds against the cell's training poses (the number in a cell name pN), one line per budget.
+Rows that failed or whose PSNR is not finite are left out and counted in the table.
+"""
+import argparse
+import csv
+import json
+import math
+import os
+import re
+import statistics
+import sys
+
+POINT = re.compile(r'^(?P<row>[A-Za-z0-9_-]+)(?:\.(?P<cell>[A-Za-z0-9_-]+))?\.s(?P<seed>\d+)$')
+METRICS = ('psnr', 'ssim', 'lpips')
+
+
+def number(text):
+    try:
+        v = float(text)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def read_sweep(folder):
+    """{(row, cell, budget, seed): {metric: value}} of a sweep folder's finished rows."""
+    path = os.path.join(folder, 'results.csv')
+    if not os.path.exists(path):
+        sys.exit(f'{path}: no such file (not a handscs-bench output folder?)')
+    results, left_out = {}, []
+    with open(path, newline='') as f:
+        for line in csv.DictReader(f):
+            m = POINT.match(line.get('point', ''))
+            if not m:
+                sys.exit(f'{path}: point "{line.get("point")}" is not named <row>[.<cell>].s<seed>')
+            key = (m['row'], m['cell'] or '-', int(line['budget']), int(m['seed']))
+            values = {k: number(line.get(k)) for k in METRICS}
+            if line.get('status') != 'ok' or values['psnr'] is None:
+                left_out.append(f'{line["point"]}@{line["budget"]} ({line.get("status")})')
+                continue
+            summary = os.path.join(folder, 'runs', f'{line["point"]}_{line["budget"]}', 'eval',
+                                   'summary.json')
+            if os.path.exists(summary):
+                with open(summary) as s:
+                    for name, region in (json.load(s).get('regions') or {}).items():
+                        values[f'psnr_{name}'] = number(region.get('psnr'))
+            results[key] = values
+    return results, left_out
+
+
+def mean_std(values):
+    if not values:
+        return None, None
+    return statistics.fmean(values), (statistics.stdev(values) if len(values) > 1 else 0.0)
+
+
+def reading(gains):
+    if len(gains) < 2:
+        return 'too few seeds'
+    if all(g > 0 for g in gains):
+        return 'pays'
+    if all(g < 0 for g in gains):
+        return 'costs'
+    return 'no difference shown'
+
+
+def poses_of(cell):
+    m = re.search(r'p(\d+)', cell)
+    return int(m.group(1)) if m else None
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('sweeps', nargs='+')
+    parser.add_argument('--gain', action='append', required=True, help='NAME=ROW-BASE')
+    parser.add_argument('--out', required=True, help='output prefix (PREFIX.md, .csv, .png)')
+    parser.add_argument('--plot-gain', help='gain NAME to plot against training poses')
+    parser.add_argument('--title', default='Paired gains')
+    args = parser.parse_args()
+
+    results, left_out = {}, []
+    for folder in args.sweeps:
+        r, lo = read_sweep(folder)
+        results.update(r)
+        left_out += lo
+    gains = []
+    for spec in args.gain:
+        m = re.match(r'^([A-Za-z0-9_]+)=([A-Za-z0-9_-]+)-([A-Za-z0-9_-]+)$', spec)
+        if not m:
+            sys.exit(f'--gain {spec}: expected NAME=ROW-BASE')
+        gains.append(m.groups())
+
+    cells = sorted({(cell, budget) for (_, cell, budget, _) in results},
+                   key=lambda c: (c[1], poses_of(c[0]) or 0, c[0]))
+    metrics = sorted({k for v in results.values() for k in v},
+                     key=lambda k: (k not in METRICS, METRICS.index(k) if k in METRICS else 0, k))
+    rows_csv, md = [], [f'# {args.title}', '']
+    md.append('| gain | cell | budget | seeds | PSNR (dB) | per seed | reading | SSIM | LPIPS | '
+              'region PSNRs |')
+    md.append('|---|---|---|---|---|---|---|---|---|---|')
+    plot = {}
+    for name, row, base in gains:
+        for cell, budget in cells:
+            seeds = sorted(s for (r, c, b, s) in results if r == row and c == cell and b == budget
+                           and (base, cell, budget, s) in results)
+            if not seeds:
+                continue
+            per_metric = {}
+            for metric in metrics:
+                values = [results[(row, cell, budget, s)].get(metric) for s in seeds]
+                bases = [results[(base, cell, budget, s)].get(metric) for s in seeds]
+                diffs = [v - b for v, b in zip(values, bases) if v is not None and b is not None]
+                per_metric[metric] = diffs
+                mean, std = mean_std(diffs)
+                if mean is not None:
+                    rows_csv.append([name, cell, budget, metric, len(diffs), f'{mean:.4f}',
+                                     f'{std:.4f}', ' '.join(f'{d:+.4f}' for d in diffs)])
+            psnr = per_metric['psnr']
+            mean, std = mean_std(psnr)
+            ssim_m, ssim_s = mean_std(per_metric.get('ssim', []))
+            lpips_m, lpips_s = mean_std(per_metric.get('lpips', []))
+            regions = ', '.join(f'{k[5:]} {mean_std(per_metric[k])[0]:+.3f} +- '
+                                f'{mean_std(per_metric[k])[1]:.3f}'
+                                for k in metrics if k.startswith('psnr_') and per_metric[k])
+            md.append(f'| {name} ({row} - {base}) | {cell} | {budget} | {len(psnr)} | '
+                      f'{mean:+.3f} +- {std:.3f} | {" / ".join(f"{d:+.3f}" for d in psnr)} | '
+                      f'{reading(psnr)} | '
+                      + (f'{ssim_m:+.4f} +- {ssim_s:.4f}' if ssim_m is not None else '') + ' | '
+                      + (f'{lpips_m:+.4f} +- {lpips_s:.4f}' if lpips_m is not None else '')
+                      + f' | {regions} |')
+            if name == args.plot_gain:
+                plot.setdefault(budget, []).append((cell, psnr))
+    if left_out:
+        md += ['', f'Left out ({len(left_out)}): ' + ', '.join(left_out)]
+    with open(args.out + '.md', 'w') as f:
+        f.write('\n'.join(md) + '\n')
+    with open(args.out + '.csv', 'w', newline='') as f:
+        w = csv.writer(f, lineterminator='\n')
+        w.writerow(['gain', 'cell', 'budget', 'metric', 'seeds', 'mean', 'std', 'per_seed'])
+        w.writerows(rows_csv)
+    print('\n'.join(md))
+    if args.plot_gain and plot:
+        draw(plot, args)
+
+
+def draw(plot, args):
+    try:
+        import matplotlib
+        matplotlib.use('Agg')
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print('paired_gains.py: matplotlib is missing (python3-matplotlib): no plot', file=sys.stderr)
+        return
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for budget, cells in sorted(plot.items()):
+        points = sorted((poses_of(c), g, c) for c, g in cells if poses_of(c) is not None)
+        others = [(c, g) for c, g in cells if poses_of(c) is None]
+        if points:
+            xs = [p for p, _, _ in points]
+            ax.plot(xs, [statistics.fmean(g) for _, g, _ in points], marker='o',
+                    label=f'{budget} steps')
+            for p, g, _ in points:
+                ax.scatter([p] * len(g), g, s=10, color='grey', zorder=3)
+        for c, g in others:
+            ax.errorbar([max([p for p, _, _ in points], default=0) * 1.15 + 10],
+                        [statistics.fmean(g)], yerr=[statistics.stdev(g) if len(g) > 1 else 0],
+                        fmt='s', label=f'{c}, {budget} steps')
+    ax.axhline(0, color='black', linewidth=0.8)
+    ax.set_xlabel('training poses')
+    ax.set_ylabel(f'{args.plot_gain} gain, PSNR (dB)')
+    ax.set_title(args.title)
+    ax.legend()
+    fig.tight_layout()
+    for ext in ('png', 'pdf'):
+        fig.savefig(f'{args.out}.{ext}', dpi=120)
+
+
+if __name__ == '__main__':
+    main()
