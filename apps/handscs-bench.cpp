@@ -1,72 +1,7 @@
 // handscs-bench: the speed-accuracy sweep (docs/BENCHMARKS.md). Trains and scores every point of a
 // sweep file at every budget, times the rasterizer over N, and writes results.csv, raster.csv,
-// summary.md and the plots; a second call resumes where the first stopped.
-#include <spdlog/spdlog.h>
+// summary.md and the plots; a second call resumes where the first stopped. The command line:
+// sweep/bench_command.h.
+#include "sweep/bench_command.h"
 
-#include <CLI/CLI.hpp>
-
-#include "core/cli.h"
-#include "core/error.h"
-#include "sweep/subprocess.h"
-#include "sweep/sweep_config.h"
-#include "sweep/sweep_runner.h"
-#include "sweep/sweep_shard.h"
-
-int main(int argc, char** argv) {
-  CLI::App app{
-      "handscs-bench: run time against error. Trains and evaluates each point of a sweep file at\n"
-      "each training budget (handscs-train, handscs-eval as child processes: wall time, ms/step,\n"
-      "peak memory, Gaussians, novel-pose PSNR/SSIM/LPIPS), times the rasterizer over N, and\n"
-      "writes OUT/results.csv, OUT/raster.csv, OUT/summary.md and OUT/*.png. Rerunning with the\n"
-      "same OUT resumes: finished rows are kept. On several machines: --shard i/n (or a Slurm job\n"
-      "array) on each, then --merge DIR1,DIR2,... --out OUT (docs/BENCHMARKS.md, \"Sweeps on a\n"
-      "cluster\")."};
-  std::string sweep_path, lpips;
-  handscs::SweepOptions options;
-  bool plots_only = false;
-  app.add_option("--sweep", sweep_path, "sweep file, e.g. configs/sweeps/quick.json")
-      ->check(CLI::ExistingFile);
-  app.add_option("--out", options.out_dir, "results folder (resumed if it holds results)")
-      ->required();
-  app.add_option("--capture", options.capture,
-                 "capture root (default: OUT/capture, synthesised from the sweep's preset)");
-  app.add_option("--lpips-weights", options.lpips_weights,
-                 "LPIPS weights (loss and metric); without them LPIPS is neither trained nor "
-                 "reported");
-  app.add_option("--points", options.only_points,
-                 "run only these points of the sweep (e.g. to run two in parallel into two OUTs)")
-      ->delimiter(',');
-  std::string shard;
-  app.add_option("--shard", shard,
-                 "run only shard i of n (i/n, counted from 0): run k of the sweep belongs to shard "
-                 "k mod n; without it, a Slurm job array's SLURM_ARRAY_TASK_* variables choose it");
-  std::vector<std::string> merge_dirs;
-  app.add_option("--merge", merge_dirs,
-                 "merge these shards' --out folders into OUT (results.csv, raster.csv, plots, "
-                 "summary.md) and stop")
-      ->delimiter(',');
-  app.add_flag("--keep-runs", options.keep_runs, "keep each run's checkpoints after scoring");
-  app.add_flag("--plots-only", plots_only, "redraw plots and summary.md from OUT's CSVs");
-  CLI11_PARSE(app, argc, argv);
-  try {
-    if (plots_only) {
-      handscs::draw_sweep_plots(options.out_dir);
-      return 0;
-    }
-    if (!merge_dirs.empty()) {
-      handscs::merge_sweep_shards(options.out_dir, merge_dirs);
-      return 0;
-    }
-    if (sweep_path.empty()) throw handscs::Error("--sweep is required (or --plots-only, --merge)");
-    options.shard = shard.empty() ? handscs::sweep_shard_from_environment()
-                                  : handscs::parse_sweep_shard(shard);
-    options.bin_dir = handscs::executable_dir();
-    handscs::run_sweep(handscs::load_sweep_config(sweep_path), options);
-    spdlog::info("handscs-bench: results in {}/results.csv, charts {}/*.png and *.pdf, table {}/summary.md",
-                 options.out_dir, options.out_dir, options.out_dir);
-  } catch (const std::exception& e) {
-    spdlog::error("{}", handscs::error_text(e));
-    return 1;
-  }
-  return 0;
-}
+int main(int argc, char** argv) { return handscs::bench_command(argc, argv); }

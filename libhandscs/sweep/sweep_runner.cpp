@@ -103,7 +103,8 @@ std::string tail_of(const std::string& log_path) {
 std::vector<std::string> run_point(const SweepConfig& config, const SweepOptions& options,
                                    const std::string& capture, const SweepPoint& point,
                                    int budget) {
-  const int threads = point.threads > 0 ? point.threads : config.threads;
+  const int threads =
+      options.threads > 0 ? options.threads : point.threads > 0 ? point.threads : config.threads;
   const std::string run = (fs::path(options.out_dir) / "runs" /
                            (point.name + "_" + std::to_string(budget))).string();
   fs::remove_all(run);  // a run stopped half-way is started again, not resumed
@@ -206,7 +207,7 @@ void run_raster_grid(const SweepConfig& config, const SweepOptions& options) {
 
 }  // namespace
 
-void run_sweep(const SweepConfig& config, const SweepOptions& options) {
+SweepOutcome run_sweep(const SweepConfig& config, const SweepOptions& options) {
   ensure_directory(options.out_dir);
   ensure_directory(options.out_dir + "/logs");
   std::string capture = options.capture;
@@ -260,6 +261,14 @@ void run_sweep(const SweepConfig& config, const SweepOptions& options) {
   // The rasterizer timings are a property of the machine, not of a run: shard 0 takes them.
   if (options.shard.index == 0) run_raster_grid(config, options);
   draw_sweep_plots(options.out_dir);
+  SweepOutcome outcome;
+  outcome.runs = static_cast<int>(total);
+  for (const auto& [point, budget] : runs)
+    for (size_t r = 0; r < results.rows.size(); ++r)
+      if (results.at(r, "point") == point->name && results.at(r, "budget") == std::to_string(budget) &&
+          results.at(r, "status") != "ok")
+        ++outcome.failed;
+  return outcome;
 }
 
 void draw_sweep_plots(const std::string& out_dir) {

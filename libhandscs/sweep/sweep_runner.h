@@ -20,9 +20,15 @@ struct SweepOptions {
   bool keep_runs = false;     // keep each run's checkpoints (they are deleted once scored)
   std::vector<std::string> only_points;  // run only these points (empty = all)
   SweepShard shard;           // this machine's share of the runs (sweep/sweep_shard.h)
+  int threads = 0;            // threads of every run (0 = the sweep file's, and each point's own)
 };
 
-void run_sweep(const SweepConfig& config, const SweepOptions& options);
+struct SweepOutcome {
+  int runs = 0;    // runs of this sweep (or shard)
+  int failed = 0;  // of those, runs whose row is not "ok" (kept in results.csv with the reason)
+};
+
+SweepOutcome run_sweep(const SweepConfig& config, const SweepOptions& options);
 
 // Rewrites summary.md and pareto.csv from the CSVs in out_dir (no training) and has
 // scripts/plot_sweep.py (matplotlib) draw the charts as PNG and PDF; without Python or matplotlib
