@@ -5,7 +5,6 @@
 #include <cmath>
 #include <filesystem>
 
-#include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
 #include <torch/types.h>
 
@@ -18,6 +17,7 @@
 #include "core/text.h"
 #include "data/capture.h"
 #include "io/png.h"
+#include "metrics/comparison_panel.h"
 #include "metrics/image_scorer.h"
 #include "metrics/image_tensor.h"
 #include "metrics/region_masks.h"
@@ -33,15 +33,15 @@ std::string format_or_null(const std::optional<double>& value, int digits) {
   return buffer;
 }
 
-// Prediction | ground truth | per-pixel error (mean absolute RGB error, x4, JET colour map).
-cv::Mat side_by_side(const torch::Tensor& pred, const torch::Tensor& gt) {
-  const auto err = (pred - gt).abs().mean(2).mul(4.0).clamp(0, 1).mul(255).to(torch::kUInt8).contiguous();
-  cv::Mat err8(err.size(0), err.size(1), CV_8UC1, err.data_ptr<uint8_t>());
-  cv::Mat heat;
-  cv::applyColorMap(err8, heat, cv::COLORMAP_JET);
-  cv::Mat out;
-  cv::hconcat(std::vector<cv::Mat>{rgb_tensor_to_mat(pred), rgb_tensor_to_mat(gt), heat}, out);
-  return out;
+// Prediction | ground truth | error heat map (metrics/comparison_panel.h), titled with the image,
+// its camera and its scores.
+cv::Mat side_by_side(const torch::Tensor& pred, const torch::Tensor& gt, const FrameInfo& frame,
+                     const ImageScores& scores) {
+  char text[160];
+  std::snprintf(text, sizeof(text), "%s  camera %s  PSNR %.2f dB  SSIM %.4f%s",
+                frame.file_name.c_str(), frame.camera_id.c_str(), scores.psnr, scores.ssim,
+                scores.lpips ? ("  LPIPS " + format_or_null(scores.lpips, 4)).c_str() : "");
+  return comparison_panel(pred, gt, text);
 }
 
 // Scores over a capture with damaged JPEGs would silently cover fewer images than the protocol
@@ -203,7 +203,8 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
         std::string name = frame.file_name;
         std::replace(name.begin(), name.end(), '/', '_');
         name = name.substr(0, name.rfind('.')) + ".png";
-        write_png(options.out_dir + "/side_by_side/" + name, side_by_side(pred, gt));
+        write_png(options.out_dir + "/side_by_side/" + name,
+                  side_by_side(pred, gt, frame, entry.scores));
       }
     } catch (const Error& e) {
       entry.ok = false;

@@ -76,6 +76,10 @@ TEST_CASE("cli: train, resume, evaluate and render the tiny capture") {
   CHECK(summary["rendering"]["fps"].get<double>() > 0);
   CHECK(std::filesystem::exists(eval_dir + "/per_image.csv"));
   CHECK(std::filesystem::exists(eval_dir + "/table.md"));
+  int panels = 0;  // one labelled render | ground truth | error panel per scored image
+  for (const auto& entry : std::filesystem::directory_iterator(eval_dir + "/side_by_side"))
+    panels += entry.path().extension() == ".png";
+  CHECK(panels == 12);
 
   const auto poses = run_dir + "/poses.json";
   std::ofstream(poses) << R"({"poses": [{"pose": [0,0,0, 0.3,0,0, 0.3,0,0, 0.3,0,0, 0,0,0,0,0,0,0,0,0,
