@@ -1,5 +1,7 @@
 #include "train/run_config.h"
 
+#include <cstdio>
+
 #include "core/error.h"
 #include "data/capture.h"
 
@@ -23,6 +25,22 @@ void validate_run_config(const RunConfig& config, const std::string& source) {
           source + ": train.densify.start must not exceed train.densify.stop");
   require(config.train.lr.means_final <= config.train.lr.means,
           source + ": train.lr.means_final must not exceed train.lr.means");
+  const auto& loss = config.train.loss;
+  require(loss.rgb > 0 || loss.mask > 0 || loss.ssim > 0 || loss.lpips > 0 || loss.reg > 0 ||
+              loss.consistency > 0,
+          source + ": train.loss: every weight (rgb, mask, ssim, lpips, reg, consistency) is 0, "
+                   "so nothing would be learnt");
+  for (double v : config.eval.background) {
+    char value[32];
+    std::snprintf(value, sizeof(value), "%g", v);
+    require(v >= 0 && v <= 1,
+            source + ": eval.background: values must be in [0, 1] (got " + value + ")");
+  }
+  require(!config.data.mask_refine.enabled ||
+              config.data.mask_refine.low < config.data.mask_refine.high,
+          source + ": data.mask_refine.low (" + std::to_string(config.data.mask_refine.low) +
+              ") must be below data.mask_refine.high (" +
+              std::to_string(config.data.mask_refine.high) + "), or every mask would be empty");
 }
 
 }  // namespace handscs

@@ -58,12 +58,17 @@ RunFolderContents inspect_run_folder(const std::string& dir) {
   return c;
 }
 
-void prepare_fresh_run_folder(const std::string& dir, bool overwrite) {
+void refuse_run_folder_without_overwrite(const std::string& dir, bool overwrite) {
   const auto contents = inspect_run_folder(dir);
-  if (!contents.holds_run()) return;
-  if (!overwrite)
+  if (contents.holds_run() && !overwrite)
     throw Error(dir + " holds a run (" + contents.describe() +
                 "); continue it with --resume, replace it with --overwrite, or choose another --out");
+}
+
+void prepare_fresh_run_folder(const std::string& dir, bool overwrite) {
+  refuse_run_folder_without_overwrite(dir, overwrite);
+  const auto contents = inspect_run_folder(dir);
+  if (!contents.holds_run()) return;
   spdlog::warn("--overwrite: removing the run in {} ({})", dir, contents.describe());
   const fs::path root(dir);
   std::error_code ec;

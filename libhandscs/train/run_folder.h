@@ -24,8 +24,11 @@ struct RunFolderContents {
 
 RunFolderContents inspect_run_folder(const std::string& dir);
 
-// Before a fresh (not resumed) run: throws Error naming the folder and what it holds when it holds
-// a run, unless `overwrite`, in which case that run's files (RunFolderContents) are removed.
+// Throws Error naming the folder and what it holds when it holds a run and not `overwrite`.
+void refuse_run_folder_without_overwrite(const std::string& dir, bool overwrite);
+
+// Before a fresh (not resumed) run writes its first file: as refuse_run_folder_without_overwrite,
+// and with `overwrite` the earlier run's files (RunFolderContents) are removed.
 void prepare_fresh_run_folder(const std::string& dir, bool overwrite);
 
 // Removes "<file>.tmp.<pid>" files of write_file_atomic whose writer is no longer running, in dir

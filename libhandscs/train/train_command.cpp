@@ -86,8 +86,13 @@ int train_command(int argc, char** argv) {
       if (!root)
         config_from_json(nlohmann::json::parse(config_text), "rank 0's config", config);
     }
-    if (root && !resume) prepare_fresh_run_folder(run_dir, overwrite);
+    // A fresh run into a folder holding another is refused before anything else happens...
+    if (root && !resume) refuse_run_folder_without_overwrite(run_dir, overwrite);
+    // ...and with --overwrite the old run is removed only once the new one has opened its capture
+    // and passed the trainer's checks (nothing a run keeps is written before that), so a config
+    // that fails leaves the old run as it was.
     Trainer trainer(config, run_dir, group.get());
+    if (root && !resume) prepare_fresh_run_folder(run_dir, overwrite);
     if (root && resume && !trainer.resume())
       spdlog::warn("{}: no checkpoint to resume; starting afresh", run_dir);
     const auto summary = trainer.run();

@@ -210,6 +210,22 @@ TEST_CASE("cli: a run folder is never overwritten or mixed without --overwrite")
   CHECK(log_text().find("checkpoint: " + run_dir + "/checkpoints/step_00000004.ckpt (step 4)") !=
         std::string::npos);
 
+  // --overwrite with a new run that fails its checks (a capture that cannot be opened, images too
+  // small at the asked resolution, nothing to learn): refused, the old run every byte as it was
+  // (the evaluation above added masks of the test images to the run's mask cache).
+  const auto evaluated = snapshot(run_dir);
+  CHECK(run(train + " train.iterations=2 data.root=/nonexistent/capture --overwrite") == 1);
+  CHECK(log_text().find("/nonexistent/capture") != std::string::npos);
+  CHECK(snapshot(run_dir) == evaluated);
+  CHECK(run(train + " train.iterations=2 train.resolution_scale=0.05 --overwrite") == 1);
+  CHECK(log_text().find("train.resolution_scale") != std::string::npos);
+  CHECK(snapshot(run_dir) == evaluated);
+  CHECK(run(train + " train.iterations=2 train.loss.rgb=0 train.loss.mask=0 train.loss.ssim=0 "
+                    "train.loss.lpips=0 train.loss.reg=0 train.loss.consistency=0 --overwrite") == 1);
+  CHECK(log_text().find("train.loss: every weight (rgb, mask, ssim, lpips, reg, consistency) is 0") !=
+        std::string::npos);
+  CHECK(snapshot(run_dir) == evaluated);
+
   // --overwrite replaces the run: the old checkpoint is gone, the new run's is there.
   CHECK(run(train + " train.iterations=2 --resume --overwrite") != 0);  // exclusive flags
   REQUIRE(run(train + " train.iterations=2 --overwrite") == 0);

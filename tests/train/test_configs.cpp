@@ -105,6 +105,18 @@ TEST_CASE("configs: cross-section mismatches are errors naming both keys") {
   config.model.rig = "builtin:left";
   CHECK_THROWS_WITH(handscs::validate_run_config(config, "x.json"),
                     Catch::StartsWith("x.json: data.rig (\"builtin\") and model.rig (\"builtin:left\")"));
+  config = {};
+  config.eval.background = {2, -1, 0.5};
+  CHECK_THROWS_WITH(handscs::validate_run_config(config, "x.json"),
+                    "x.json: eval.background: values must be in [0, 1] (got 2)");
+  config = {};
+  config.data.mask_refine.low = 150;
+  config.data.mask_refine.high = 100;
+  CHECK_THROWS_WITH(handscs::validate_run_config(config, "x.json"),
+                    "x.json: data.mask_refine.low (150) must be below data.mask_refine.high (100), "
+                    "or every mask would be empty");
+  config.data.mask_refine.enabled = false;  // not refined: the bounds are unused
+  CHECK_NOTHROW(handscs::validate_run_config(config, "x.json"));
 }
 
 TEST_CASE("configs: every point of every sweep file applies to its run config") {
