@@ -1,6 +1,7 @@
 #include "synth/capture.h"
 
 #include <spdlog/spdlog.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -438,10 +439,53 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
   return report;
 }
 
-SynthReport generate_synth_capture(const SynthConfig& config, const std::string& out_dir) {
+namespace {
+
+// What a folder holds, for the message that refuses it ("images/, annotations/, 3 more").
+std::string folder_contents(const fs::path& dir) {
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(dir, ec))
+    names.push_back(entry.path().filename().string() + (entry.is_directory(ec) ? "/" : ""));
+  std::sort(names.begin(), names.end());
+  std::string text;
+  for (size_t i = 0; i < std::min<size_t>(names.size(), 3); ++i)
+    text += (i ? ", " : "") + names[i];
+  if (names.size() > 3) text += ", " + std::to_string(names.size() - 3) + " more";
+  return text;
+}
+
+}  // namespace
+
+SynthReport generate_synth_capture(const SynthConfig& config, const std::string& out_dir,
+                                   bool overwrite) {
   const auto start = std::chrono::steady_clock::now();
-  const SynthScene scene = make_synth_scene(config);
-  SynthReport report = write_synth_capture(scene, out_dir);
+  check_synth_size(config);
+  const fs::path out = fs::absolute(out_dir).lexically_normal();
+  std::error_code ec;
+  const bool occupied = fs::exists(out, ec) && !(fs::is_directory(out, ec) && fs::is_empty(out, ec));
+  if (occupied && !overwrite)
+    throw Error(out_dir + ": not empty (" + folder_contents(out) +
+                "); choose another --out, or replace it with --overwrite");
+  if (occupied && !fs::is_directory(out, ec))
+    throw Error(out_dir + ": is a file, not a folder");
+  // Written beside the old folder and swapped in only when complete: a failure or an interrupt
+  // leaves whatever was there as it was (only the staging folder of a killed run stays behind).
+  const std::string suffix = "." + std::to_string(::getpid());
+  const fs::path staging = out.string() + ".synth-new" + suffix;
+  const fs::path replaced = out.string() + ".synth-old" + suffix;
+  fs::remove_all(staging, ec);
+  SynthReport report;
+  try {
+    const SynthScene scene = make_synth_scene(config);
+    report = write_synth_capture(scene, staging.string());
+  } catch (...) {
+    fs::remove_all(staging, ec);
+    throw;
+  }
+  if (fs::exists(out, ec)) fs::rename(out, replaced);
+  fs::rename(staging, out);
+  fs::remove_all(replaced, ec);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   spdlog::info(
       "synth {}: {} cameras x {} frames = {} images ({}x{} portrait), {:.1f} MB in {:.1f} s -> {}",

@@ -69,7 +69,10 @@ struct SynthReport {
 // Rendering runs in parallel over images (OpenMP); errors are collected and thrown afterwards.
 SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_dir);
 
-// make_synth_scene + write_synth_capture, logging what was written (handscs-synth's body).
-SynthReport generate_synth_capture(const SynthConfig& config, const std::string& out_dir);
+// make_synth_scene + write_synth_capture, logging what was written (handscs-synth's body). An
+// out_dir that exists and is not empty is refused unless `overwrite`; the capture is written into a
+// folder beside it and swapped in once complete, so a failure leaves out_dir as it was.
+SynthReport generate_synth_capture(const SynthConfig& config, const std::string& out_dir,
+                                   bool overwrite = false);
 
 }  // namespace handscs

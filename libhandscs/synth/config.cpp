@@ -78,4 +78,23 @@ SynthConfig apply_synth_overrides(const SynthConfig& config,
   return out;
 }
 
+void check_synth_size(const SynthConfig& config) {
+  // The whole InterHand2.6M release has 2.6M images; its largest capture ~100k poses. Every frame
+  // keeps its posed mesh in memory (~20 KB), every image a few bytes of bookkeeping.
+  constexpr int64_t kMaxFrames = 200000;
+  constexpr int64_t kMaxImages = 5000000;
+  constexpr int64_t kMaxPixels = 100000000;  // per image: the cameras' 100-megapixel limit
+  const int64_t images = int64_t(config.num_cameras) * config.num_frames;
+  const int64_t pixels = int64_t(config.width) * config.height;
+  if (config.num_frames > kMaxFrames)
+    throw Error("num_frames: " + std::to_string(config.num_frames) + " frames (at most " +
+                std::to_string(kMaxFrames) + ")");
+  if (images > kMaxImages)
+    throw Error("num_cameras x num_frames: " + std::to_string(images) + " images (at most " +
+                std::to_string(kMaxImages) + ")");
+  if (pixels > kMaxPixels)
+    throw Error("width x height: " + std::to_string(pixels) + " pixels per image (at most " +
+                std::to_string(kMaxPixels) + ")");
+}
+
 }  // namespace handscs

@@ -69,4 +69,8 @@ SynthConfig apply_synth_overrides(const SynthConfig& config,
                                   const std::vector<std::string>& overrides);
 std::vector<std::string> synth_preset_names();
 
+// Throws Error naming the keys when a capture would be too large to generate here (more frames,
+// images or pixels than any InterHand2.6M capture), before anything is allocated.
+void check_synth_size(const SynthConfig& config);
+
 }  // namespace handscs

@@ -154,3 +154,45 @@ TEST_CASE("synth: skin detail, pose-dependent shading and a dark noisy backgroun
   const SynthView again = render_synth_frame(scene, 0, 0);
   CHECK(cv::countNonZero(again.bgr.reshape(1) != a.bgr.reshape(1)) == 0);
 }
+
+TEST_CASE("synth: a folder that is not empty is refused, and replaced only by a complete capture") {
+  const std::string dir = data_test::fresh_dir("synth_replace");
+  fs::create_directories(dir);
+  write_file_atomic(dir + "/mine.txt", "a user's file");
+  SynthConfig config = synth_preset("tiny");
+  config.num_frames = 4;
+  config.held_out_frames = 1;
+  CHECK(data_test::error_of([&] { generate_synth_capture(config, dir); }) ==
+        dir + ": not empty (mine.txt); choose another --out, or replace it with --overwrite");
+  CHECK(read_file(dir + "/mine.txt") == "a user's file");
+
+  // A capture that fails while it is made (here: more sequences than frames) leaves the folder
+  // as it was, and no staging folder beside it.
+  SynthConfig broken = config;
+  broken.num_sequences = 5;
+  CHECK(data_test::error_of([&] { generate_synth_capture(broken, dir, /*overwrite=*/true); }) ==
+        "synth: num_sequences must be in [1, num_frames]");
+  CHECK(read_file(dir + "/mine.txt") == "a user's file");
+  int siblings = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(dir).parent_path()))
+    siblings += entry.path().filename().string().rfind(fs::path(dir).filename().string() + ".synth-",
+                                                       0) == 0;
+  CHECK(siblings == 0);
+
+  // --overwrite with a capture that completes: the folder holds exactly the new capture.
+  generate_synth_capture(config, dir, /*overwrite=*/true);
+  CHECK_FALSE(fs::exists(dir + "/mine.txt"));
+  CHECK(fs::exists(dir + "/annotations/test/InterHand2.6M_test_data.json"));
+  int images = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(dir + "/images"))
+    images += entry.path().extension() == ".jpg";
+  CHECK(images == 4 * config.num_cameras);
+
+  // Sizes beyond any InterHand2.6M capture are refused before anything is allocated.
+  SynthConfig huge = synth_preset("tiny");
+  huge.num_cameras = 1000;
+  huge.num_frames = 100000;
+  CHECK(data_test::error_of([&] { generate_synth_capture(huge, dir + "_huge"); }) ==
+        "num_cameras x num_frames: 100000000 images (at most 5000000)");
+  CHECK_FALSE(fs::exists(dir + "_huge"));
+}
