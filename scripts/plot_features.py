@@ -126,7 +126,9 @@ def tsne(out, runs, feature_set, pose_name):
     from sklearn.manifold import TSNE
 
     colours = label_colours()
-    fig, axes = plt.subplots(1, len(runs), figsize=(5.2 * len(runs), 5.2), squeeze=False)
+    legend_width = 1.5  # inches on the right for the legend, beside the panels
+    width = 5.2 * len(runs) + legend_width
+    fig, axes = plt.subplots(1, len(runs), figsize=(width, 5.4), squeeze=False)
     names = None
     for ax, (label, folder) in zip(axes[0], runs):
         meta, poses, labels, values, column = read_run(folder)
@@ -156,8 +158,9 @@ def tsne(out, runs, feature_set, pose_name):
         ax.set_yticks([])
     handles = [plt.Line2D([], [], marker="o", linestyle="", color=colours[c], markersize=5)
                for c in range(len(names))]
-    fig.legend(handles, names, loc="center right", fontsize=8, title="phalange (argmax w)")
-    fig.tight_layout(rect=(0, 0, 1 - 0.9 / (5.2 * len(runs)), 1))
+    fig.tight_layout(rect=(0, 0, 1 - legend_width / width, 1))
+    fig.legend(handles, names, loc="center left", bbox_to_anchor=(1 - legend_width / width, 0.5), fontsize=8,
+               title="phalange\n(argmax of w)", title_fontsize=8, frameon=False)
     temp = f"{out}.tmp.{os.getpid()}.png"  # atomic: never a half-written picture
     fig.savefig(temp, dpi=130)
     os.replace(temp, out)

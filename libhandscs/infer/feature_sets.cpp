@@ -12,6 +12,8 @@ const char* feature_set_name(FeatureSet set) {
     case FeatureSet::embedding: return "embedding";
     case FeatureSet::transform: return "transform";
     case FeatureSet::descriptor: return "descriptor";
+    case FeatureSet::descriptor_static: return "descriptor_static";
+    case FeatureSet::descriptor_virtual: return "descriptor_virtual";
     case FeatureSet::decoder_input: return "decoder_input";
   }
   throw Error("feature_set_name: unknown feature set (programming error)");
@@ -23,6 +25,8 @@ const torch::Tensor& GaussianFeatures::get(FeatureSet set) const {
     case FeatureSet::embedding: return embedding;
     case FeatureSet::transform: return transform;
     case FeatureSet::descriptor: return descriptor;
+    case FeatureSet::descriptor_static: return descriptor_static;
+    case FeatureSet::descriptor_virtual: return descriptor_virtual;
     case FeatureSet::decoder_input: return decoder_input;
   }
   throw Error("GaussianFeatures::get: unknown feature set (programming error)");
@@ -58,6 +62,10 @@ GaussianFeatures gaussian_features(Avatar& avatar, const torch::Tensor& pose, co
   f.embedding = f64(torch::cat({g.embed_geometry.detach(), g.embed_appearance.detach()}, 1));
   f.transform = f64(blend_transform_vectors(g.skin_weights.detach(), state.lbs.joint_transforms[0]));
   f.descriptor = f64(state.descriptor);
+  const int64_t virtual_bones = avatar.generator() ? avatar.generator()->num_bones() : 0;
+  const int64_t static_bones = f.descriptor.size(1) - virtual_bones;
+  f.descriptor_static = f.descriptor.slice(1, 0, static_bones);
+  f.descriptor_virtual = f.descriptor.slice(1, static_bones);
   const bool scs = avatar.config().scs.enabled && f.descriptor.size(1) > 0;
   f.decoder_input = scs ? torch::cat({f.descriptor, f.embedding, f.transform}, 1)
                         : torch::cat({f.embedding, f.transform}, 1);

@@ -15,11 +15,16 @@
 namespace handscs {
 
 // The feature sets compared, in the order of every table and file.
-enum class FeatureSet { position, embedding, transform, descriptor, decoder_input };
-constexpr std::array<FeatureSet, 5> kFeatureSets = {FeatureSet::position, FeatureSet::embedding,
-                                                    FeatureSet::transform, FeatureSet::descriptor,
-                                                    FeatureSet::decoder_input};
-// "position", "embedding", "transform", "descriptor", "decoder_input" (file and column names).
+// P's static-bone and virtual-bone parts are also scored alone (which part is pose-consistent).
+enum class FeatureSet {
+  position, embedding, transform, descriptor, descriptor_static, descriptor_virtual, decoder_input
+};
+constexpr std::array<FeatureSet, 7> kFeatureSets = {
+    FeatureSet::position,          FeatureSet::embedding,          FeatureSet::transform,
+    FeatureSet::descriptor,        FeatureSet::descriptor_static,  FeatureSet::descriptor_virtual,
+    FeatureSet::decoder_input};
+// "position", "embedding", "transform", "descriptor", "descriptor_static", "descriptor_virtual",
+// "decoder_input" (file and column names).
 const char* feature_set_name(FeatureSet set);
 
 struct GaussianFeatures {
@@ -29,6 +34,8 @@ struct GaussianFeatures {
   torch::Tensor transform;      // [N, 12] vec(T): rows 0-2 of T row-major, the decoders' 12 inputs
   torch::Tensor descriptor;     // [N, |P|] P, static then virtual bones; computed also when the
                                 // decoders do not read it (SCS off: static bones only)
+  torch::Tensor descriptor_static;   // [N, |E_s|] its static-bone columns ([N, 0] without static bones)
+  torch::Tensor descriptor_virtual;  // [N, M] its virtual-bone columns ([N, 0] without virtual bones)
   torch::Tensor decoder_input;  // [N, I] the fusion decoder's input: [P, e_g, e_a, vec(T)] with SCS,
                                 // [e_g, e_a, vec(T)] without (avatar/decoder_inputs.h)
   torch::Tensor labels;         // [N] int64 phalange label in 0..15

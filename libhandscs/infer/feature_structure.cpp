@@ -130,13 +130,16 @@ std::vector<std::string> column_series(const std::string& prefix, int64_t count)
 }
 
 struct Columns {
-  std::vector<std::string> position{"x", "y", "z"}, embedding, transform, descriptor, decoder_input;
+  std::vector<std::string> position{"x", "y", "z"}, embedding, transform, descriptor, descriptor_static,
+      descriptor_virtual, decoder_input;
   const std::vector<std::string>& get(FeatureSet set) const {
     switch (set) {
       case FeatureSet::position: return position;
       case FeatureSet::embedding: return embedding;
       case FeatureSet::transform: return transform;
       case FeatureSet::descriptor: return descriptor;
+      case FeatureSet::descriptor_static: return descriptor_static;
+      case FeatureSet::descriptor_virtual: return descriptor_virtual;
       case FeatureSet::decoder_input: return decoder_input;
     }
     throw Error("Columns::get: unknown feature set (programming error)");
@@ -151,6 +154,9 @@ Columns column_names(const GaussianFeatures& f, bool scs) {
   c.embedding.insert(c.embedding.end(), ea.begin(), ea.end());
   c.transform = column_series("t", 12);
   c.descriptor = column_series("p", f.descriptor.size(1));
+  const auto split = c.descriptor.begin() + f.descriptor_static.size(1);
+  c.descriptor_static.assign(c.descriptor.begin(), split);
+  c.descriptor_virtual.assign(split, c.descriptor.end());
   if (scs) c.decoder_input = c.descriptor;
   c.decoder_input.insert(c.decoder_input.end(), c.embedding.begin(), c.embedding.end());
   c.decoder_input.insert(c.decoder_input.end(), c.transform.begin(), c.transform.end());
@@ -435,11 +441,11 @@ std::string format_feature_scores(const FeatureStructureResult& r) {
   std::snprintf(line, sizeof(line), "%s: %lld Gaussians, %zu poses; the largest label holds %.1f%%\n",
                 r.label.c_str(), static_cast<long long>(r.gaussians), r.poses.size(), 100 * r.majority_share);
   text += line;
-  std::snprintf(line, sizeof(line), "%-14s %5s  %-17s %-17s %s\n", "set", "dims", "kNN acc (sd)", "silhouette (sd)",
-                "kNN across poses");
+  std::snprintf(line, sizeof(line), "%-18s %5s  %-17s %-17s %s\n", "set", "dims", "kNN acc (sd)",
+                "silhouette (sd)", "kNN across poses");
   text += line;
   for (const auto& s : r.scores) {
-    std::snprintf(line, sizeof(line), "%-14s %5lld  %.3f (%.3f)     %+.3f (%.3f)    %.3f\n", s.set.c_str(),
+    std::snprintf(line, sizeof(line), "%-18s %5lld  %.3f (%.3f)     %+.3f (%.3f)    %.3f\n", s.set.c_str(),
                   static_cast<long long>(s.dims), mean_of(s.knn), std_of(s.knn), mean_of(s.silhouette),
                   std_of(s.silhouette), s.knn_transfer);
     text += line;

@@ -71,6 +71,8 @@ TEST_CASE("feature sets: without SCS the decoder input has no P, yet P is comput
   const auto f = handscs::gaussian_features(avatar, bent_pose(torch::kFloat32), torch::zeros({10}),
                                             torch::zeros({3}));
   CHECK(f.descriptor.size(1) == avatar.topology().size());
+  CHECK(f.descriptor_static.size(1) == avatar.topology().size());
+  CHECK(f.descriptor_virtual.size(1) == 0);
   CHECK(f.decoder_input.size(1) == 8 + 12);
   CHECK(torch::equal(f.decoder_input.slice(1, 0, 8), f.embedding));
 }
@@ -101,9 +103,12 @@ TEST_CASE("features command: grid, features and metrics of a tiny avatar; scikit
   CHECK(lines == 1 + 3 * result.gaussians);
 
   const auto metrics = nlohmann::json::parse(handscs::read_file(options.out_dir + "/metrics.json"));
-  REQUIRE(metrics["sets"].size() == 5);
+  REQUIRE(metrics["sets"].size() == 7);
   const auto& sets = metrics["sets"];
   CHECK(sets["transform"]["dims"] == 12);
+  CHECK(sets["descriptor_virtual"]["dims"] == config.model.scs.virtual_bones);
+  CHECK(sets["descriptor"]["dims"].get<int64_t>() ==
+        sets["descriptor_static"]["dims"].get<int64_t>() + config.model.scs.virtual_bones);
   CHECK(sets["decoder_input"]["dims"].get<int64_t>() ==
         sets["descriptor"]["dims"].get<int64_t>() + sets["embedding"]["dims"].get<int64_t>() + 12);
   // The embeddings do not change with the pose, nor does their standardisation: one value.
