@@ -13,13 +13,20 @@ Every feature set is standardised as handscs-features does it: each column to me
 standard deviation 1 over the poses pooled (a constant column is centred only).
 
 Usage:
-  /usr/bin/python3 scripts/plot_features.py tsne --out PNG [--set SET] [--pose NAME] LABEL=DIR [LABEL=DIR ...]
+  /usr/bin/python3 scripts/plot_features.py tsne --out PNG [--set SET] [--pose NAME] LABEL=DIR[#SET] ...
       one panel per run: t-SNE (scikit-learn, perplexity 30, PCA initialisation, seed 0) of SET
-      (default decoder_input) in one pose (default: the first), each Gaussian coloured by its
-      phalange; the panel's title gives the run's k-NN accuracy and silhouette for that pose.
+      (default decoder_input; a run's own #SET overrides it; SET may be a union A+B+...) in one pose
+      (default: the first), each Gaussian coloured by its phalange; the panel's title gives the
+      k-NN accuracy (k from features.json) and silhouette of those points.
+  /usr/bin/python3 scripts/plot_features.py score DIR SET+SET[+...] [--k 10]
+      scores a union of feature sets that handscs-features does not score itself (e.g.
+      descriptor+embedding+transform of a run without SCS: its decoder input with P appended, the
+      control for how much of the SCS run's clustering P brings by construction): the leave-one-out
+      k-NN accuracy, balanced accuracy and silhouette per pose, their mean and sample standard
+      deviation.
   /usr/bin/python3 scripts/plot_features.py check DIR
-      recomputes metrics.json's leave-one-out k-NN accuracies (scikit-learn's NearestNeighbors, brute
-      force) and silhouettes (sklearn.metrics.silhouette_score), writes DIR/sklearn_check.json, and
+      recomputes metrics.json's leave-one-out k-NN accuracies and balanced accuracies (scikit-learn's
+      NearestNeighbors, brute force, and its accuracy scores) and silhouettes (sklearn.metrics.silhouette_score), writes DIR/sklearn_check.json, and
       exits 1 when they disagree beyond the tolerances below.
 """
 import argparse
@@ -63,14 +70,16 @@ def standardised(values, column, names):
 
 
 def knn_loo_accuracy(x, labels, k):
+    """(accuracy, balanced accuracy) of the leave-one-out k-NN vote, scikit-learn's neighbours."""
+    from sklearn.metrics import accuracy_score, balanced_accuracy_score
     from sklearn.neighbors import NearestNeighbors
 
     _, index = NearestNeighbors(n_neighbors=k + 1, algorithm="brute").fit(x).kneighbors(x)
-    right = 0
+    predicted = np.empty_like(labels)
     for i, row in enumerate(index):
         others = [j for j in row if j != i][:k]
-        right += np.bincount(labels[others]).argmax() == labels[i]  # ties: smallest label
-    return right / len(labels)
+        predicted[i] = np.bincount(labels[others]).argmax()  # ties: smallest label
+    return accuracy_score(labels, predicted), balanced_accuracy_score(labels, predicted)
 
 
 def check(folder):
@@ -88,22 +97,60 @@ def check(folder):
         for p, pose in enumerate(meta["poses"]):
             take = poses == pose
             x, y = x_all[take], labels[take]
-            knn = knn_loo_accuracy(x, y, k)
+            knn, balanced = knn_loo_accuracy(x, y, k)
             sil = float(silhouette_score(x, y, metric="euclidean"))
             ours_knn = entry["knn_accuracy"]["per_pose"][p]
+            ours_balanced = entry["knn_balanced_accuracy"]["per_pose"][p]
             ours_sil = entry["silhouette"]["per_pose"][p]
+            # A flipped vote moves the accuracy by 1 / N and the balanced accuracy by at most
+            # 1 / (smallest label's size x number of labels).
+            counts = np.bincount(y)
+            counts = counts[counts > 0]
             agree = (abs(knn - ours_knn) <= KNN_TOLERANCE_VOTES / len(y) + 1e-12 and
+                     abs(balanced - ours_balanced) <= KNN_TOLERANCE_VOTES / (counts.min() * len(counts)) + 1e-12 and
                      abs(sil - ours_sil) <= SILHOUETTE_TOLERANCE)
             ok = ok and agree
             rows.append({"pose": pose, "knn_sklearn": knn, "knn_handscs": ours_knn,
+                         "knn_balanced_sklearn": balanced, "knn_balanced_handscs": ours_balanced,
                          "silhouette_sklearn": sil, "silhouette_handscs": ours_sil, "agree": bool(agree)})
-            print(f"check {name:14s} {pose}: kNN {knn:.6f} vs {ours_knn:.6f}, "
-                  f"silhouette {sil:.6f} vs {ours_sil:.6f}{'' if agree else '  DISAGREE'}")
+            print(f"check {name:18s} {pose}: kNN {knn:.6f} vs {ours_knn:.6f}, balanced {balanced:.6f} vs "
+                  f"{ours_balanced:.6f}, silhouette {sil:.6f} vs {ours_sil:.6f}{'' if agree else '  DISAGREE'}")
         report["sets"][name] = rows
     report["agree"] = ok
     with open(os.path.join(folder, "sklearn_check.json"), "w") as f:
         json.dump(report, f, indent=2)
     return 0 if ok else 1
+
+
+def columns_of(meta, sets):
+    names = []
+    for name in sets.split("+"):
+        if name not in meta["sets"]:
+            sys.exit(f"no feature set {name} (sets: {', '.join(meta['sets'])})")
+        names += [c for c in meta["sets"][name] if c not in names]
+    return names
+
+
+def score(folder, sets, k):
+    from sklearn.metrics import silhouette_score
+
+    meta, poses, labels, values, column = read_run(folder)
+    names = columns_of(meta, sets)
+    x_all = standardised(values, column, names)
+    knn, balanced, sil = [], [], []
+    for pose in meta["poses"]:
+        take = poses == pose
+        a, b = knn_loo_accuracy(x_all[take], labels[take], k)
+        knn.append(a)
+        balanced.append(b)
+        sil.append(float(silhouette_score(x_all[take], labels[take], metric="euclidean")))
+        print(f"{meta['label']} {sets} ({len(names)}-D) {pose}: kNN {a:.4f}, balanced {b:.4f}, "
+              f"silhouette {sil[-1]:+.4f}")
+    ddof = 1 if len(knn) > 1 else 0
+    print(f"{meta['label']} {sets} ({len(names)}-D): kNN {np.mean(knn):.4f} +- {np.std(knn, ddof=ddof):.4f}, "
+          f"balanced {np.mean(balanced):.4f} +- {np.std(balanced, ddof=ddof):.4f}, "
+          f"silhouette {np.mean(sil):+.4f} +- {np.std(sil, ddof=ddof):.4f} (mean +- sample sd over poses)")
+    return 0
 
 
 # Phalange colours: one hue per finger, lighter towards the tip; the wrist (palm) grey.
@@ -130,30 +177,28 @@ def tsne(out, runs, feature_set, pose_name):
     width = 5.2 * len(runs) + legend_width
     fig, axes = plt.subplots(1, len(runs), figsize=(width, 5.4), squeeze=False)
     names = None
-    for ax, (label, folder) in zip(axes[0], runs):
+    from sklearn.metrics import silhouette_score
+
+    for ax, (label, folder, own_set) in zip(axes[0], runs):
+        panel_set = own_set or feature_set
         meta, poses, labels, values, column = read_run(folder)
         names = meta["label_names"]
         pose = pose_name or meta["poses"][0]
         if pose not in meta["poses"]:
             sys.exit(f"{folder}: no pose {pose} (poses: {', '.join(meta['poses'])})")
         take = poses == pose
-        x = standardised(values, column, meta["sets"][feature_set])[take]
+        x = standardised(values, column, columns_of(meta, panel_set))[take]
         y = labels[take]
         xy = TSNE(n_components=2, perplexity=30, init="pca", learning_rate="auto", random_state=0,
                   n_jobs=1).fit_transform(x)
         for c in range(len(names)):
             m = y == c
             ax.scatter(xy[m, 0], xy[m, 1], s=3, color=colours[c], label=names[c], linewidths=0)
-        title = f"{label}: {feature_set} ({x.shape[1]}-D), {pose}"
-        try:
-            with open(os.path.join(folder, "metrics.json")) as f:
-                entry = json.load(f)["sets"][feature_set]
-            p = meta["poses"].index(pose)
-            title += (f"\nkNN accuracy {entry['knn_accuracy']['per_pose'][p]:.3f}, "
-                      f"silhouette {entry['silhouette']['per_pose'][p]:+.3f}")
-        except (OSError, KeyError):
-            pass
-        ax.set_title(title, fontsize=9)
+        k = meta.get("knn_k", 10)
+        accuracy, balanced = knn_loo_accuracy(x, y, k)
+        ax.set_title(f"{label}: {panel_set} ({x.shape[1]}-D), {pose}\n"
+                     f"kNN accuracy {accuracy:.3f} (balanced {balanced:.3f}), "
+                     f"silhouette {silhouette_score(x, y, metric='euclidean'):+.3f}", fontsize=9)
         ax.set_xticks([])
         ax.set_yticks([])
     handles = [plt.Line2D([], [], marker="o", linestyle="", color=colours[c], markersize=5)
@@ -174,20 +219,28 @@ def main():
     t = sub.add_parser("tsne", help="t-SNE of one feature set in one pose, one panel per run")
     t.add_argument("--out", required=True, help="PNG to write")
     t.add_argument("--set", default="decoder_input",
-                   help="position, embedding, transform, descriptor or decoder_input")
+                   help="position, embedding, transform, descriptor, descriptor_static, descriptor_virtual, decoder_input, or a union A+B")
     t.add_argument("--pose", default="", help="pose name (default: each run's first)")
-    t.add_argument("runs", nargs="+", metavar="LABEL=DIR", help="a handscs-features output folder and its name")
+    t.add_argument("runs", nargs="+", metavar="LABEL=DIR[#SET]",
+                   help="a handscs-features output folder, its name, and optionally its own feature set")
+    sc = sub.add_parser("score", help="k-NN accuracy and silhouette of a union of feature sets")
+    sc.add_argument("folder", metavar="DIR")
+    sc.add_argument("sets", metavar="SET+SET", help="e.g. descriptor+embedding+transform")
+    sc.add_argument("--k", type=int, default=10, help="neighbours of the k-NN vote")
     c = sub.add_parser("check", help="recompute metrics.json with scikit-learn")
     c.add_argument("folder", metavar="DIR")
     args = parser.parse_args()
     if args.command == "check":
         return check(args.folder)
+    if args.command == "score":
+        return score(args.folder, args.sets, args.k)
     runs = []
     for item in args.runs:
         if "=" not in item:
-            parser.error(f"{item}: expected LABEL=DIR")
+            parser.error(f"{item}: expected LABEL=DIR or LABEL=DIR#SET")
         label, folder = item.split("=", 1)
-        runs.append((label, folder))
+        folder, _, own_set = folder.partition("#")
+        runs.append((label, folder, own_set))
     return tsne(args.out, runs, args.set, args.pose)
 
 

@@ -43,7 +43,7 @@ int64_t vote(const std::vector<std::pair<double, int64_t>>& nearest, const std::
   return std::max_element(counts.begin(), counts.end()) - counts.begin();  // first max: smallest label
 }
 
-double knn_accuracy(const torch::Tensor& reference_in, const torch::Tensor& reference_labels,
+KnnScore knn_accuracy(const torch::Tensor& reference_in, const torch::Tensor& reference_labels,
                     const torch::Tensor& query_in, const torch::Tensor& query_labels, int64_t k,
                     bool leave_one_out) {
   const int64_t m = reference_in.size(0), n = query_in.size(0);
@@ -60,7 +60,7 @@ double knn_accuracy(const torch::Tensor& reference_in, const torch::Tensor& refe
   const auto q_labels = label_vector(query_labels);
   const int64_t num_labels = 1 + std::max(*std::max_element(ref_labels.begin(), ref_labels.end()),
                                           *std::max_element(q_labels.begin(), q_labels.end()));
-  std::vector<int64_t> counts(num_labels);
+  std::vector<int64_t> counts(num_labels), per_label(num_labels, 0), right_per_label(num_labels, 0);
   std::vector<std::pair<double, int64_t>> row;
   int64_t right = 0;
   for (int64_t begin = 0; begin < n; begin += kBlockRows) {
@@ -73,21 +73,33 @@ double knn_accuracy(const torch::Tensor& reference_in, const torch::Tensor& refe
         if (!(leave_one_out && j == i)) row.emplace_back(d[j], j);
       std::partial_sort(row.begin(), row.begin() + k, row.end());  // by distance, then index
       row.resize(k);
-      right += vote(row, ref_labels, counts) == q_labels[i];
+      const bool hit = vote(row, ref_labels, counts) == q_labels[i];
+      right += hit;
+      ++per_label[q_labels[i]];
+      right_per_label[q_labels[i]] += hit;
     }
   }
-  return double(right) / double(n);
+  KnnScore score;
+  score.accuracy = double(right) / double(n);
+  int64_t present = 0;
+  for (int64_t c = 0; c < num_labels; ++c)
+    if (per_label[c] > 0) {
+      score.balanced += double(right_per_label[c]) / double(per_label[c]);
+      ++present;
+    }
+  score.balanced /= double(present);
+  return score;
 }
 
 }  // namespace
 
-double knn_accuracy_loo(const torch::Tensor& x, const torch::Tensor& labels, int64_t k) {
+KnnScore knn_accuracy_loo(const torch::Tensor& x, const torch::Tensor& labels, int64_t k) {
   check_points(x, labels, "knn_accuracy_loo");
   return knn_accuracy(x, labels, x, labels, k, true);
 }
 
-double knn_accuracy_transfer(const torch::Tensor& reference, const torch::Tensor& reference_labels,
-                             const torch::Tensor& query, const torch::Tensor& query_labels, int64_t k) {
+KnnScore knn_accuracy_transfer(const torch::Tensor& reference, const torch::Tensor& reference_labels,
+                               const torch::Tensor& query, const torch::Tensor& query_labels, int64_t k) {
   check_points(reference, reference_labels, "knn_accuracy_transfer (reference)");
   check_points(query, query_labels, "knn_accuracy_transfer (query)");
   return knn_accuracy(reference, reference_labels, query, query_labels, k, false);

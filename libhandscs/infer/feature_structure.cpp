@@ -122,6 +122,12 @@ json pose_json(const PoseFrame& f) {
           {"trans", std::vector<float>(f.trans.begin(), f.trans.end())}};
 }
 
+FeatureSet score_set(const std::string& name) {
+  for (FeatureSet set : kFeatureSets)
+    if (name == feature_set_name(set)) return set;
+  throw Error("no feature set " + name + " (programming error)");
+}
+
 // Column names of each block, as features.csv writes them.
 std::vector<std::string> column_series(const std::string& prefix, int64_t count) {
   std::vector<std::string> names;
@@ -190,31 +196,7 @@ void write_features_csv(const std::string& path, const std::vector<PoseFrame>& p
   write_file_atomic(path, text);
 }
 
-json summary_json(const std::vector<double>& values) {
-  const double n = double(values.size());
-  double mean = 0;
-  for (double v : values) mean += v / n;
-  double sq = 0;
-  for (double v : values) sq += (v - mean) * (v - mean);
-  return {{"per_pose", values},
-          {"mean", mean},
-          {"std", values.size() > 1 ? std::sqrt(sq / (n - 1)) : 0.0},  // sample std over the poses
-          {"min", *std::min_element(values.begin(), values.end())},
-          {"max", *std::max_element(values.begin(), values.end())}};
-}
 
-double mean_of(const std::vector<double>& v) {
-  double s = 0;
-  for (double x : v) s += x;
-  return s / double(v.size());
-}
-double std_of(const std::vector<double>& v) {
-  if (v.size() < 2) return 0;
-  const double m = mean_of(v);
-  double sq = 0;
-  for (double x : v) sq += (x - m) * (x - m);
-  return std::sqrt(sq / double(v.size() - 1));
-}
 
 std::string percent(double share) {
   char text[16];
@@ -347,45 +329,11 @@ FeatureStructureResult run_feature_structure(const FeatureStructureOptions& opti
   write_png(result.grid_png, compose_grid(grid));
 
   // Fig. 7 made a number: per feature set, standardised once on the poses pooled.
+  result.scores = score_feature_sets(features, options.knn_k);
   json sets_json = json::object();
-  std::string per_pose_csv = "run,set,dims,pose,knn_accuracy,silhouette\n";
-  std::string summary_csv =
-      "run,set,dims,knn_mean,knn_std,silhouette_mean,silhouette_std,knn_transfer,gaussians,majority_share\n";
-  char line[512];
-  for (FeatureSet set : kFeatureSets) {
-    std::vector<torch::Tensor> pooled;
-    for (const auto& f : features) pooled.push_back(f.get(set));
-    if (pooled.front().size(1) == 0) continue;
-    const Standardizer standardizer = fit_standardizer(torch::cat(pooled, 0));
-    std::vector<torch::Tensor> z;
-    for (const auto& x : pooled) z.push_back(standardizer.apply(x));
-    FeatureScore score;
-    score.set = feature_set_name(set);
-    score.dims = pooled.front().size(1);
-    for (size_t p = 0; p < z.size(); ++p) {
-      score.knn.push_back(knn_accuracy_loo(z[p], labels, options.knn_k));
-      score.silhouette.push_back(silhouette_score(z[p], labels));
-      std::snprintf(line, sizeof(line), "%s,%s,%lld,%s,%.6f,%.6f\n", csv_cell(result.label).c_str(),
-                    score.set.c_str(), static_cast<long long>(score.dims), poses[p].name.c_str(), score.knn[p],
-                    score.silhouette[p]);
-      per_pose_csv += line;
-    }
-    std::vector<double> transfer;
-    for (size_t a = 0; a < z.size(); ++a)
-      for (size_t b = 0; b < z.size(); ++b)
-        if (a != b) transfer.push_back(knn_accuracy_transfer(z[a], labels, z[b], labels, options.knn_k));
-    score.knn_transfer = transfer.empty() ? std::nan("") : mean_of(transfer);
-    sets_json[score.set] = {{"dims", score.dims},
-                            {"columns", columns.get(set)},
-                            {"knn_accuracy", summary_json(score.knn)},
-                            {"silhouette", summary_json(score.silhouette)},
-                            {"knn_transfer", transfer.empty() ? json(nullptr) : json(score.knn_transfer)}};
-    std::snprintf(line, sizeof(line), "%s,%s,%lld,%.6f,%.6f,%.6f,%.6f,%.6f,%lld,%.6f\n",
-                  csv_cell(result.label).c_str(), score.set.c_str(), static_cast<long long>(score.dims),
-                  mean_of(score.knn), std_of(score.knn), mean_of(score.silhouette), std_of(score.silhouette),
-                  score.knn_transfer, static_cast<long long>(result.gaussians), result.majority_share);
-    summary_csv += line;
-    result.scores.push_back(score);
+  for (const auto& score : result.scores) {
+    sets_json[score.set] = feature_score_json(score);
+    sets_json[score.set]["columns"] = columns.get(score_set(score.set));
   }
   const auto counts = torch::bincount(labels, {}, 16);
   const json info = {{"label", result.label},
@@ -403,12 +351,14 @@ FeatureStructureResult run_feature_structure(const FeatureStructureOptions& opti
                      "Euclidean distance";
   metrics["knn_transfer"] = "mean over ordered pose pairs (a, b), a != b, of the k-NN accuracy of b's Gaussians "
                             "among a's";
+  metrics["knn_balanced_accuracy"] = "mean over the labels of the share of their Gaussians labelled right";
   metrics["std"] = "sample standard deviation over the poses (n - 1)";
   metrics["sets"] = sets_json;
   metrics["pca"] = pca_json;
   write_file_atomic(out + "metrics.json", metrics.dump(2) + "\n");
-  write_file_atomic(out + "metrics.csv", per_pose_csv);
-  write_file_atomic(out + "metrics_summary.csv", summary_csv);
+  write_file_atomic(out + "metrics.csv", feature_scores_per_pose_csv(result.label, result.poses, result.scores));
+  write_file_atomic(out + "metrics_summary.csv", feature_scores_summary_csv(result.label, result.scores,
+                                                                            result.gaussians, result.majority_share));
 
   json meta = info;
   json sets_meta = json::object();
@@ -436,21 +386,10 @@ FeatureStructureResult run_feature_structure(const FeatureStructureOptions& opti
 }
 
 std::string format_feature_scores(const FeatureStructureResult& r) {
-  std::string text;
   char line[512];
   std::snprintf(line, sizeof(line), "%s: %lld Gaussians, %zu poses; the largest label holds %.1f%%\n",
                 r.label.c_str(), static_cast<long long>(r.gaussians), r.poses.size(), 100 * r.majority_share);
-  text += line;
-  std::snprintf(line, sizeof(line), "%-18s %5s  %-17s %-17s %s\n", "set", "dims", "kNN acc (sd)",
-                "silhouette (sd)", "kNN across poses");
-  text += line;
-  for (const auto& s : r.scores) {
-    std::snprintf(line, sizeof(line), "%-18s %5lld  %.3f (%.3f)     %+.3f (%.3f)    %.3f\n", s.set.c_str(),
-                  static_cast<long long>(s.dims), mean_of(s.knn), std_of(s.knn), mean_of(s.silhouette),
-                  std_of(s.silhouette), s.knn_transfer);
-    text += line;
-  }
-  return text;
+  return line + format_feature_score_table(r.scores);
 }
 
 }  // namespace handscs

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "infer/feature_scores.h"
+
 namespace CLI {
 class App;
 }
@@ -34,15 +36,6 @@ struct FeatureStructureOptions {
 // Adds the options above (with --help text) to `app`.
 void add_feature_structure_options(CLI::App& app, FeatureStructureOptions& options);
 
-// One feature set's separation of the phalange labels, per pose and summarised.
-struct FeatureScore {
-  std::string set;                   // feature_set_name()
-  int64_t dims = 0;
-  std::vector<double> knn, silhouette;  // per pose
-  double knn_transfer = 0;           // mean over ordered pose pairs (a, b), a != b: b's Gaussians
-                                     // classified by their k nearest among a's
-};
-
 struct FeatureStructureResult {
   std::string label;
   std::vector<std::string> poses;
@@ -57,7 +50,7 @@ struct FeatureStructureResult {
 // option at fault.
 FeatureStructureResult run_feature_structure(const FeatureStructureOptions& options);
 
-// The result as a plain-text table for the terminal (mean, spread and per-pose values).
+// The result as a plain-text table for the terminal (means and spreads over the poses).
 std::string format_feature_scores(const FeatureStructureResult& result);
 
 }  // namespace handscs

@@ -29,10 +29,12 @@ double distance(const torch::Tensor& x, int64_t i, const torch::Tensor& y, int64
   return std::sqrt(s);
 }
 
-// Plain k-NN: every distance, a full sort by (distance, index), a count per label.
-double reference_knn(const torch::Tensor& ref, const std::vector<int64_t>& ref_labels, const torch::Tensor& query,
+// Plain k-NN: every distance, a full sort by (distance, index), a count per label; returns the
+// accuracy and the balanced accuracy.
+std::pair<double, double> reference_knn(const torch::Tensor& ref, const std::vector<int64_t>& ref_labels, const torch::Tensor& query,
                      const std::vector<int64_t>& query_labels, int64_t k, bool leave_one_out) {
   int64_t right = 0;
+  std::vector<double> seen(16, 0), hits(16, 0);
   for (int64_t i = 0; i < query.size(0); ++i) {
     std::vector<std::pair<double, int64_t>> all;
     for (int64_t j = 0; j < ref.size(0); ++j)
@@ -44,8 +46,16 @@ double reference_knn(const torch::Tensor& ref, const std::vector<int64_t>& ref_l
     for (int64_t c = 1; c < 16; ++c)
       if (votes[c] > votes[best]) best = c;
     right += best == query_labels[i];
+    seen[query_labels[i]] += 1;
+    hits[query_labels[i]] += best == query_labels[i];
   }
-  return double(right) / double(query.size(0));
+  double balanced = 0, present = 0;
+  for (int64_t c = 0; c < 16; ++c)
+    if (seen[c] > 0) {
+      balanced += hits[c] / seen[c];
+      present += 1;
+    }
+  return {double(right) / double(query.size(0)), balanced / present};
 }
 
 // Plain silhouette, straight from the definition.
@@ -107,17 +117,22 @@ TEST_CASE("feature metrics: silhouette of two pairs on a line, and of a lone poi
 TEST_CASE("feature metrics: k-NN ties go to the nearer index, votes to the smaller label") {
   // Points 0, 1, 2, 3 with labels 0, 0, 1, 1, k = 1: point 1's neighbours 0 and 2 tie at distance 1
   // (index 0 wins: right), so do point 2's 1 and 3 (index 1 wins: wrong). 3 of 4.
-  CHECK(handscs::knn_accuracy_loo(points_1d({0, 1, 2, 3}), label_tensor({0, 0, 1, 1}), 1) == 0.75);
+  const auto first = handscs::knn_accuracy_loo(points_1d({0, 1, 2, 3}), label_tensor({0, 0, 1, 1}), 1);
+  CHECK(first.accuracy == 0.75);
+  CHECK(first.balanced == 0.75);  // label 0: 2 of 2, label 1: 1 of 2
   // k = 3: each point's neighbours are the three others. Labels 2, 1, 0, 3: every vote is a
   // three-way tie won by the smallest label among the others, never the point's own: 0 of 4.
   const auto x = points_1d({0, 1, 2, 3});
-  CHECK(handscs::knn_accuracy_loo(x, label_tensor({2, 1, 0, 3}), 3) == 0.0);
+  CHECK(handscs::knn_accuracy_loo(x, label_tensor({2, 1, 0, 3}), 3).accuracy == 0.0);
   // Labels 0, 1, 0, 3: point 0 sees {1, 0, 3} (tie -> 0, right), point 1 {0, 0, 3} (0, wrong),
-  // point 2 {0, 1, 3} (tie -> 0, right), point 3 {0, 1, 0} (0, wrong): 2 of 4.
-  CHECK(handscs::knn_accuracy_loo(x, label_tensor({0, 1, 0, 3}), 3) == 0.5);
+  // point 2 {0, 1, 3} (tie -> 0, right), point 3 {0, 1, 0} (0, wrong): 2 of 4. Balanced: label 0
+  // 2 of 2, labels 1 and 3 none of 1: (1 + 0 + 0) / 3.
+  const auto votes = handscs::knn_accuracy_loo(x, label_tensor({0, 1, 0, 3}), 3);
+  CHECK(votes.accuracy == 0.5);
+  CHECK(votes.balanced == Approx(1.0 / 3).epsilon(1e-15));
   // Transfer: the query points take their labels from the reference set, themselves not in it.
   CHECK(handscs::knn_accuracy_transfer(x, label_tensor({0, 0, 1, 1}), points_1d({0.2, 2.9}),
-                                       label_tensor({0, 0}), 1) == 0.5);
+                                       label_tensor({0, 0}), 1).accuracy == 0.5);
   CHECK(handscs_test::error_of([&] { handscs::knn_accuracy_loo(x, label_tensor({0, 0, 1, 1}), 4); }) ==
         "k-NN: k = 4 needs at least that many neighbour candidates, there are 3");
 }
@@ -129,11 +144,15 @@ TEST_CASE("feature metrics: agree with plain-loop references on clustered random
   const auto la = label_tensor(a.labels), lb = label_tensor(b.labels);
   for (int64_t k : {1, 10}) {
     INFO("k = " << k);
-    const double knn = handscs::knn_accuracy_loo(a.x, la, k);
-    CHECK(knn == reference_knn(a.x, a.labels, a.x, a.labels, k, true));
-    CHECK(knn > 0.4);  // well above the 0.25 of guessing: the data has structure to find
-    CHECK(handscs::knn_accuracy_transfer(a.x, la, b.x, lb, k) ==
-          reference_knn(a.x, a.labels, b.x, b.labels, k, false));
+    const auto knn = handscs::knn_accuracy_loo(a.x, la, k);
+    const auto [accuracy, balanced] = reference_knn(a.x, a.labels, a.x, a.labels, k, true);
+    CHECK(knn.accuracy == accuracy);
+    CHECK(knn.balanced == Approx(balanced).epsilon(1e-15));
+    CHECK(knn.accuracy > 0.4);  // well above the 0.25 of guessing: the data has structure to find
+    const auto transfer = handscs::knn_accuracy_transfer(a.x, la, b.x, lb, k);
+    const auto [transfer_accuracy, transfer_balanced] = reference_knn(a.x, a.labels, b.x, b.labels, k, false);
+    CHECK(transfer.accuracy == transfer_accuracy);
+    CHECK(transfer.balanced == Approx(transfer_balanced).epsilon(1e-15));
   }
   const double silhouette = handscs::silhouette_score(a.x, la);
   CHECK(silhouette == Approx(reference_silhouette(a.x, a.labels)).margin(1e-12));
