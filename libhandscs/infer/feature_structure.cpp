@@ -204,6 +204,57 @@ std::string percent(double share) {
   return text;
 }
 
+// Fig. 1(b): the avatar's own render, then its Gaussians coloured by each representation's first
+// three principal components (rows), in each pose (columns), cropped together to the hands, written
+// to `path`. Returns each representation's column count and variance shares of the components.
+json write_pca_grid(const std::string& path, const std::vector<GaussianFeatures>& features,
+                    const std::vector<std::string>& pose_names, const Camera& camera, const std::string& corner,
+                    bool scs, double colour_percentile) {
+  const std::vector<std::pair<FeatureSet, std::string>> rows = {
+      {FeatureSet::embedding, "embedding [e_g, e_a]"},
+      {FeatureSet::transform, "LBS transform vec(T)"},
+      {FeatureSet::descriptor, scs ? "SCS coordinate P" : "P (not a decoder\ninput without SCS)"}};
+  RasterSettings settings;  // black background
+  LabelledGrid grid;
+  grid.corner = corner;
+  grid.column_labels = pose_names;
+  grid.row_labels.push_back("render");
+  std::vector<std::vector<RasterOutput>> renders(1);
+  for (const auto& f : features) renders[0].push_back(render_posed(f.posed, camera, settings));
+  json pca = json::object();
+  for (const auto& [set, title] : rows) {
+    std::vector<torch::Tensor> pooled;
+    for (const auto& f : features) pooled.push_back(f.get(set));
+    const auto all = torch::cat(pooled, 0);
+    if (all.size(1) == 0) continue;  // e.g. a model without embeddings
+    const FeatureColouring colouring = fit_feature_colouring(all, colour_percentile);
+    const auto explained = colouring.pca.explained;
+    pca[feature_set_name(set)] = {
+        {"dims", all.size(1)},
+        {"explained", std::vector<double>(explained.data_ptr<double>(), explained.data_ptr<double>() + explained.numel())}};
+    grid.row_labels.push_back(title + "\n" + std::to_string(all.size(1)) + "-D, PCs 1-3: " +
+                              percent(explained.sum().item<double>()) + " of var.");
+    renders.emplace_back();
+    for (const auto& f : features) {
+      PosedGaussians coloured = f.posed;
+      coloured.colors = colouring.colours(f.get(set)).to(f.posed.means.dtype());
+      renders.back().push_back(render_posed(coloured, camera, settings));
+    }
+  }
+  // Only the colours differ between rows: the render row's coverage is every row's.
+  std::vector<torch::Tensor> alphas;
+  for (const auto& r : renders[0]) alphas.push_back(r.alpha);
+  const PixelRect box = coverage_box(alphas, kCropMargin);
+  for (const auto& row : renders) {
+    grid.cells.emplace_back();
+    for (const auto& r : row)
+      grid.cells.back().push_back(
+          rgb_tensor_to_mat(r.rgb.clamp(0, 1))(cv::Rect(box.x0, box.y0, box.width(), box.height())).clone());
+  }
+  write_png(path, compose_grid(grid));
+  return pca;
+}
+
 // Runs `argv` through the shell (each word quoted); returns its exit status.
 int run_script(const std::vector<std::string>& argv) {
   std::string command;
@@ -285,48 +336,10 @@ FeatureStructureResult run_feature_structure(const FeatureStructureOptions& opti
   const std::string out = options.out_dir + "/";
 
   // Fig. 1(b): one colouring per representation, fitted on the poses pooled.
-  const std::vector<std::pair<FeatureSet, std::string>> rows = {
-      {FeatureSet::embedding, "embedding [e_g, e_a]"},
-      {FeatureSet::transform, "LBS transform vec(T)"},
-      {FeatureSet::descriptor, scs ? "SCS coordinate P" : "P (not a decoder\ninput without SCS)"}};
-  RasterSettings settings;  // black background
-  LabelledGrid grid;
-  grid.corner = result.label + "\n" + std::to_string(result.gaussians) + " Gaussians";
-  grid.row_labels.push_back("render");
-  for (const auto& f : poses) grid.column_labels.push_back(f.name);
-  std::vector<std::vector<RasterOutput>> renders(1);
-  for (const auto& f : features) renders[0].push_back(render_posed(f.posed, camera, settings));
-  json pca_json = json::object();
-  for (const auto& [set, title] : rows) {
-    std::vector<torch::Tensor> pooled;
-    for (const auto& f : features) pooled.push_back(f.get(set));
-    const auto all = torch::cat(pooled, 0);
-    if (all.size(1) == 0) continue;  // e.g. a model without embeddings
-    const FeatureColouring colouring = fit_feature_colouring(all, options.colour_percentile);
-    const auto explained = colouring.pca.explained;
-    pca_json[feature_set_name(set)] = {
-        {"dims", all.size(1)},
-        {"explained", std::vector<double>(explained.data_ptr<double>(), explained.data_ptr<double>() + explained.numel())}};
-    grid.row_labels.push_back(title + "\n" + std::to_string(all.size(1)) + "-D, PCs 1-3: " +
-                              percent(explained.sum().item<double>()) + " of var.");
-    renders.emplace_back();
-    for (const auto& f : features) {
-      PosedGaussians coloured = f.posed;
-      coloured.colors = colouring.colours(f.get(set)).to(f.posed.means.dtype());
-      renders.back().push_back(render_posed(coloured, camera, settings));
-    }
-  }
-  std::vector<torch::Tensor> alphas;
-  for (const auto& r : renders[0]) alphas.push_back(r.alpha);
-  const PixelRect box = coverage_box(alphas, kCropMargin);
-  for (const auto& row : renders) {
-    grid.cells.emplace_back();
-    for (const auto& r : row)
-      grid.cells.back().push_back(
-          rgb_tensor_to_mat(r.rgb.clamp(0, 1))(cv::Rect(box.x0, box.y0, box.width(), box.height())).clone());
-  }
   result.grid_png = out + "pca_grid.png";
-  write_png(result.grid_png, compose_grid(grid));
+  const json pca_json = write_pca_grid(result.grid_png, features, result.poses, camera,
+                                       result.label + "\n" + std::to_string(result.gaussians) + " Gaussians",
+                                       scs, options.colour_percentile);
 
   // Fig. 7 made a number: per feature set, standardised once on the poses pooled.
   result.scores = score_feature_sets(features, options.knn_k);
