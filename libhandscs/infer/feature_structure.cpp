@@ -294,6 +294,9 @@ void add_feature_structure_options(CLI::App& app, FeatureStructureOptions& o) {
 FeatureStructureResult run_feature_structure(const FeatureStructureOptions& options) {
   require(!options.out_dir.empty(), "--out DIR is required");
   require(options.num_poses >= 1, "--num-poses must be at least 1");
+  // A --camera mistake is reported before the checkpoint and capture are read.
+  const std::optional<Camera> given_camera =
+      options.camera.empty() ? std::nullopt : std::optional<Camera>(read_camera_json(options.camera));
   TrainedAvatar trained = open_trained_avatar(options.checkpoint);
   Avatar& avatar = trained.avatar;
   const bool scs = avatar.config().scs.enabled;
@@ -312,8 +315,8 @@ FeatureStructureResult run_feature_structure(const FeatureStructureOptions& opti
   }
   c10::InferenceMode guard;
   Camera camera;
-  if (!options.camera.empty()) {
-    camera = read_camera_json(options.camera);
+  if (given_camera) {
+    camera = *given_camera;
     selection.camera_source = options.camera;
   } else if (selection.camera) {
     camera = *selection.camera;
