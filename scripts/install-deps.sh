@@ -16,6 +16,7 @@ packages=(
   catch2                  # tests (v2 API)
   python3 python3-numpy   # MANO converter and its test reference
   python3-matplotlib      # handscs-bench charts (scripts/plot_sweep.py) and ablation_table.py
+  python3-sklearn         # handscs-features' t-SNE plots and the check of its metrics (scripts/plot_features.py)
 )
 
 missing=()
