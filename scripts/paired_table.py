@@ -6,8 +6,9 @@ Points are named <row>.s<seed> (as scripts/ablation_table.py reads them); the ru
 and of each region (crease / contact / shadow) of realistic captures. Prints a Markdown table: per
 row and metric the mean +- sample std over seeds, and against the reference row the paired
 difference (row - reference on the same seed) as mean +- sample std, how many seeds improve, and
-the per-seed values. Writes the same table to SWEEP_OUT/paired.md.
-Usage: /usr/bin/python3 scripts/paired_table.py SWEEP_OUT --reference off [--budget 2000]
+the per-seed values. Several --out folders of one sweep (shards run side by side with --points)
+are read together. Writes the same table to the first folder's paired.md.
+Usage: /usr/bin/python3 scripts/paired_table.py SWEEP_OUT [SWEEP_OUT...] --reference off [--budget 2000]
 """
 import argparse
 import csv
@@ -38,12 +39,19 @@ def fmt(m, s, digits, sign=False):
     return text + (f" ± {s:.{digits}f}" if s is not None else "")
 
 
-def read_runs(out, budget):
+def read_runs(outs, budget):
     """{row: {seed: {"full": {metric: v}, region: {metric: v}}}} from results.csv and summaries."""
-    path = os.path.join(out, "results.csv")
-    if not os.path.exists(path):
-        sys.exit(f"paired_table: {path}: not found (run handscs-bench --sweep first)")
     rows, order = {}, []
+    for out in outs:
+        read_folder(out, budget, rows, order)
+    return order, rows
+
+
+def read_folder(out, budget, rows, order):
+    path = os.path.join(out, "results.csv")
+    if not os.path.exists(path):  # a shard with no finished run yet
+        print(f"paired_table: {path}: not found, skipped", file=sys.stderr)
+        return
     with open(path) as f:
         for r in csv.DictReader(f):
             match = re.fullmatch(r"(.+)\.s(\d+)", r["point"])
@@ -62,18 +70,17 @@ def read_runs(out, budget):
                     if isinstance(values, dict):
                         scores[name] = {k: float(values[k]) for k in METRICS if values.get(k) is not None}
             rows[row][seed] = scores
-    return order, rows
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", help="the sweep's --out folder")
+    parser.add_argument("out", nargs="+", help="the sweep's --out folder(s)")
     parser.add_argument("--reference", required=True, help="row the others are paired against")
     parser.add_argument("--budget", type=int, default=0, help="only this budget (0 = any)")
     args = parser.parse_args()
     order, rows = read_runs(args.out, args.budget)
     if args.reference not in rows:
-        sys.exit(f"paired_table: no row {args.reference!r} in {args.out} (rows: {', '.join(order)})")
+        sys.exit(f"paired_table: no row {args.reference!r} in {', '.join(args.out)} (rows: {', '.join(order)})")
     areas = ["full"] + sorted({a for row in rows.values() for s in row.values() for a in s} - {"full"})
     lines = ["| row | area | seeds | PSNR | SSIM | LPIPS | paired PSNR | paired SSIM | paired LPIPS | "
              "PSNR better on | per-seed PSNR difference |", "|" + "---|" * 11]
@@ -100,7 +107,7 @@ def main():
                 cells.append(" / ".join(f"s{s} {d:+.3f}" for s, d in differences["psnr"]))
             lines.append("| " + " | ".join(cells) + " |")
     text = "\n".join(lines) + "\n"
-    with open(os.path.join(args.out, "paired.md"), "w") as f:
+    with open(os.path.join(args.out[0], "paired.md"), "w") as f:
         f.write(text)
     print(text, end="")
 

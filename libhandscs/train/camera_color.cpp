@@ -110,15 +110,12 @@ void CameraColors::project(bool warn) {
         warned_.push_back(key);
         if (!warn) continue;
         const double value = params_[r][k].item<double>() + (gain ? 1.0 : 0.0);
-        const std::string range =
-            gain ? "[" + std::to_string(kMinGain) + ", " + std::to_string(kMaxGain) + "]"
-                 : "[-" + std::to_string(kind == "bias" ? kMaxBias : kMaxCross) + ", " +
-                       std::to_string(kind == "bias" ? kMaxBias : kMaxCross) + "]";
+        const double bound = kind == "bias" ? kMaxBias : kMaxCross;
         spdlog::warn(
-            "camera {}: its colour transform runs away ({} {:.3f} outside {}); held at the range's "
-            "edge. A camera whose images are grey or dark is no colour response: drop it "
-            "(data.drop_monochrome, data.train_cameras) or check its images",
-            camera_ids_[r], kind, value, range);
+            "camera {}: its colour transform runs away ({} {:.3f} outside [{:g}, {:g}]); held at "
+            "the range's edge. A camera whose images are grey or dark is no colour response: drop "
+            "it (data.drop_monochrome, data.train_cameras) or check its images",
+            camera_ids_[r], kind, value, gain ? kMinGain : -bound, gain ? kMaxGain : bound);
       }
     }
     params_.copy_(torch::max(torch::min(params_, upper), lower));
