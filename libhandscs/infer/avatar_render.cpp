@@ -23,6 +23,7 @@
 #include "render/camera_export.h"
 #include "render/camera_json.h"
 #include "train/avatar_state_io.h"
+#include "train/camera_color.h"
 #include "render/orbit.h"
 #include "infer/pose_source.h"
 
@@ -124,6 +125,10 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
   std::vector<double> forward_ms;
   int64_t out_of_view = 0;
   std::vector<CameraFrame> frame_cameras;  // every frame's camera, for transforms.json
+  // train.camera_color: a capture camera the avatar trained on renders through its colour
+  // transform; any other camera (--camera, --orbit, an unseen capture camera) shows the avatar's
+  // own colours. PLYs always hold the avatar's own colours.
+  int64_t transformed = 0;
   ProgressBar bar("render", count);
   c10::InferenceMode guard;
   PoseMemo memo(avatar);
@@ -136,6 +141,12 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
     out.state = memo.pose(f.pose.data(), f.shape.data(), f.trans.data());
     const auto t0 = std::chrono::steady_clock::now();
     out.render = render_posed(out.state.posed, camera, settings);
+    if (cameras.empty() && !f.camera_id.empty())
+      if (const auto transform = trained.colors.find(f.camera_id)) {
+        out.render.rgb = apply_color_transform(out.render.rgb, out.render.alpha, settings.background,
+                                               *transform);
+        ++transformed;
+      }
     forward_ms.push_back(memo.pose_ms() + std::chrono::duration<double, std::milli>(
                                               std::chrono::steady_clock::now() - t0).count());
     {
@@ -185,6 +196,10 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
                 "); check the camera's R and t against the poses' trans (" + options.out_dir +
                 " holds background-only images)");
   }
+  if (!trained.colors.matrices.empty())
+    spdlog::info("colours: the {} transform of its training camera on {} of {} frames, the avatar's "
+                 "own colours on the others", camera_color_name(trained.colors.mode), transformed,
+                 count);
   if (out_of_view > kOutOfViewLines)
     spdlog::warn("{} of {} frames show no hand (the first {} are named above)", out_of_view, count,
                  kOutOfViewLines);

@@ -89,6 +89,7 @@ int run_model_eval_command(const ModelEvalCommandLine& cli, const EvalCommandLin
   std::fputs(format_eval_table(result.report).c_str(), stdout);
   std::printf("rendering: %lld frames, %.1f FPS over the whole forward (median %.1f ms per frame)\n",
               static_cast<long long>(result.frames), result.fps, result.forward_ms);
+  std::printf("colours: %s\n", result.camera_color.c_str());
   std::fflush(stdout);
   spdlog::info("wrote {}/summary.json, per_image.csv and table.md{}", cli.out,
                result.report.regions.empty() ? "" : " (with region scores)");

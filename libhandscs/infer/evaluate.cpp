@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <set>
 
 #include <spdlog/spdlog.h>
 #include <torch/types.h>
@@ -22,6 +23,7 @@
 #include "metrics/image_tensor.h"
 #include "metrics/region_masks.h"
 #include "train/avatar_state_io.h"
+#include "train/camera_color.h"
 
 namespace handscs {
 
@@ -167,6 +169,11 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
   const auto bg_tensor = torch::tensor({float(bg[0]), float(bg[1]), float(bg[2])});
   RasterSettings settings;
   settings.background = {float(bg[0]), float(bg[1]), float(bg[2])};
+  // train.camera_color: a training camera's images get its transform, any other camera's the
+  // avatar's own colours (the transforms' mean is the identity), which is what a novel view gets.
+  const CameraColorTable& colors = trained.colors;
+  int64_t transformed = 0, own_colors = 0;
+  std::set<std::string> transformed_cameras, own_color_cameras;
   std::vector<double> forward_ms;
   ProgressBar bar("eval", static_cast<int64_t>(frames.size()));
   c10::InferenceMode guard;
@@ -196,7 +203,14 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
       const RasterOutput render = render_posed(posed, sample.camera, settings);
       forward_ms.push_back(memo.pose_ms() + std::chrono::duration<double, std::milli>(
                                                 std::chrono::steady_clock::now() - t0).count());
-      const auto pred = render.rgb.clamp(0, 1);
+      const auto transform = colors.find(frame.camera_id);
+      entry.sources["camera_color"] = transform ? camera_color_name(colors.mode) : "identity";
+      (transform ? transformed : own_colors) += 1;
+      (transform ? transformed_cameras : own_color_cameras).insert(frame.camera_id);
+      const auto pred =
+          (transform ? apply_color_transform(render.rgb, render.alpha, settings.background, *transform)
+                     : render.rgb)
+              .clamp(0, 1);
       entry.scores = scorer.score(pred, gt, {}, regions);
       entry.ok = true;
       if (options.side_by_side) {
@@ -227,6 +241,22 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
   }
   const auto summary = result.report.summary();
   auto json = eval_report_to_json(result.report);
+  const std::string mode = camera_color_name(colors.mode);
+  if (colors.matrices.empty())
+    result.camera_color = "the avatar's own colours on all " + std::to_string(own_colors) +
+                          " images (the checkpoint has no per-camera colour transforms)";
+  else
+    result.camera_color = "per-camera colour transforms (" + mode + ") on " +
+                          std::to_string(transformed) + " images of " +
+                          std::to_string(transformed_cameras.size()) + " training cameras; the " +
+                          "avatar's own colours on " + std::to_string(own_colors) + " images of " +
+                          std::to_string(own_color_cameras.size()) + " cameras it never saw";
+  json["camera_color"] = {{"mode", mode},
+                          {"transformed_images", transformed},
+                          {"identity_images", own_colors},
+                          {"transformed_cameras", transformed_cameras},
+                          {"identity_cameras", own_color_cameras},
+                          {"note", result.camera_color}};
   json["rendering"] = {{"frames", result.frames},
                        {"forward_ms_median", result.forward_ms},
                        {"fps", result.fps},
@@ -238,7 +268,8 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
   const std::string label = options.label.empty()
                                 ? config.data.split + "/Capture" + std::to_string(config.data.capture)
                                 : options.label;
-  write_file_atomic(options.out_dir + "/table.md", paper_table(label, summary, result.fps));
+  write_file_atomic(options.out_dir + "/table.md", paper_table(label, summary, result.fps) +
+                                                      "\nColours: " + result.camera_color + ".\n");
   return result;
 }
 

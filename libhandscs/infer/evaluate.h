@@ -26,6 +26,10 @@ struct ModelEvalOptions {
 
 struct ModelEvalResult {
   EvalReport report;
+  // train.camera_color: which colours were rendered ("the avatar's own colours for all N images"
+  // or "per-camera transforms (gain) on N images of training cameras, the avatar's own colours on
+  // M of cameras it never saw"); also summary.json's "camera_color" and a line under table.md.
+  std::string camera_color;
   int64_t frames = 0;
   double forward_ms = 0;  // median per frame, whole forward
   double fps = 0;         // frames / total forward seconds

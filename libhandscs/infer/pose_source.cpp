@@ -184,6 +184,7 @@ std::vector<PoseFrame> read_pose_source_json(const json& root, const std::string
       frame.shape = f.shape;
       frame.trans = f.trans;
       frame.camera = f.camera;
+      frame.camera_id = f.camera_id;
       frame.name = f.file_name;
       for (auto& c : frame.name)
         if (c == '/') c = '_';

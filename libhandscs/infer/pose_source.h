@@ -20,6 +20,7 @@ struct PoseFrame {
   std::array<float, 10> shape{};
   std::array<float, 3> trans{};
   std::optional<Camera> camera;  // from a capture selection
+  std::string camera_id;         // ... and that camera's id (its colour transform, if trained)
   std::string name;              // e.g. "pose_0003" or the capture image's name
 };
 

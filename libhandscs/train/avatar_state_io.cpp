@@ -67,7 +67,8 @@ TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run) {
   config_from_json(opened.checkpoint.meta.at("config"), opened.path + " (stored config)", config);
   Avatar avatar = restore_avatar(opened.checkpoint, config.model,
                                  load_rig_source(avatar_rig_source(config)), opened.path);
-  return {opened.path, std::move(config), std::move(avatar)};
+  CameraColorTable colors = CameraColorTable::from_checkpoint(opened.checkpoint, opened.path);
+  return {opened.path, std::move(config), std::move(avatar), std::move(colors)};
 }
 
 }  // namespace handscs

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "avatar/avatar.h"
+#include "train/camera_color.h"
 #include "train/checkpoint.h"
 #include "train/run_config.h"
 
@@ -18,11 +19,13 @@ Avatar restore_avatar(const Checkpoint& checkpoint, const AvatarConfig& config, 
                       const std::string& source);
 
 // A trained avatar as a checkpoint file or run folder holds it (open_checkpoint): the file's path,
-// the run config stored in it, and the avatar restored with that config's model and rig.
+// the run config stored in it, the avatar restored with that config's model and rig, and its
+// per-camera colour transforms (train.camera_color; none for an older checkpoint or with it off).
 struct TrainedAvatar {
   std::string path;
   RunConfig config;
   Avatar avatar;
+  CameraColorTable colors;
 };
 TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run);
 

@@ -20,7 +20,7 @@ int train_command(int argc, char** argv) {
   CLI::App app{
       "handscs-train: fit a HandSCS hand avatar to a multi-view capture.\n"
       "Writes RUN_DIR/config.json (resolved config), metrics.csv, checkpoints/step_*.ckpt (the\n"
-      "newest two), validation/*.png (prediction | ground truth). Ctrl-C saves a checkpoint;\n"
+      "newest two), validation/*.png (render | truth | error, labelled). Ctrl-C saves a checkpoint;\n"
       "--resume continues from the newest valid one. A folder holding another run is refused\n"
       "unless --overwrite. Keys: docs/CONFIG.md; what the tools promise: docs/SAFETY.md.\n"
       "Several processes (one machine or many) train one avatar data-parallel: start each with\n"

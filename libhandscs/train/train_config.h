@@ -41,6 +41,12 @@ struct LossWeights {
   // 1e-2, 1e-1 and the paper's literal sum with 1e-2 (docs/BENCHMARKS.md, ablation on real_demo,
   // 400 steps, 3 seeds: +0.16 dB, SSIM +0.002, LPIPS -0.006 over 1e-2).
   double consistency = 0.1;
+  // Weight of the per-camera colour transforms' penalty (train.camera_color): this x the sum over
+  // training cameras of the squared distance of their parameters from the identity. Weak: a 10%
+  // gain on one channel adds 1e-5 against an L1 RGB loss of ~0.02, so it only holds components the
+  // images do not constrain (a dark camera's, an affine matrix's cross terms). Chosen before any
+  // measurement.
+  double camera_color = 1e-3;
 
   template <class V>
   void visit(V& v) {
@@ -56,6 +62,9 @@ struct LossWeights {
     v.choice("reg_terms", reg_terms, {{"paper", RegTerms::paper}, {"all", RegTerms::all}},
              "L_reg terms: paper = geometry and appearance offsets; all = fusion offsets too");
     v.field("consistency", consistency, "weight of the inter-pose loss L_con (0 = off)", 0.0, 1e6);
+    v.field("camera_color", camera_color,
+            "weight of the penalty keeping the per-camera colour transforms near the identity", 0.0,
+            1e6);
   }
 };
 
@@ -70,6 +79,10 @@ struct LearningRates {
   double networks = 1e-3;        // decoders and virtual-bone generator
   double networks_final = 1e-4;  // decayed exponentially like the means
   double gates = 1e-3;
+  // Per-camera colour transforms (train.camera_color), constant: a 12% gain is ~120 steps of
+  // Adam at this rate, small next to 2,000 steps, and its step-to-step jitter (~1e-3 of a gain)
+  // is far below the colour error it removes. Chosen before any measurement.
+  double camera_color = 1e-3;
 
   template <class V>
   void visit(V& v) {
@@ -83,6 +96,8 @@ struct LearningRates {
     v.field("networks", networks, "initial learning rate of decoders and generator", 0.0, 1.0);
     v.field("networks_final", networks_final, "final learning rate of the networks", 0.0, 1.0);
     v.field("gates", gates, "learning rate of the decoder gates", 0.0, 1.0);
+    v.field("camera_color", camera_color, "learning rate of the per-camera colour transforms", 0.0,
+            1.0);
   }
 };
 
@@ -240,6 +255,13 @@ struct TrainConfig {
   ConsistencyConfig consistency;
   PoseRefineConfig pose_refine;
   CullConfig cull;
+  // A colour transform per training camera (train/camera_color.h: exposure gain and white balance
+  // differ between a rig's cameras), learned with the avatar and applied to its renders of that
+  // camera; evaluation applies it to a training camera and the identity to any other. off: every
+  // camera sees the avatar's own colours (the paper). gain: a gain and a bias per channel; affine:
+  // a 3x3 matrix and a bias.
+  enum class CameraColor { off, gain, affine };
+  CameraColor camera_color = CameraColor::off;
 
   template <class V>
   void visit(V& v) {
@@ -265,6 +287,10 @@ struct TrainConfig {
     v.section("consistency", consistency, "inter-pose consistency");
     v.section("pose_refine", pose_refine, "training-pose refinement (beyond the paper)");
     v.section("cull", cull, "back-facing Gaussians skipped in training (beyond the paper)");
+    v.choice("camera_color", camera_color,
+             {{"off", CameraColor::off}, {"gain", CameraColor::gain}, {"affine", CameraColor::affine}},
+             "per-training-camera colour transform: off, gain (per channel gain and bias) or "
+             "affine (3x3 and bias)");
   }
 };
 

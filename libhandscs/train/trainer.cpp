@@ -24,6 +24,7 @@
 #include "core/progress.h"
 #include "data/camera_transforms.h"
 #include "io/png.h"
+#include "metrics/comparison_panel.h"
 #include "metrics/image_tensor.h"
 #include "metrics/psnr.h"
 #include "render/projected_radii.h"
@@ -64,7 +65,10 @@ const char* kDiagnosticColumns[] = {"gate_geometry", "gate_appearance", "gate_fu
 // on, and keeps it, empty, when a resume turns it off: prepare_metrics_log).
 constexpr const char* kCullColumn = "decoded_fraction";
 // The loss terms a step reports (StepResult::terms): data parallel sums them across ranks.
-const char* kReducedTerms[] = {"rgb", "mask", "ssim", "lpips", "reg", "consistency", "pose_refine"};
+const char* kReducedTerms[] = {"rgb",         "mask",       "ssim",        "lpips", "reg",
+                               "consistency", "pose_refine", "camera_color"};
+// The optimiser group of the per-camera colour transforms (train.camera_color).
+constexpr const char* kCameraColorGroup = "camera_color";
 
 // train.cull: [N] bool, true for the Gaussians the pose decoded; undefined when it decoded all.
 torch::Tensor decoded_mask(const AvatarState& state) {
@@ -105,6 +109,7 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir, ProcessGro
                capture_->cameras().size());
 
   avatar_ = std::make_unique<Avatar>(config_.model, load_rig_source(avatar_rig_source(config_)));
+  camera_colors_ = make_camera_colors();
   build_optimizer();
   if (config_.train.pose_refine.enabled)
     pose_corrections_ =
@@ -144,6 +149,14 @@ void Trainer::write_run_files() {
 
 Trainer::~Trainer() = default;
 
+std::unique_ptr<CameraColors> Trainer::make_camera_colors() const {
+  if (config_.train.camera_color == TrainConfig::CameraColor::off) return nullptr;
+  std::set<std::string> ids;  // sorted: the same rows on every rank and every run
+  for (const auto& frame : capture_->train()) ids.insert(frame.camera_id);
+  return std::make_unique<CameraColors>(config_.train.camera_color,
+                                        std::vector<std::string>(ids.begin(), ids.end()));
+}
+
 void Trainer::build_optimizer() {
   const auto& lr = config_.train.lr;
   auto& g = avatar_->gaussians();
@@ -171,6 +184,10 @@ void Trainer::build_optimizer() {
     else
       optimizer_->add_group(name, pointers, lr.networks, lr.networks_final, false);
   }
+  // Last, so that the groups before it (and the all-reduce's layout of them) are as without it.
+  if (camera_colors_)
+    optimizer_->add_group(kCameraColorGroup, {&camera_colors_->parameters()}, lr.camera_color,
+                          lr.camera_color, false);
 }
 
 int64_t Trainer::entries_per_step() const {
@@ -363,6 +380,14 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
     settings.background = view.background;
     renders.push_back(render_posed(state.posed, view.camera, settings, probes.back()));
   }
+  // train.camera_color: each view as its camera records the avatar's colours.
+  std::vector<torch::Tensor> images;
+  for (int64_t k = 0; k < count; ++k) {
+    const int64_t row = camera_colors_ ? camera_colors_->row(frames[k]->camera_id) : -1;
+    images.push_back(row < 0 ? renders[k].rgb
+                             : apply_color_transform(renders[k].rgb, renders[k].alpha,
+                                                     views[k].background, camera_colors_->matrix(row)));
+  }
   const auto t2 = Clock::now();
 
   double pair_weight = -1;
@@ -375,7 +400,7 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
   std::map<std::string, double> terms;
   for (int64_t k = 0; k < count; ++k) {
     LossInputs in;
-    in.rgb = renders[k].rgb;
+    in.rgb = images[k];
     in.alpha = renders[k].alpha;
     in.target = views[k].target;
     in.mask = views[k].mask;
@@ -394,6 +419,12 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
     total = total + penalty;
     outcome.pose_index = current.pose_index;
     outcome.pose_delta = corrected.delta;
+  }
+  if (camera_colors_) {
+    // Once per entry (each entry's gradient is scaled by 1/entries): once per step in all.
+    const auto penalty = camera_colors_->penalty(config_.train.loss.camera_color);
+    terms["camera_color"] = penalty.item<double>();
+    total = total + penalty;
   }
   for (const auto& [name, value] : terms) result.terms[name] += value / entries;
   if (diagnostics) {
@@ -425,7 +456,7 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
     // Capped: a crop rendered exactly (mse 0, +inf dB) would make the running average infinite.
     constexpr double kMaxStepPsnr = 99.0;
     for (int64_t k = 0; k < count; ++k) {
-      const double mse = (renders[k].rgb.detach() - views[k].target).pow(2).mean().item<double>();
+      const double mse = (images[k].detach() - views[k].target).pow(2).mean().item<double>();
       outcome.psnr += std::min(psnr_from_mse(mse), kMaxStepPsnr) / count;
     }
   }
@@ -620,6 +651,8 @@ StepResult Trainer::step() {
     bad_in_a_row_ = 0;
     optimizer_->step(iteration_, total);
     for (const auto& update : pose_updates) pose_corrections_->step(update.pose_index, update.grad);
+    // The same values on every rank, so the same projection (rank 0 reports runaways).
+    if (camera_colors_) camera_colors_->project(/*warn=*/is_root());
     if (sums.densify.visible.defined()) densifier_->add(sums.densify);
     optimizer_->zero_grad();
     if (config_.train.loss.consistency > 0) prev_chains_ = next_chains_;
@@ -751,6 +784,7 @@ Checkpoint Trainer::make_checkpoint() {
   put("consistency/candidates", candidates_);
   if (pose_corrections_)
     for (const auto& [name, tensor] : pose_corrections_->state()) ckpt.tensors[name] = tensor;
+  if (camera_colors_) camera_colors_->store(ckpt);
   put("densify/grad_sum", densifier_->grad_sum());
   put("densify/count", densifier_->visible_count());
   return ckpt;
@@ -771,12 +805,19 @@ void Trainer::load_from(const Checkpoint& ckpt, const std::string& source) {
   }
   avatar_ = std::make_unique<Avatar>(
       restore_avatar(ckpt, config_.model, load_rig_source(avatar_rig_source(config_)), source));
+  camera_colors_ = make_camera_colors();
+  // A checkpoint without transforms (older, or trained with camera_color off) starts them at the
+  // identity, with fresh optimiser state.
+  const bool colors_stored = camera_colors_ && camera_colors_->load(ckpt, source);
+  if (camera_colors_ && !colors_stored)
+    spdlog::info("{}: no colour transforms stored; train.camera_color starts at the identity", source);
   build_optimizer();
   for (auto& group : optimizer_->groups())
     for (size_t i = 0; i < group.params.size(); ++i) {
       const std::string base = "adam/" + group.name + "/" + std::to_string(i);
       auto m = ckpt.tensors.find(base + "/m");
       auto v = ckpt.tensors.find(base + "/v");
+      if (group.name == kCameraColorGroup && !colors_stored) continue;
       if (m == ckpt.tensors.end() || v == ckpt.tensors.end())
         throw Error(source + ": checkpoint lacks optimiser state " + base);
       if (m->second.sizes() != group.params[i]->sizes())
@@ -872,13 +913,23 @@ void Trainer::validate() {
   FrameSample sample = capture_->load(frame, /*full_image=*/true);
   auto out = avatar_->forward(float_vector(frame.pose), float_vector(frame.shape),
                               float_vector(frame.trans), sample.camera, RasterSettings{});
+  const int64_t row = camera_colors_ ? camera_colors_->row(frame.camera_id) : -1;
+  const auto rgb = row < 0 ? out.render.rgb
+                           : apply_color_transform(out.render.rgb, out.render.alpha, {0, 0, 0},
+                                                   camera_colors_->matrix(row));
   const auto mask = sample.mask.to(torch::kFloat32).unsqueeze(2);
   const auto gt = sample.image.to(torch::kFloat32).div(255.0) * mask;
-  const auto side_by_side = torch::cat({out.render.rgb.clamp(0, 1), gt}, 1);
+  const auto pred = rgb.clamp(0, 1);
+  // Labelled: render | ground truth | error, with the step, the view and its PSNR written above.
+  const double psnr_db = psnr(hwc_to_bchw(pred), hwc_to_bchw(gt)).item<double>();
+  char caption[256];
+  std::snprintf(caption, sizeof(caption), "step %lld  %s  camera %s  PSNR %.2f dB",
+                static_cast<long long>(iteration_), frame.file_name.c_str(),
+                frame.camera_id.c_str(), psnr_db);
   ensure_directory(run_dir_ + "/validation");
   char name[64];
   std::snprintf(name, sizeof(name), "/validation/step_%08lld.png", static_cast<long long>(iteration_));
-  write_png(run_dir_ + name, rgb_tensor_to_mat(side_by_side));
+  write_png(run_dir_ + name, comparison_panel(pred, gt, caption));
 }
 
 void Trainer::log_step(const StepResult& r) {
@@ -961,6 +1012,8 @@ TrainSummary Trainer::run() {
     if (last_checkpoint_.find(checkpoint_name(iteration_)) == std::string::npos) save_checkpoint();
     if (pose_corrections_)
       write_file_atomic(run_dir_ + "/pose_refine.csv", pose_corrections_->to_csv());
+    if (camera_colors_)
+      write_file_atomic(run_dir_ + "/camera_color.csv", camera_colors_->to_csv());
     bar->finish(status);
   }
   std::signal(SIGINT, previous_int);

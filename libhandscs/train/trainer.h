@@ -11,7 +11,9 @@
 // after them (and at the start, fresh or resumed), so the ranks never diverge; NaN skips and
 // Ctrl-C are agreed in the same all-reduce. Each entry keeps its own inter-pose chain (L_con pairs
 // entry b of a step with entry b of the step before); a checkpoint holds rank 0's chains, so after
-// resuming with several ranks the others' first step has no L_con. Pose refinement needs one rank.
+// resuming with several ranks the others' first step has no L_con. Pose refinement and the
+// per-camera colour transforms (train.camera_color: an Adam group like the others, so their
+// gradients travel in the same all-reduce) work across ranks.
 #pragma once
 
 #include <array>
@@ -24,6 +26,7 @@
 #include "avatar/avatar.h"
 #include "data/capture.h"
 #include "train/adam.h"
+#include "train/camera_color.h"
 #include "train/checkpoint.h"
 #include "train/data_parallel.h"
 #include "train/densify.h"
@@ -92,6 +95,8 @@ class Trainer {
   int64_t iteration() const { return iteration_; }
   Avatar& avatar() { return *avatar_; }
   Capture& capture() { return *capture_; }
+  // train.camera_color: the per-camera colour transforms; null when off.
+  const CameraColors* camera_colors() const { return camera_colors_.get(); }
   const RunConfig& config() const { return config_; }
 
 
@@ -162,6 +167,9 @@ class Trainer {
   std::unique_ptr<Densifier> densifier_;
   std::unique_ptr<Objective> objective_;
   std::unique_ptr<PoseCorrections> pose_corrections_;  // null unless train.pose_refine.enabled
+  std::unique_ptr<CameraColors> camera_colors_;        // null unless train.camera_color is on
+  // A fresh CameraColors over the capture's training cameras (sorted ids), at the identity.
+  std::unique_ptr<CameraColors> make_camera_colors() const;
   std::unique_ptr<EmptyMaskWatch> empty_masks_;
   int64_t min_loss_side_ = 1;  // smallest image side the image losses accept (training_checks.h)
   int64_t iteration_ = 0;

@@ -17,7 +17,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include <opencv2/imgcodecs.hpp>
 #include "core/atomic_file.h"
+#include "metrics/comparison_panel.h"
 #include "tiny_capture.h"
 #include "train/checkpoint.h"
 #include "train/trainer.h"
@@ -51,6 +53,16 @@ TEST_CASE("cli: train, resume, evaluate and render the tiny capture") {
   INFO(log_text());
   CHECK(log_text().find("resumed from") != std::string::npos);
   CHECK(handscs::latest_checkpoint(run_dir).find("step_00000050.ckpt") != std::string::npos);
+  {
+    // The validation picture is labelled: render | ground truth | error under a header
+    // (tiny.json validates every 50 steps; the tiny capture's images are 167x256 or 256x167).
+    const cv::Mat panel = cv::imread(run_dir + "/validation/step_00000050.png");
+    REQUIRE_FALSE(panel.empty());
+    const int w = panel.cols / 3;
+    CHECK(panel.cols == 3 * w);
+    REQUIRE((w == 167 || w == 256));
+    CHECK(panel.rows == (w == 167 ? 256 : 167) + handscs::comparison_panel_header_height(w));
+  }
   {
     // Every metrics.csv row has a cell per column; the decoder gates are logged on each row.
     std::ifstream csv(run_dir + "/metrics.csv");

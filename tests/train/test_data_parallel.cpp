@@ -1,9 +1,9 @@
 // Data-parallel training as users run it: handscs-train processes on loopback, rendezvous from the
 // environment (RANK, WORLD_SIZE, MASTER_ADDR, MASTER_PORT). Two ranks with one view each against
-// one process with batch_size 2 (densification inside the window; pose refinement), a 2-rank run
-// resumed exactly, a killed rank, a rank alone, and resuming a 2-rank run with 1 rank and a 1-rank
-// run with 2. In process (two ranks as two threads): a NaN on one rank is skipped and rolled back
-// on both.
+// one process with batch_size 2 (densification inside the window; pose refinement; per-camera
+// colour transforms), a 2-rank run resumed exactly, a killed rank, a rank alone, and resuming a
+// 2-rank run with 1 rank and a 1-rank run with 2. In process (two ranks as two threads): a NaN on
+// one rank is skipped and rolled back on both.
 #include "test_support.h"
 #include "catch_torch.h"
 
@@ -148,6 +148,17 @@ TEST_CASE("train: data parallel: pose refinement on 2 ranks equals 1 process x b
   REQUIRE(a.tensors.count("pose_refine/values") == 1);
   // Both views' poses were corrected: more than one row moved.
   CHECK((a.tensors.at("pose_refine/values").abs().sum(1) > 0).sum().item<int64_t>() >= 2);
+  check_same_state(a, b);
+}
+
+TEST_CASE("train: data parallel: per-camera colour transforms on 2 ranks equal 1 process x batch_size 2") {
+  // The transforms are one more optimiser group: their gradients travel in the step's all-reduce,
+  // and every rank projects the same values (mean at the identity).
+  const auto dir = fresh_dir("dp_camera_color");
+  const auto [a, b] = train_single_and_two_ranks(
+      dir, " train.densify.enabled=false train.camera_color=gain train.lr.camera_color=0.01");
+  REQUIRE(a.tensors.count("camera_color/params") == 1);
+  CHECK(a.tensors.at("camera_color/params").abs().max().item<double>() > 0);
   check_same_state(a, b);
 }
 
