@@ -7,8 +7,7 @@ A trace event's self time is its duration minus that of the events nested direct
 the same thread; the table lists ms per step (total / N) and calls per step, largest first.
 
 Read small ops' times with care: under LibTorch 1.13's legacy profiler a [10k, 256] bf16 ReLU
-backward shows 0.80 ms a call against 0.18-0.23 ms timed with a wall clock (docs/BENCHMARKS.md,
-2026-11-26 (5)). Large GEMMs are reported near their wall time; time a candidate alone before
+backward shows 0.80 ms a call against 0.18-0.23 ms timed with a wall clock (docs/BENCHMARKS.md). Large GEMMs are reported near their wall time; time a candidate alone before
 acting on its profile entry.
 """
 import argparse
