@@ -107,6 +107,9 @@ SweepConfig load_sweep_config(const std::string& path) {
   if (c.budgets.empty()) top.fail("budgets", "needs at least one training budget");
   c.eval_images = top.integer("eval_images", c.eval_images, 0, 1000000);
   c.threads = top.integer("threads", c.threads, 0, kMaxThreads);
+  // Settings every point shares (e.g. a default changed since the sweep was measured, pinned so it
+  // reproduces as recorded); a point's own settings come after them and win.
+  const std::vector<std::string> shared_set = top.strings("set");
 
   const json* points = top.find("points");
   if (!points || !points->is_array() || points->empty())
@@ -120,7 +123,8 @@ SweepConfig load_sweep_config(const std::string& path) {
     if (!std::regex_match(p.name, name_pattern))
       r.fail("name", "\"" + p.name + "\" must match [A-Za-z0-9_.-]+ (it names a folder)");
     if (!names.insert(p.name).second) r.fail("name", "\"" + p.name + "\" is used twice");
-    p.set = r.strings("set");
+    p.set = shared_set;
+    for (auto& s : r.strings("set")) p.set.push_back(std::move(s));
     p.threads = r.integer("threads", 0, 0, kMaxThreads);
     p.budgets = r.integers("budgets", {}, 1, kMaxIterations);
     r.finish();

@@ -1,6 +1,6 @@
-// A speed-accuracy sweep (issue 8): which run config to start from, which settings to vary (named
-// points, each a list of --set overrides), which training budgets to run each point at, how many
-// held-out images to score, and the rasterizer-only timing grid. Read from a JSON file
+// A speed-accuracy sweep: which run config to start from, which settings every point shares, which
+// to vary (named points, each a list of --set overrides), which training budgets to run each point
+// at, how many held-out images to score, and the rasterizer-only timing grid. Read from a JSON file
 // (configs/sweeps/*.json); docs/BENCHMARKS.md explains the fields.
 #pragma once
 
@@ -11,7 +11,7 @@ namespace handscs {
 
 struct SweepPoint {
   std::string name;               // row label and run folder name ([A-Za-z0-9_.-]+)
-  std::vector<std::string> set;   // handscs-train --set overrides that define the setting
+  std::vector<std::string> set;   // handscs-train --set overrides: the sweep's shared ones, then the point's
   int threads = 0;                // 0 = the sweep's threads
   std::vector<int> budgets;       // empty = the sweep's budgets
 };

@@ -59,6 +59,16 @@ TEST_CASE("sweep files: the shipped sweeps load, and a point's budgets and threa
   CHECK(c.raster.gaussians == std::vector<int>{1000, 10000});
   CHECK(c.raster.threads == std::vector<int>{2});
   CHECK(c.raster.repeats == 3);
+
+  // Settings the sweep shares come before each point's own (which therefore win).
+  const std::string shared = write("shared.json", R"({
+    "run_config": "../run.json", "budgets": [100], "set": ["train.camera_color=off"],
+    "points": [{"name": "plain"}, {"name": "gain", "set": ["train.camera_color=gain"]}]})");
+  const auto d = handscs::load_sweep_config(shared);
+  REQUIRE(d.points.size() == 2);
+  CHECK(d.points[0].set == std::vector<std::string>{"train.camera_color=off"});
+  CHECK(d.points[1].set ==
+        std::vector<std::string>{"train.camera_color=off", "train.camera_color=gain"});
 }
 
 TEST_CASE("sweep files: bad files give errors naming the file and key") {
@@ -81,6 +91,8 @@ TEST_CASE("sweep files: bad files give errors naming the file and key") {
         f + ": points[1].name: \"a\" is used twice");
   CHECK(load(R"({"run_config": "x", "budgets": [5], "points": [{"name": "a", "set": "k=1"}]})") ==
         f + ": points[0].set: expected array, got string");
+  CHECK(load(R"({"run_config": "x", "budgets": [5], "set": "k=1", "points": [{"name": "a"}]})") ==
+        f + ": set: expected array, got string");
   CHECK(load(R"({"run_config": "x", "budgets": [5], "points": [{"name": "a", "sets": []}]})") ==
         f + ": points[0].sets: unknown key");
   CHECK(load(R"({"run_config": "x", "budget": [5], "points": [{"name": "a"}]})") ==

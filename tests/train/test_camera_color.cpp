@@ -298,6 +298,7 @@ TEST_CASE("camera colour: off builds no transforms and trains as the path withou
   config.train.checkpoint_every = 6;
   config.train.densify.enabled = false;
   config.train.background = handscs::TrainConfig::Background::random;
+  config.train.camera_color = Mode::off;
   const auto off_dir = fresh_dir("color_off"), still_dir = fresh_dir("color_still");
   const auto off = train_losses(config, off_dir);
   auto still = config;
