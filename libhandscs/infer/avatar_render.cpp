@@ -22,8 +22,8 @@
 #include "metrics/image_tensor.h"
 #include "render/camera_export.h"
 #include "render/camera_json.h"
-#include "train/avatar_state_io.h"
-#include "train/camera_color.h"
+#include "run/avatar_state_io.h"
+#include "run/camera_color_transform.h"
 #include "render/orbit.h"
 #include "infer/pose_source.h"
 

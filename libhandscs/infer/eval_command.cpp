@@ -10,8 +10,8 @@
 #include "core/error.h"
 #include "core/text.h"
 #include "infer/evaluate.h"
-#include "train/avatar_state_io.h"
-#include "train/run_config.h"
+#include "run/avatar_state_io.h"
+#include "run/run_config.h"
 
 namespace handscs {
 
@@ -61,21 +61,15 @@ void check_eval_mode_options(const ModelEvalCommandLine& model, const EvalComman
 int run_model_eval_command(const ModelEvalCommandLine& cli, const EvalCommandLine& metric_flags,
                            const std::vector<std::string>& overrides) {
   require(!cli.out.empty(), "model mode needs --out DIR");
-  // The avatar is the checkpoint's: a model key set here would be ignored, or contradict the weights.
-  for (const auto& assignment : overrides)
-    if (assignment.rfind("model.", 0) == 0 || assignment.rfind("model=", 0) == 0)
-      throw Error("--set " + assignment + ": the model is the checkpoint's and cannot be changed at "
-                  "evaluation (data.*, eval.* and train.* keys can be set)");
+  // A --config or --set mistake is reported before the checkpoint is read.
+  refuse_model_overrides(overrides);
   RunConfig config;
-  // A --config or --set mistake is reported before the checkpoint is read (once, used below).
   if (!cli.config.empty()) config = load_config<RunConfig>(cli.config, overrides);
-  TrainedAvatar trained = open_trained_avatar(cli.checkpoint);
-  if (cli.config.empty()) {
-    json stored = config_to_json(trained.config);
-    apply_overrides(stored, overrides);
-    config_from_json(stored, trained.path + " (stored config)" + (overrides.empty() ? "" : " + --set"),
-                     config);
-  }
+  // Without --config the stored config takes the overrides, once, as it is opened.
+  const std::vector<std::string> no_overrides;
+  TrainedAvatar trained =
+      open_trained_avatar(cli.checkpoint, cli.config.empty() ? overrides : no_overrides);
+  if (cli.config.empty()) config = trained.config;
   config.eval = resolve_eval_config(metric_flags, {}, config.eval);
   ModelEvalOptions options;
   options.out_dir = cli.out;

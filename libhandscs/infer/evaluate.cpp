@@ -22,8 +22,8 @@
 #include "metrics/image_scorer.h"
 #include "metrics/image_tensor.h"
 #include "metrics/region_masks.h"
-#include "train/avatar_state_io.h"
-#include "train/camera_color.h"
+#include "run/avatar_state_io.h"
+#include "run/camera_color_transform.h"
 
 namespace handscs {
 

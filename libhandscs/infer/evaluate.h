@@ -7,9 +7,9 @@
 #include <string>
 
 #include "metrics/eval_report.h"
-#include "train/avatar_state_io.h"
-#include "train/checkpoint.h"
-#include "train/run_config.h"
+#include "run/avatar_state_io.h"
+#include "run/checkpoint.h"
+#include "run/run_config.h"
 
 namespace handscs {
 

@@ -32,7 +32,7 @@
 #include "metrics/image_tensor.h"
 #include "render/camera_json.h"
 #include "render/orbit.h"
-#include "train/avatar_state_io.h"
+#include "run/avatar_state_io.h"
 
 namespace handscs {
 

@@ -1,4 +1,4 @@
-#include "train/avatar_state_io.h"
+#include "run/avatar_state_io.h"
 
 #include <torch/types.h>
 
@@ -61,10 +61,24 @@ Avatar restore_avatar(const Checkpoint& checkpoint, const AvatarConfig& config, 
   return avatar;
 }
 
-TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run) {
+void refuse_model_overrides(const std::vector<std::string>& overrides) {
+  // The avatar is the checkpoint's: a model key set here would be ignored, or contradict the weights.
+  for (const auto& assignment : overrides)
+    if (assignment.rfind("model.", 0) == 0 || assignment.rfind("model=", 0) == 0)
+      throw Error("--set " + assignment + ": the model is the checkpoint's and cannot be changed "
+                  "after training (data.*, eval.* and train.* keys can be set)");
+}
+
+TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run,
+                                  const std::vector<std::string>& overrides) {
+  refuse_model_overrides(overrides);
   const OpenedCheckpoint opened = open_checkpoint(checkpoint_or_run);
+  // The stored config and the overrides merged once, as JSON, and read into the struct once.
+  json stored = opened.checkpoint.meta.at("config");
+  apply_overrides(stored, overrides);
   RunConfig config;
-  config_from_json(opened.checkpoint.meta.at("config"), opened.path + " (stored config)", config);
+  config_from_json(stored, opened.path + " (stored config)" + (overrides.empty() ? "" : " + --set"),
+                   config);
   Avatar avatar = restore_avatar(opened.checkpoint, config.model,
                                  load_rig_source(avatar_rig_source(config)), opened.path);
   CameraColorTable colors = CameraColorTable::from_checkpoint(opened.checkpoint, opened.path);

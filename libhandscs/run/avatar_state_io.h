@@ -3,11 +3,12 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "avatar/avatar.h"
-#include "train/camera_color.h"
-#include "train/checkpoint.h"
-#include "train/run_config.h"
+#include "run/camera_color_transform.h"
+#include "run/checkpoint.h"
+#include "run/run_config.h"
 
 namespace handscs {
 
@@ -19,14 +20,18 @@ Avatar restore_avatar(const Checkpoint& checkpoint, const AvatarConfig& config, 
                       const std::string& source);
 
 // A trained avatar as a checkpoint file or run folder holds it (open_checkpoint): the file's path,
-// the run config stored in it, the avatar restored with that config's model and rig, and its
-// per-camera colour transforms (train.camera_color; none for an older checkpoint or with it off).
+// the run config stored in it with `overrides` ("a.b=value", as --set) applied, the avatar restored
+// with that config's model and rig, and its per-camera colour transforms (train.camera_color; none
+// for an older checkpoint or with it off). A model.* override is refused: the weights fix the model.
 struct TrainedAvatar {
   std::string path;
   RunConfig config;
   Avatar avatar;
   CameraColorTable colors;
 };
-TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run);
+TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run,
+                                  const std::vector<std::string>& overrides = {});
+// Throws Error naming the first model.* override (see open_trained_avatar).
+void refuse_model_overrides(const std::vector<std::string>& overrides);
 
 }  // namespace handscs

@@ -19,32 +19,17 @@
 // the stated ranges below, with a warning naming the camera.
 #pragma once
 
-#include <array>
-#include <cstdint>
 #include <map>
-#include <optional>
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
 #include <torch/types.h>
 
-#include "train/checkpoint.h"
+#include "run/camera_color_transform.h"
+#include "run/checkpoint.h"
 #include "train/train_config.h"
 
 namespace handscs {
-
-// out = A (rgb - (1 - alpha) bg) + alpha b + (1 - alpha) bg for rgb [h, w, 3], alpha [h, w],
-// background [3] and matrix [3, 4] = (A | b); differentiable in rgb, alpha and matrix.
-torch::Tensor apply_color_transform(const torch::Tensor& rgb, const torch::Tensor& alpha,
-                                    const std::array<float, 3>& background,
-                                    const torch::Tensor& matrix);
-
-// Parameters per camera of each mode (0 for off).
-int64_t camera_color_width(TrainConfig::CameraColor mode);
-// [C, 3, 4] transforms (A | b) from parameters [C, width] (differentiable).
-torch::Tensor camera_color_matrices(TrainConfig::CameraColor mode, const torch::Tensor& params);
-std::string camera_color_name(TrainConfig::CameraColor mode);
 
 class CameraColors {
  public:
@@ -94,17 +79,6 @@ class CameraColors {
   std::vector<std::string> camera_ids_;
   torch::Tensor params_;                // [C, width] float32
   std::vector<std::string> warned_;     // "camera/kind" already reported
-};
-
-// What evaluation and rendering apply: the transforms a checkpoint holds, by camera id.
-struct CameraColorTable {
-  TrainConfig::CameraColor mode = TrainConfig::CameraColor::off;
-  std::map<std::string, torch::Tensor> matrices;  // camera id -> [3, 4] (A | b), float32
-
-  // The camera's transform, none for a camera the avatar never saw (or camera_color off).
-  std::optional<torch::Tensor> find(const std::string& camera_id) const;
-  // From a checkpoint: empty (mode off) when it holds no transforms.
-  static CameraColorTable from_checkpoint(const Checkpoint& checkpoint, const std::string& source);
 };
 
 }  // namespace handscs

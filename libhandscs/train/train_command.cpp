@@ -10,7 +10,7 @@
 #include "core/cli.h"
 #include "core/config.h"
 #include "train/data_parallel.h"
-#include "train/run_config.h"
+#include "run/run_config.h"
 #include "train/run_folder.h"
 #include "train/trainer.h"
 

@@ -28,7 +28,7 @@
 #include "metrics/image_tensor.h"
 #include "metrics/psnr.h"
 #include "render/projected_radii.h"
-#include "train/avatar_state_io.h"
+#include "run/avatar_state_io.h"
 #include "train/consistency.h"
 #include "train/descriptor_tree.h"
 #include "train/run_folder.h"

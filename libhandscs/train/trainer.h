@@ -27,12 +27,12 @@
 #include "data/capture.h"
 #include "train/adam.h"
 #include "train/camera_color.h"
-#include "train/checkpoint.h"
+#include "run/checkpoint.h"
 #include "train/data_parallel.h"
 #include "train/densify.h"
 #include "train/losses.h"
 #include "train/pose_refine.h"
-#include "train/run_config.h"
+#include "run/run_config.h"
 #include "train/training_checks.h"
 
 namespace handscs {

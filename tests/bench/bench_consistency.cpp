@@ -25,10 +25,10 @@
 #include "core/logging.h"
 #include "core/threads.h"
 #include "data/capture.h"
-#include "train/avatar_state_io.h"
+#include "run/avatar_state_io.h"
 #include "train/consistency.h"
 #include "train/descriptor_tree.h"
-#include "train/run_config.h"
+#include "run/run_config.h"
 #include "bench_timing.h"
 
 namespace {
@@ -110,7 +110,7 @@ int main(int argc, char** argv) {
   handscs::set_threads(threads);
   torch::NoGradGuard no_grad;
 
-  // The avatar as trained (its stored config and its hand's rig: train/avatar_state_io.h).
+  // The avatar as trained (its stored config and its hand's rig: run/avatar_state_io.h).
   handscs::TrainedAvatar opened = handscs::open_trained_avatar(checkpoint);
   const std::string& path = opened.path;
   handscs::RunConfig& config = opened.config;

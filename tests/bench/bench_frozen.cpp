@@ -20,8 +20,8 @@
 #include "data/capture.h"
 #include "metrics/image_scorer.h"
 #include "metrics/psnr.h"
-#include "train/avatar_state_io.h"
-#include "train/run_config.h"
+#include "run/avatar_state_io.h"
+#include "run/run_config.h"
 #include "bench_timing.h"
 
 namespace {

@@ -22,7 +22,7 @@
 #include "hand/lbs.h"
 #include "synth/capture.h"
 #include "synth/config.h"
-#include "train/run_config.h"
+#include "run/run_config.h"
 
 namespace {
 

@@ -15,7 +15,7 @@
 
 #include "synth/capture.h"
 #include "synth/config.h"
-#include "train/run_config.h"
+#include "run/run_config.h"
 #include "train/trainer.h"
 #include "bench_timing.h"
 

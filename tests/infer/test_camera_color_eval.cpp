@@ -13,7 +13,7 @@
 #include "core/threads.h"
 #include "infer/evaluate.h"
 #include "metrics/comparison_panel.h"
-#include "train/checkpoint.h"
+#include "run/checkpoint.h"
 #include "train/tiny_capture.h"
 #include "train/trainer.h"
 

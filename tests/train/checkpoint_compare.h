@@ -8,7 +8,7 @@
 
 #include <torch/types.h>
 
-#include "train/checkpoint.h"
+#include "run/checkpoint.h"
 
 namespace handscs_test {
 

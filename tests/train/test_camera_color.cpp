@@ -18,7 +18,7 @@
 #include "train/adam.h"
 #include "tiny_capture.h"
 #include "train/camera_color.h"
-#include "train/checkpoint.h"
+#include "run/checkpoint.h"
 #include "train/trainer.h"
 
 using handscs_test::fresh_dir;

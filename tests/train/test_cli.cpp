@@ -21,7 +21,7 @@
 #include "core/atomic_file.h"
 #include "metrics/comparison_panel.h"
 #include "tiny_capture.h"
-#include "train/checkpoint.h"
+#include "run/checkpoint.h"
 #include "train/trainer.h"
 
 using handscs_test::fresh_dir;
@@ -252,8 +252,8 @@ TEST_CASE("cli: handscs-eval refuses damaged ground truth and --set model.*") {
   const std::string eval = kBin + "/handscs-eval --checkpoint " + run_dir + " --threads 2 --max-images 2 --out " +
                            run_dir + "_eval";
   CHECK(run(eval + " --set model.embedding_dim=16") == 1);
-  CHECK(log_text().find("--set model.embedding_dim=16: the model is the checkpoint's and cannot be changed at "
-                        "evaluation") != std::string::npos);
+  CHECK(log_text().find("--set model.embedding_dim=16: the model is the checkpoint's and cannot be changed "
+                        "after training") != std::string::npos);
   // Without --config the overrides apply to the checkpoint's stored config: an unknown key is named.
   CHECK(run(eval + " --set data.no_such_key=1") == 1);
   CHECK(log_text().find("data.no_such_key") != std::string::npos);

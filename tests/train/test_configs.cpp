@@ -9,7 +9,7 @@
 
 #include "core/atomic_file.h"
 #include "core/config.h"
-#include "train/run_config.h"
+#include "run/run_config.h"
 
 namespace {
 using handscs_test::kSource;

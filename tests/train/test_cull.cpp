@@ -10,7 +10,7 @@
 #include "checkpoint_compare.h"
 #include "core/threads.h"
 #include "tiny_capture.h"
-#include "train/checkpoint.h"
+#include "run/checkpoint.h"
 #include "train/trainer.h"
 
 using handscs_test::fresh_dir;

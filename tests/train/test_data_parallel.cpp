@@ -22,7 +22,7 @@
 #include "core/atomic_file.h"
 #include "core/csv_table.h"
 #include "tiny_capture.h"
-#include "train/checkpoint.h"
+#include "run/checkpoint.h"
 #include "train/data_parallel.h"
 #include "train/trainer.h"
 

@@ -12,7 +12,7 @@
 #include "core/error.h"
 #include "core/threads.h"
 #include "tiny_capture.h"
-#include "train/checkpoint.h"
+#include "run/checkpoint.h"
 #include "train/trainer.h"
 
 using handscs_test::fresh_dir;

@@ -7,7 +7,7 @@
 
 #include "synth/capture.h"
 #include "synth/config.h"
-#include "train/run_config.h"
+#include "run/run_config.h"
 
 namespace handscs_test {
 
