@@ -52,7 +52,21 @@ void write_file_atomic(const std::string& path, const std::string& bytes) {
   fsync_path(dir.empty() ? "." : dir, O_RDONLY | O_DIRECTORY);
 }
 
-std::string read_file(const std::string& path) {
+void refuse_irregular_file(const std::string& path) {
+  std::error_code ec;
+  const auto status = std::filesystem::status(path, ec);
+  if (ec || !std::filesystem::exists(status) || std::filesystem::is_regular_file(status)) return;
+  if (std::filesystem::is_directory(status)) throw Error(path + ": is a folder, not a file");
+  throw Error(path + ": is not a regular file (a named pipe, a device or a socket); give a file");
+}
+
+std::string read_file(const std::string& path, std::uintmax_t max_bytes) {
+  refuse_irregular_file(path);
+  std::error_code ec;
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (!ec && size > max_bytes)
+    throw Error(path + ": " + std::to_string(size >> 20) + " MB, more than the " +
+                std::to_string(max_bytes >> 20) + " MB such a file can be");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path + ": cannot open file");
   std::ostringstream buffer;

@@ -2,6 +2,7 @@
 // A crash at any point leaves either the old file or the new one, never a torn file.
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <string>
 
@@ -10,8 +11,19 @@ namespace handscs {
 // Writes `bytes` to `path` atomically. Throws Error naming the path on failure.
 void write_file_atomic(const std::string& path, const std::string& bytes);
 
-// Reads a whole file; throws Error naming the path when it cannot be read.
-std::string read_file(const std::string& path);
+// Throws Error naming the path when it exists but is not a regular file (symlinks followed): a
+// folder, a named pipe (opening one blocks until something writes to it), a device such as
+// /dev/zero (whose reads never end) or a socket. A missing path passes: opening it reports that.
+void refuse_irregular_file(const std::string& path);
+
+// The bound for files this project writes itself (metrics logs, caches, summaries): they hold text
+// or tables of a capture's frames, far below 16 GB even for InterHand2.6M's 2.6 million frames.
+constexpr std::uintmax_t kOwnFileMaxBytes = std::uintmax_t{16} << 30;
+
+// Reads a whole regular file of at most `max_bytes` (checked before anything is allocated); throws
+// Error naming the path when it is not a regular file, is larger, or cannot be read. A file a user
+// gives passes the bound its format allows.
+std::string read_file(const std::string& path, std::uintmax_t max_bytes = kOwnFileMaxBytes);
 
 // Creates `dir` (and parents) if needed; throws Error naming it on failure.
 void ensure_directory(const std::string& dir);

@@ -9,6 +9,7 @@
 #include <sstream>
 #include <vector>
 
+#include "core/atomic_file.h"
 #include "core/json_keys.h"
 
 namespace handscs {
@@ -137,6 +138,7 @@ std::string ConfigDoc::format_number(double x) {
 json parse_json_file(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw Error(path + ": is a folder, not a JSON file");
+  refuse_irregular_file(path);  // a named pipe would block the open below
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path + ": cannot open file");
   // Read at most kMaxJsonBytes + 1 bytes: a device such as /dev/zero must not fill the memory.

@@ -107,7 +107,8 @@ std::string jpeg_structure_problem(const std::string& file_bytes) {
 }
 
 std::string read_image_file(const std::string& path, std::string& jpeg_problem) {
-  std::string bytes = read_file(path);
+  // An uncompressed 100-megapixel RGB image (kMaxCameraPixels) is 300 MB; no image file is larger.
+  std::string bytes = read_file(path, std::uintmax_t{300} << 20);
   if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max()))
     throw Error(path + ": larger than 2 GB; not an image file");
   jpeg_problem = has_jpeg_extension(path) ? jpeg_structure_problem(bytes) : "";

@@ -172,7 +172,8 @@ enum Slot { kMeans, kDc, kRest, kOpacity, kScales, kRot, kNumSlots };
 }  // namespace
 
 GaussianPly read_gaussian_ply(const std::string& path) {
-  const std::string bytes = read_file(path);
+  // 62 floats a Gaussian: 64 GB is 270 million Gaussians, beyond any scene this tool renders.
+  const std::string bytes = read_file(path, std::uintmax_t{64} << 30);
   const Header h = parse_header(path, bytes);
 
   const Element* vertex = nullptr;

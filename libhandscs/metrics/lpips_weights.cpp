@@ -20,7 +20,8 @@ std::string first_line(const std::string& text) {
 }  // namespace
 
 TensorDict read_tensor_dict(const std::string& path) {
-  const std::string bytes = read_file(path);  // throws "<path>: ..." when unreadable
+  // LPIPS weight files are 10 MB (AlexNet) to 60 MB (VGG); 1 GB is no LPIPS file.
+  const std::string bytes = read_file(path, std::uintmax_t{1} << 30);
   c10::IValue value;
   try {
     value = torch::jit::pickle_load(std::vector<char>(bytes.begin(), bytes.end()));

@@ -4,6 +4,7 @@
 
 #include "core/config.h"
 #include "core/error.h"
+#include "run/checkpoint_meta.h"
 
 namespace handscs {
 
@@ -73,6 +74,7 @@ TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run,
                                   const std::vector<std::string>& overrides) {
   refuse_model_overrides(overrides);
   const OpenedCheckpoint opened = open_checkpoint(checkpoint_or_run);
+  check_checkpoint_meta(opened.checkpoint.meta, opened.path);
   // The stored config and the overrides merged once, as JSON, and read into the struct once.
   json stored = opened.checkpoint.meta.at("config");
   apply_overrides(stored, overrides);

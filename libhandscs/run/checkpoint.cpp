@@ -57,7 +57,7 @@ void save_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
 }
 
 Checkpoint load_checkpoint(const std::string& path) {
-  return checkpoint_from_bytes(read_file(path), path);
+  return checkpoint_from_bytes(read_file(path, kMaxCheckpointBytes), path);
 }
 
 Checkpoint checkpoint_from_bytes(const std::string& bytes, const std::string& path) {

@@ -3,6 +3,7 @@
 // truncated or corrupted file is refused on load with a message naming it.
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <string>
 #include <vector>
@@ -16,6 +17,10 @@ struct Checkpoint {
   nlohmann::json meta = nlohmann::json::object();  // iteration, config, counters, RNG text state
   std::map<std::string, torch::Tensor> tensors;      // every tensor, by name
 };
+
+// A checkpoint holds each Gaussian's parameters and their optimiser moments (~1 kB): 64 GB is some
+// 60 million Gaussians, far beyond any hand avatar; a larger file is refused before it is read.
+constexpr std::uintmax_t kMaxCheckpointBytes = std::uintmax_t{64} << 30;
 
 void save_checkpoint(const std::string& path, const Checkpoint& checkpoint);
 // Throws Error naming the path if the file is missing, truncated, corrupted or of another format.

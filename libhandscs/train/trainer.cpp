@@ -29,6 +29,7 @@
 #include "metrics/psnr.h"
 #include "render/projected_radii.h"
 #include "run/avatar_state_io.h"
+#include "run/checkpoint_meta.h"
 #include "train/consistency.h"
 #include "train/descriptor_tree.h"
 #include "train/run_folder.h"
@@ -759,7 +760,7 @@ void Trainer::gather_chains() {
 Checkpoint Trainer::make_checkpoint() {
   Checkpoint ckpt;
   ckpt.meta["format"] = "handscs-checkpoint";
-  ckpt.meta["version"] = 1;
+  ckpt.meta["version"] = kCheckpointVersion;
   ckpt.meta["iteration"] = iteration_;
   ckpt.meta["config"] = config_to_json(config_);
   ckpt.meta["skipped_steps"] = skipped_total_;
@@ -791,8 +792,7 @@ Checkpoint Trainer::make_checkpoint() {
 }
 
 void Trainer::load_from(const Checkpoint& ckpt, const std::string& source) {
-  if (ckpt.meta.value("format", "") != "handscs-checkpoint")
-    throw Error(source + ": not a HandSCS training checkpoint");
+  check_checkpoint_meta(ckpt.meta, source);
   RunConfig stored;
   config_from_json(ckpt.meta.at("config"), source + " (stored config)", stored);
   if (config_to_json(stored.model) != config_to_json(config_.model)) {
@@ -886,11 +886,22 @@ std::string Trainer::save_checkpoint() {
 bool Trainer::resume() {
   const auto files = list_checkpoints(run_dir_);
   std::string reasons;
-  for (const auto& file : files) {
+  for (size_t k = 0; k < files.size(); ++k) {
+    const std::string& file = files[k];
     try {
       load_from(load_checkpoint(file), file);
       last_checkpoint_ = file;
       spdlog::info("resumed from {} at step {}", file, iteration_);
+      // The newer files that could not be resumed are set aside, not deleted (the user may want to
+      // look at them), and no longer count among the run's checkpoints: keeping the newest two
+      // would otherwise keep them and delete the valid one resumed from.
+      for (size_t newer = 0; newer < k; ++newer) {
+        std::error_code ec;
+        std::filesystem::rename(files[newer], files[newer] + ".unreadable", ec);
+        if (ec)
+          throw Error(files[newer] + ": cannot set it aside as .unreadable (" + ec.message() + ")");
+        spdlog::warn("{}: set aside as {}.unreadable", files[newer], files[newer]);
+      }
       truncate_metrics_log(run_dir_ + "/metrics.csv", iteration_);
       return true;
     } catch (const Error& e) {

@@ -1,0 +1,153 @@
+// Checkpoints are checked after their checksum (run/checkpoint_meta.h): edited metadata with its
+// checksum recomputed is refused with the file and the field named, resume falls back past such a
+// file and sets it aside instead of deleting the valid one it resumed from, a file named for
+// another step than it holds is refused, and only regular files of a bounded size are read.
+#include "catch_torch.h"
+
+#include <sys/stat.h>
+
+#include <filesystem>
+#include <functional>
+#include <string>
+
+#include "core/atomic_file.h"
+#include "core/config.h"
+#include "core/error.h"
+#include "core/threads.h"
+#include "run/checkpoint.h"
+#include "run/checkpoint_meta.h"
+#include "run/run_config.h"
+#include "test_support.h"
+#include "tiny_capture.h"
+#include "train/trainer.h"
+
+using handscs_test::fresh_dir;
+using handscs_test::tiny_run_config;
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// A 4-step tiny run with checkpoints at steps 2 and 4.
+handscs::RunConfig four_step_config() {
+  auto config = tiny_run_config();
+  config.train.iterations = 4;
+  config.train.checkpoint_every = 2;
+  config.train.densify.enabled = false;
+  return config;
+}
+
+std::string train_four_steps(const std::string& dir) {
+  handscs::Trainer trainer(four_step_config(), dir);
+  while (trainer.iteration() < 4) {
+    trainer.step();
+    if (trainer.iteration() % 2 == 0) trainer.save_checkpoint();
+  }
+  return dir + "/checkpoints/";
+}
+
+std::string meta_error(const nlohmann::json& meta, const std::string& source) {
+  return handscs_test::error_of([&] { handscs::check_checkpoint_meta(meta, source); });
+}
+
+}  // namespace
+
+TEST_CASE("checkpoint meta: each field is checked for type and range, naming file and field") {
+  handscs::set_threads(1);
+  const auto dir = fresh_dir("meta_fields");
+  const auto checkpoints = train_four_steps(dir);
+  const std::string file = checkpoints + handscs::checkpoint_name(4);
+  const auto good = handscs::load_checkpoint(file).meta;
+  CHECK_NOTHROW(handscs::check_checkpoint_meta(good, file));
+
+  auto edited = [&](const std::function<void(nlohmann::json&)>& edit) {
+    nlohmann::json meta = good;
+    edit(meta);
+    return meta_error(meta, "X.ckpt");
+  };
+  CHECK(edited([](auto& m) { m["iteration"] = -5; }) ==
+        "X.ckpt: checkpoint metadata 'iteration' is -5, outside [0, 4]");
+  CHECK(edited([](auto& m) { m["iteration"] = 4000000000000000000LL; }) ==
+        "X.ckpt: checkpoint metadata 'iteration' is 4000000000000000000, outside [0, 4]");
+  CHECK(edited([](auto& m) { m["iteration"] = "7"; }) ==
+        "X.ckpt: checkpoint metadata 'iteration' is \"7\", not an integer");
+  CHECK(edited([](auto& m) { m["version"] = 99; }) ==
+        "X.ckpt: checkpoint format version 99; this build reads 1");
+  CHECK(edited([](auto& m) { m["adam_steps"] = -7; }) ==
+        "X.ckpt: checkpoint metadata 'adam_steps' is -7, outside [0, 9223372036854775807]");
+  CHECK(edited([](auto& m) { m.erase("config"); }) == "X.ckpt: checkpoint metadata lacks 'config'");
+  CHECK(edited([](auto& m) { m["config"] = 3; }) ==
+        "X.ckpt: checkpoint metadata 'config' is not a run config (no train.iterations)");
+  CHECK(edited([](auto& m) { m["lr_scale"] = 0; }) ==
+        "X.ckpt: checkpoint metadata 'lr_scale' is 0.000000, outside (0, 1]");
+  CHECK(edited([](auto& m) { m["running_psnr"] = nullptr; }) ==
+        "X.ckpt: checkpoint metadata 'running_psnr' is null, not a finite number");
+  CHECK(edited([](auto& m) { m["format"] = "other"; }) ==
+        "X.ckpt: checkpoint metadata 'format' is \"other\", not \"handscs-checkpoint\" (not a "
+        "HandSCS training checkpoint)");
+  // Counters the first checkpoints lacked may be absent.
+  CHECK(edited([](auto& m) { m.erase("rollbacks"); m.erase("elapsed_seconds"); }) == "(no error)");
+  // A run's checkpoint name must say the step it holds.
+  CHECK(meta_error(good, checkpoints + handscs::checkpoint_name(99)) ==
+        checkpoints + handscs::checkpoint_name(99) + ": named for another step than the 4 it holds (renamed?)");
+  CHECK_NOTHROW(handscs::check_checkpoint_meta(good, dir + "/best.ckpt"));
+  handscs::set_threads(2);
+}
+
+TEST_CASE("checkpoint meta: resume falls back past an edited checkpoint and keeps the valid one") {
+  handscs::set_threads(1);
+  const auto dir = fresh_dir("meta_resume");
+  const auto checkpoints = train_four_steps(dir);
+  const std::string newest = checkpoints + handscs::checkpoint_name(4);
+  const std::string older = checkpoints + handscs::checkpoint_name(2);
+  // Step 4's metadata edited and sealed again with a valid checksum.
+  auto ckpt = handscs::load_checkpoint(newest);
+  ckpt.meta["iteration"] = -5;
+  handscs::save_checkpoint(newest, ckpt);
+
+  auto config = four_step_config();
+  config.train.iterations = 6;
+  handscs::Trainer trainer(config, dir);
+  REQUIRE(trainer.resume());
+  CHECK(trainer.iteration() == 2);
+  CHECK_FALSE(fs::exists(newest));
+  CHECK(fs::exists(newest + ".unreadable"));  // set aside, not deleted
+  trainer.step();
+  trainer.step();
+  trainer.save_checkpoint();  // step 4 again: the run keeps it and the valid step 2
+  CHECK(fs::exists(older));
+  CHECK(handscs::list_checkpoints(dir) ==
+        std::vector<std::string>{checkpoints + handscs::checkpoint_name(4), older});
+  CHECK(handscs::load_checkpoint(newest).meta["iteration"] == 4);
+
+  // A checkpoint renamed to a later step is refused, not resumed from as step 99.
+  fs::copy_file(older, checkpoints + handscs::checkpoint_name(99));
+  handscs::Trainer again(config, dir);
+  REQUIRE(again.resume());
+  CHECK(again.iteration() == 4);
+  handscs::set_threads(2);
+}
+
+TEST_CASE("file reads: only regular files, and no more bytes than the format allows") {
+  const auto dir = fresh_dir("regular_files");
+  fs::create_directories(dir);
+  // A named pipe would block the open until something writes to it.
+  const std::string fifo = dir + "/config.json";
+  REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+  CHECK(handscs_test::error_of([&] { handscs::load_json_file(fifo); }) ==
+        fifo + ": is not a regular file (a named pipe, a device or a socket); give a file");
+  CHECK(handscs_test::error_of([&] { handscs::load_checkpoint(fifo); }) ==
+        fifo + ": is not a regular file (a named pipe, a device or a socket); give a file");
+  // A device's reads never end.
+  CHECK(handscs_test::error_of([&] { handscs::load_checkpoint("/dev/zero"); }) ==
+        "/dev/zero: is not a regular file (a named pipe, a device or a socket); give a file");
+  CHECK(handscs_test::error_of([&] { handscs::read_file(dir); }) == dir + ": is a folder, not a file");
+  // The bound is checked from the file's size, before reading.
+  const std::string big = dir + "/big.bin";
+  handscs::write_file_atomic(big, std::string(3 << 20, 'x'));
+  CHECK(handscs_test::error_of([&] { handscs::read_file(big, 1 << 20); }) ==
+        big + ": 3 MB, more than the 1 MB such a file can be");
+  CHECK(handscs::read_file(big, 3 << 20).size() == (3u << 20));
+  CHECK(handscs_test::error_of([&] { handscs::read_file(dir + "/none"); }) ==
+        dir + "/none: cannot open file");
+}
