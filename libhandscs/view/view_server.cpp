@@ -17,7 +17,9 @@ namespace {
 
 void send_error(httplib::Response& res, int status, const std::string& message) {
   res.status = status;
-  res.set_content(json{{"error", message}}.dump(), "application/json");
+  // Messages may quote what the client sent: bytes that are not UTF-8 are replaced, not thrown on.
+  res.set_content(json{{"error", message}}.dump(-1, ' ', false, json::error_handler_t::replace),
+                  "application/json");
 }
 
 void send_json(httplib::Response& res, const json& value) {
@@ -140,6 +142,8 @@ int ViewServer::bind() {
 }
 
 void ViewServer::run() { http_->listen_after_bind(); }
+
+bool ViewServer::running() const { return http_->is_running(); }
 
 void ViewServer::stop() { http_->stop(); }
 

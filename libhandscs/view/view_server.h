@@ -44,6 +44,7 @@ class ViewServer {
   int bind();
   // Serves until stop() (from another thread). bind() first.
   void run();
+  bool running() const;  // run() is serving (stop() before that would not reach it)
   void stop();
 
  private:
