@@ -2,7 +2,7 @@
 # handscs-view in headless Chromium (ctest "view: browser"): makes a tiny trained run, installs
 # puppeteer-core into the build folder (once; never into the source tree), and runs
 # browser_check.mjs. Skips (exit 77) only when Chromium is missing: scripts/install-deps.sh installs it.
-#   browser_test.sh BIN_DIR WORK_DIR [browser_check.mjs options...]
+#   browser_test.sh BIN_DIR WORK_DIR [browser_check.mjs options...]  (a --run RUN there replaces the tiny run)
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 bin="$1"
