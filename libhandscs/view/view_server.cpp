@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cstdio>
 
+#include <sys/socket.h>
+
 #include <httplib.h>
 #include <spdlog/spdlog.h>
 
@@ -61,6 +63,13 @@ ViewServer::ViewServer(ViewScene& scene, ViewServerConfig config)
   require(config_.workers >= 1, "--workers: at least 1");
   const int workers = config_.workers;
   http_->new_task_queue = [workers] { return new httplib::ThreadPool(workers); };
+  // SO_REUSEADDR only (a restart binds while old connections linger in TIME_WAIT): httplib's default
+  // also sets SO_REUSEPORT, under which a second server binds the same port without an error and
+  // the kernel splits the connections between the two.
+  http_->set_socket_options([](socket_t socket) {
+    const int yes = 1;
+    ::setsockopt(socket, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+  });
   http_->set_payload_max_length(kMaxViewRequestBytes);
   http_->set_read_timeout(config_.read_timeout_s, 0);
   http_->set_write_timeout(config_.read_timeout_s, 0);

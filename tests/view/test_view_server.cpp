@@ -56,6 +56,19 @@ TEST_CASE("view server: the page and its start-up data") {
   CHECK(info["view"]["width"] == 512);
 }
 
+TEST_CASE("view server: a port in use is an error naming host and port") {
+  handscs_test::RunningServer s;
+  handscs::ViewServerConfig config;
+  config.port = s.port;
+  handscs::ViewServer second(handscs_test::tiny_view_scene(), config);
+  CHECK(handscs_test::error_of([&] { second.bind(); }) ==
+        "--host 127.0.0.1 --port " + std::to_string(s.port) +
+            ": cannot listen there (the port is in use, or the host is not an address of this machine)");
+  CHECK_FALSE(handscs::is_loopback_host("0.0.0.0"));
+  CHECK(handscs::is_loopback_host("127.0.0.1"));
+  CHECK(handscs::is_loopback_host("::1"));
+}
+
 TEST_CASE("view server: frames equal handscs-render's for the same pose and camera") {
   handscs_test::RunningServer s;
   httplib::Client client("127.0.0.1", s.port);
