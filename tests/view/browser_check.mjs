@@ -157,6 +157,29 @@ async function main() {
     if (!(match.psnr > kMinPsnr)) fail(`the page's picture is ${match.psnr.toFixed(2)} dB from handscs-render's (bound ${kMinPsnr})`);
     if (!(stale.psnr < kMinPsnr)) fail(`the picture before the slider moved is as close (${stale.psnr.toFixed(2)} dB): the check cannot tell poses apart`);
 
+    // What the page shows: the Gaussian count and the server's frame time.
+    const shown = await page.evaluate(() => [document.getElementById("gaussians").textContent,
+                                             document.getElementById("frame-ms").textContent]);
+    if (shown[0].replace(/,/g, "") !== String(result.gaussians)) fail(`the page shows ${shown[0]} Gaussians`);
+    if (!(parseFloat(shown[1]) > 0)) fail(`the page shows a frame time of "${shown[1]}"`);
+
+    // Latest state only: 20 slider changes in one burst render at most 2 frames (the one in flight
+    // when the burst starts, then the last state), never a queue of 20.
+    const burst = await page.evaluate(async () => {
+      const view = window.handscsView;
+      const first = view.frames;
+      const input = document.getElementById("control-ring.mcp");
+      for (let k = 1; k <= 20; ++k) {
+        input.value = (k / 20).toFixed(2);
+        input.dispatchEvent(new Event("input"));
+      }
+      return first;
+    });
+    await settled(page, burst + 1);
+    result.frames_for_20_changes = (await page.evaluate(() => window.handscsView.frames)) - burst;
+    if (result.frames_for_20_changes > 2) fail(`20 quick changes rendered ${result.frames_for_20_changes} frames`);
+    if (await page.evaluate(() => window.handscsView.controls["ring.mcp"]) !== 1) fail("the burst's last value was not kept");
+
     if (args.bench) {
       // End to end in the browser: a slider change (a new pose: the full forward) and an orbit drag
       // step (the same pose: rasterisation only), each waited for before the next. Slider clicks land
