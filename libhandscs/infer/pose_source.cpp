@@ -16,8 +16,6 @@ namespace handscs {
 
 namespace {
 
-using json = nlohmann::json;
-
 template <size_t N>
 void read_numbers(const json& parent, const char* key, std::array<float, N>& out, bool required,
                   const std::string& where) {
@@ -62,26 +60,6 @@ std::string string_or(const json& parent, const char* key, const std::string& fa
   return it->get<std::string>();
 }
 
-PoseFrame read_frame(const json& item, const std::string& where) {
-  if (!item.is_object()) throw Error(where + ": expected object, got " + json_type_name(item));
-  for (auto it = item.begin(); it != item.end(); ++it)
-    if (it.key() != "pose" && it.key() != "shape" && it.key() != "trans" && it.key() != "name")
-      throw Error(where + "." + it.key() + ": unknown key (pose, shape, trans, name)");
-  PoseFrame frame;
-  read_numbers(item, "pose", frame.pose, true, where);
-  read_numbers(item, "shape", frame.shape, false, where);
-  read_numbers(item, "trans", frame.trans, false, where);
-  frame.name = string_or(item, "name", "", where);
-  // The same plausibility bounds as the MANO annotations of a capture (mano_problem).
-  ManoParams params;
-  std::copy(frame.pose.begin(), frame.pose.end(), params.pose.begin());
-  std::copy(frame.shape.begin(), frame.shape.end(), params.shape.begin());
-  std::copy(frame.trans.begin(), frame.trans.end(), params.trans.begin());
-  const std::string implausible = mano_problem(params);
-  if (!implausible.empty()) throw Error(where + ": " + implausible);
-  return frame;
-}
-
 // Axis-angle <-> unit quaternion (w, x, y, z).
 std::array<double, 4> to_quat(const float* aa) {
   const double angle = std::sqrt(double(aa[0]) * aa[0] + double(aa[1]) * aa[1] + double(aa[2]) * aa[2]);
@@ -105,6 +83,32 @@ std::string numbered(const char* prefix, size_t i) {
 }
 
 }  // namespace
+
+PoseFrame pose_frame_from_json(const json& item, const std::string& where) {
+  if (!item.is_object()) throw Error(where + ": expected object, got " + json_type_name(item));
+  for (auto it = item.begin(); it != item.end(); ++it)
+    if (it.key() != "pose" && it.key() != "shape" && it.key() != "trans" && it.key() != "name")
+      throw Error(where + "." + it.key() + ": unknown key (pose, shape, trans, name)");
+  PoseFrame frame;
+  read_numbers(item, "pose", frame.pose, true, where);
+  read_numbers(item, "shape", frame.shape, false, where);
+  read_numbers(item, "trans", frame.trans, false, where);
+  frame.name = string_or(item, "name", "", where);
+  // The same plausibility bounds as the MANO annotations of a capture (mano_problem).
+  ManoParams params;
+  std::copy(frame.pose.begin(), frame.pose.end(), params.pose.begin());
+  std::copy(frame.shape.begin(), frame.shape.end(), params.shape.begin());
+  std::copy(frame.trans.begin(), frame.trans.end(), params.trans.begin());
+  const std::string implausible = mano_problem(params);
+  if (!implausible.empty()) throw Error(where + ": " + implausible);
+  return frame;
+}
+
+json pose_frame_to_json(const PoseFrame& frame) {
+  json item = {{"pose", frame.pose}, {"shape", frame.shape}, {"trans", frame.trans}};
+  if (!frame.name.empty()) item["name"] = frame.name;
+  return item;
+}
 
 PoseFrame interpolate_pose(const PoseFrame& a, const PoseFrame& b, double t) {
   PoseFrame out;
@@ -147,7 +151,7 @@ std::vector<PoseFrame> read_pose_source_json(const json& root, const std::string
     const std::string base = path + ": " + (root.is_array() ? std::string("") : std::string("poses"));
     if (!list.is_array()) throw Error(path + ": poses: expected array, got " + json_type_name(list));
     for (size_t i = 0; i < list.size(); ++i) {
-      frames.push_back(read_frame(list[i], base + "[" + std::to_string(i) + "]"));
+      frames.push_back(pose_frame_from_json(list[i], base + "[" + std::to_string(i) + "]"));
       if (frames.back().name.empty()) frames.back().name = numbered("pose", i);
     }
   } else if (root.is_object() && root.contains("interpolate")) {
@@ -156,8 +160,8 @@ std::vector<PoseFrame> read_pose_source_json(const json& root, const std::string
     if (!spec.is_object()) throw Error(where + ": expected object, got " + json_type_name(spec));
     if (!spec.contains("from") || !spec.contains("to"))
       throw Error(where + ": needs \"from\" and \"to\" poses");
-    const PoseFrame a = read_frame(spec["from"], where + ".from");
-    const PoseFrame b = read_frame(spec["to"], where + ".to");
+    const PoseFrame a = pose_frame_from_json(spec["from"], where + ".from");
+    const PoseFrame b = pose_frame_from_json(spec["to"], where + ".to");
     const int64_t steps = integer_or(spec, "steps", 30, where);
     if (steps < 2 || steps > kMaxInterpolationSteps)
       throw Error(where + ".steps: between 2 and " + std::to_string(kMaxInterpolationSteps) +

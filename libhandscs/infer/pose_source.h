@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/camera.h"
+#include "core/config.h"
 
 namespace handscs {
 
@@ -27,6 +28,13 @@ struct PoseFrame {
 // Reads a POSES file; errors name the file and the key path (e.g. "poses[2].pose: expected 48
 // numbers, got 45").
 std::vector<PoseFrame> read_pose_source(const std::string& path);
+
+// One pose object {"pose": [48], "shape": [10], "trans": [3], "name": "..."} with the checks every
+// POSES file gets (numbers finite, within the MANO annotations' plausibility bounds, mano_problem);
+// errors start with `where` (e.g. "poses.json: poses[2]").
+PoseFrame pose_frame_from_json(const json& item, const std::string& where);
+// The same object for a frame (pose, shape, trans and a non-empty name), numbers exact for a float.
+json pose_frame_to_json(const PoseFrame& frame);
 
 // Per-joint spherical interpolation of axis-angle poses (t in [0, 1]); shape and trans linear.
 PoseFrame interpolate_pose(const PoseFrame& a, const PoseFrame& b, double t);

@@ -76,6 +76,18 @@ const std::vector<Gesture>& gesture_vocabulary() {
   return vocabulary;
 }
 
+HandArticulation gesture_articulation(const Gesture& gesture) {
+  HandArticulation art;
+  const double ranges[3] = {kMcpRange, kPipRange, kDipRange};
+  for (int f = 0; f < 4; ++f)
+    for (int j = 0; j < 3; ++j) art.flex[f + 1][j] = ranges[j] * gesture.fingers[f][j];
+  for (int f = 1; f < kFingers; ++f) art.spread[f] = kSpreadRange * gesture.spread;
+  art.thumb_opposition = kOppositionRange * gesture.opposition;
+  art.flex[kThumb] = {0.25 * gesture.opposition, kThumbMcpRange * gesture.thumb_flex,
+                      kThumbIpRange * gesture.thumb_flex};
+  return art;
+}
+
 std::vector<SynthPose> make_gesture_poses(const Rig& rig, int num_frames, int held_out_frames,
                                           uint64_t seed, std::vector<std::string>* gesture_names) {
   require(num_frames > 0, "make_gesture_poses: num_frames must be positive");
@@ -155,23 +167,19 @@ std::vector<SynthPose> make_gesture_poses(const Rig& rig, int num_frames, int he
       const double lag = std::min(b.lag[finger], 0.5 * span);
       return ease((k - a.frame - lag) / std::max(1e-9, span - lag));
     };
-    HandArticulation art;
-    const double ranges[3] = {kMcpRange, kPipRange, kDipRange};
+    Gesture now;
     double spread_progress = 0;
     for (int f = 0; f < 4; ++f) {
       const double p = progress(f + 1);
       spread_progress += p / 4;
       for (int j = 0; j < 3; ++j)
-        art.flex[f + 1][j] = ranges[j] * (a.fingers[f][j] + p * (b.fingers[f][j] - a.fingers[f][j]));
+        now.fingers[f][j] = a.fingers[f][j] + p * (b.fingers[f][j] - a.fingers[f][j]);
     }
-    const double spread = a.spread + spread_progress * (b.spread - a.spread);
-    for (int f = 1; f < kFingers; ++f) art.spread[f] = kSpreadRange * spread;
+    now.spread = a.spread + spread_progress * (b.spread - a.spread);
     const double pt = progress(0);
-    const double opposition = a.opposition + pt * (b.opposition - a.opposition);
-    const double thumb_flex = a.thumb_flex + pt * (b.thumb_flex - a.thumb_flex);
-    art.thumb_opposition = kOppositionRange * opposition;
-    art.flex[kThumb] = {0.25 * opposition, kThumbMcpRange * thumb_flex,
-                        kThumbIpRange * thumb_flex};
+    now.opposition = a.opposition + pt * (b.opposition - a.opposition);
+    now.thumb_flex = a.thumb_flex + pt * (b.thumb_flex - a.thumb_flex);
+    HandArticulation art = gesture_articulation(now);
     const double t = 2 * M_PI * k / 40.0;  // one slow wrist cycle per ~8 s
     art.pronation = WristAmplitudes::pronation * std::sin(0.9 * t + wrist_phase[0]);
     art.wrist_flex = WristAmplitudes::flexion * std::sin(1.3 * t + wrist_phase[1]);

@@ -27,6 +27,10 @@ struct Gesture {
 // num_frames - held_out_frames frames.
 const std::vector<Gesture>& gesture_vocabulary();
 
+// The articulation of a gesture's fractions (fingers, spread, opposition, thumb flexion) in radians
+// of each joint group's full range; the wrist is left at zero.
+HandArticulation gesture_articulation(const Gesture& gesture);
+
 // num_frames poses; the last held_out_frames are the novel-pose test tail. Shapes are those of
 // make_rom_poses with the same seed. Also returns, per frame, the keyframe gesture it moves to.
 std::vector<SynthPose> make_gesture_poses(const Rig& rig, int num_frames, int held_out_frames,

@@ -1,0 +1,159 @@
+#include "view/view_scene.h"
+
+#include <chrono>
+#include <cstdio>
+#include <set>
+
+#include <c10/core/InferenceMode.h>
+#include <opencv2/imgcodecs.hpp>
+#include <spdlog/spdlog.h>
+#include <torch/types.h>
+
+#include "core/error.h"
+#include "data/capture.h"
+#include "metrics/image_tensor.h"
+#include "synth/math.h"
+
+namespace handscs {
+
+namespace {
+
+std::vector<PoseFrame> held_out_poses(const RunConfig& config) {
+  std::vector<PoseFrame> poses;
+  if (config.data.root.empty()) return poses;
+  try {
+    Capture capture = Capture::open(config.data, "", "data");
+    std::set<int> seen;
+    for (const auto& f : capture.test()) {
+      if (!seen.insert(f.pose_index).second) continue;
+      PoseFrame frame;
+      frame.pose = f.pose;
+      frame.shape = f.shape;
+      frame.trans = f.trans;
+      char name[32];
+      std::snprintf(name, sizeof(name), "held_out_%03d", f.pose_index);
+      frame.name = name;
+      poses.push_back(frame);
+    }
+  } catch (const std::exception& e) {
+    spdlog::warn("held-out poses: the run's capture cannot be opened ({}); sliders and gestures only", e.what());
+  }
+  return poses;
+}
+
+}  // namespace
+
+ViewScene::ViewScene(TrainedAvatar trained, std::vector<PoseFrame> held_out)
+    : trained_(std::move(trained)),
+      held_out_(std::move(held_out)),
+      axes_(rig_axes(trained_.avatar.rig())),
+      memo_(trained_.avatar) {
+  if (!held_out_.empty()) {
+    base_.shape = held_out_.front().shape;
+    base_.trans = held_out_.front().trans;
+  }
+  const torch::Tensor means = trained_.avatar.gaussians().means.detach().to(torch::kFloat64);
+  const torch::Tensor centre = means.mean(0);
+  for (int d = 0; d < 3; ++d) rest_centre_[d] = centre[d].item<double>();
+  const double extent = (means.amax(0) - means.amin(0)).norm().item<double>();
+  gaussians_ = means.size(0);
+  default_view_.distance = fitting_distance(extent, default_view_.width, default_view_.height);
+}
+
+ViewScene ViewScene::open(const std::string& checkpoint) {
+  TrainedAvatar trained = open_trained_avatar(checkpoint);
+  std::vector<PoseFrame> held_out = held_out_poses(trained.config);
+  return ViewScene(std::move(trained), std::move(held_out));
+}
+
+json ViewScene::info() const {
+  json controls = json::array();
+  for (const auto& spec : hand_control_specs())
+    controls.push_back({{"key", spec.key}, {"label", spec.label}, {"min", spec.min}, {"max", spec.max}});
+  json gestures = json::array();
+  gestures.push_back({{"name", "flat (all 0)"}, {"controls", controls_to_json(HandControls{})}});
+  for (const auto& g : gesture_vocabulary())
+    gestures.push_back({{"name", g.name}, {"controls", controls_to_json(g)}});
+  json held_out = json::array();
+  for (const auto& f : held_out_) held_out.push_back(f.name);
+  return {{"checkpoint", trained_.path},
+          {"gaussians", gaussians_},
+          {"controls", controls},
+          {"gestures", gestures},
+          {"held_out", held_out},
+          {"view", orbit_view_to_json(default_view_)},
+          {"limits",
+           {{"side", {kMinViewSide, kMaxViewSide}},
+            {"pitch", kMaxViewPitch},
+            {"distance", {kMinViewDistance, kMaxViewDistance}}}}};
+}
+
+PoseFrame ViewScene::pose_of(const ViewRequest& request) const {
+  switch (request.source) {
+    case ViewRequest::Source::held_out:
+      require(request.held_out >= 0 && request.held_out < static_cast<int64_t>(held_out_.size()),
+              "request.held_out: " + std::to_string(request.held_out) + " is not a held-out pose (the run's capture has " +
+                  std::to_string(held_out_.size()) + ")");
+      return held_out_[request.held_out];
+    case ViewRequest::Source::pose:
+      return request.pose;
+    case ViewRequest::Source::controls:
+      break;
+  }
+  PoseFrame frame = base_;
+  frame.pose = controls_pose(trained_.avatar.rig(), axes_, trained_.avatar.config().flat_hand_mean,
+                             request.controls);
+  return frame;
+}
+
+const AvatarState& ViewScene::posed(const PoseFrame& frame) {
+  return memo_.pose(frame.pose.data(), frame.shape.data(), frame.trans.data());
+}
+
+Camera ViewScene::camera_for(const AvatarState& state, const OrbitView& view) const {
+  // The root joint's transform A_0 carries the rest hand (centre, axes) to where the pose puts it.
+  using synth::operator+, synth::operator*;
+  const torch::Tensor a0 = state.lbs.joint_transforms[0][0].to(torch::kFloat64).contiguous();
+  const double* a = a0.data_ptr<double>();
+  const synth::Mat3 rotation = {a[0], a[1], a[2], a[4], a[5], a[6], a[8], a[9], a[10]};
+  HandFrame hand;
+  hand.centre = synth::mul(rotation, rest_centre_) + synth::Vec3{a[3], a[7], a[11]};
+  hand.up = synth::mul(rotation, axes_.long_axis);
+  // Yaw 0 looks at the back of the hand.
+  hand.front = synth::mul(rotation, axes_.palm_normal * -1.0);
+  return orbit_view_camera(hand, view);
+}
+
+Camera ViewScene::camera_of(const ViewRequest& request) {
+  const PoseFrame frame = pose_of(request);
+  std::lock_guard<std::mutex> lock(mutex_);
+  c10::InferenceMode guard;
+  return camera_for(posed(frame), request.view);
+}
+
+ViewFrame ViewScene::render(const ViewRequest& request) {
+  const PoseFrame frame = pose_of(request);
+  std::lock_guard<std::mutex> lock(mutex_);
+  c10::InferenceMode guard;
+  const auto t0 = std::chrono::steady_clock::now();
+  const AvatarState& state = posed(frame);
+  const Camera camera = camera_for(state, request.view);
+  // As handscs-render: black background, the avatar's own colours (no camera's colour transform).
+  const RasterSettings settings;
+  const RasterOutput out = render_posed(state.posed, camera, settings);
+  const cv::Mat bgr = rgb_tensor_to_mat(out.rgb.clamp(0, 1));
+  std::vector<uchar> bytes;
+  const bool png = request.format == ImageFormat::png;
+  const std::vector<int> params =
+      png ? std::vector<int>{cv::IMWRITE_PNG_COMPRESSION, 1}  // fast: a frame per request, not an archive
+          : std::vector<int>{cv::IMWRITE_JPEG_QUALITY, request.quality};
+  require(cv::imencode(png ? ".png" : ".jpg", bgr, bytes, params), "OpenCV cannot encode the frame");
+  ViewFrame result;
+  result.bytes.assign(bytes.begin(), bytes.end());
+  result.content_type = png ? "image/png" : "image/jpeg";
+  result.frame_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  result.gaussians = gaussians_;
+  return result;
+}
+
+}  // namespace handscs
