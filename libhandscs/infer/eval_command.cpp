@@ -26,8 +26,11 @@ void add_model_eval_options(CLI::App& app, ModelEvalCommandLine& cli) {
       ->check(CLI::IsMember({"test", "train"}));
   group->add_flag("--side-by-side", cli.side_by_side,
                   "also write prediction | ground truth | error heat map PNGs");
-  group->add_option("--max-images", cli.max_images, "score at most this many frames, evenly spaced over the split (0 = all)")
-      ->check(CLI::NonNegativeNumber);
+  // At most 100 million: InterHand2.6M has 2.6 million frames (an unbounded range printed a
+  // 309-digit limit for -1).
+  group->add_option("--max-images", cli.max_images,
+                    "score at most this many frames, evenly spaced over the split (0 = all)")
+      ->check(CLI::Range(int64_t{0}, int64_t{100000000}));
   group->add_option("--label", cli.label, "column label of table.md (default split/CaptureN)");
 }
 

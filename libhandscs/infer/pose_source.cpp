@@ -146,6 +146,15 @@ constexpr int kMaxInterpolationSteps = 1000000;
 
 std::vector<PoseFrame> read_pose_source_json(const json& root, const std::string& path) {
   std::vector<PoseFrame> frames;
+  // One motion source per file: with two, one would be ignored without a word.
+  if (root.is_object()) {
+    std::vector<std::string> sources;
+    for (const char* key : {"poses", "interpolate", "capture"})
+      if (root.contains(key)) sources.push_back(key);
+    if (sources.size() > 1)
+      throw Error(path + ": holds both \"" + sources[0] + "\" and \"" + sources[1] +
+                  "\"; give one motion source per file");
+  }
   if (root.is_array() || (root.is_object() && root.contains("poses"))) {
     const json& list = root.is_array() ? root : root["poses"];
     const std::string base = path + ": " + (root.is_array() ? std::string("") : std::string("poses"));

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 
 #include <CLI/CLI.hpp>
@@ -124,7 +126,18 @@ void add_avatar_mode(CLI::App& app, AvatarMode& mode) {
   group->add_option("--orbit", mode.orbit, "N turntable views around the hand (instead of --camera)")
       ->check(CLI::Range(1, 100000));
   group->add_option("--video", mode.video, "also write the frames as an MP4 video");
-  group->add_option("--fps", mode.video_fps, "frame rate of the video (default 30)");
+  // 1-240 FPS: what MP4 players and screens show; 0, a negative or a NaN rate made the video
+  // writer fail with a GStreamer assertion.
+  group->add_option("--fps", mode.video_fps, "frame rate of the video, 1-240 (default 30)")
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            char* end = nullptr;
+            const double fps = std::strtod(text.c_str(), &end);
+            return end != text.c_str() && *end == 0 && std::isfinite(fps) && fps >= 1 && fps <= 240
+                       ? std::string()
+                       : "--fps " + text + ": a frame rate in [1, 240]";
+          },
+          "FPS", "frame rate"));
   group->add_flag("--export-ply", mode.export_ply, "also write each frame's posed Gaussians as a 3DGS PLY");
   group->add_option("--ply-sh-degree", mode.ply_sh_degree,
                     "SH degree the PLY declares (default 0: f_dc only; 3 adds 45 zero f_rest, which "

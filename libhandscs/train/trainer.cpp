@@ -104,10 +104,15 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir, ProcessGro
     for (size_t k = 0; k < frames.size(); ++k) by_pose[frames[k].pose_index].push_back(k);
     for (auto& [pose, positions] : by_pose) train_poses_.push_back(std::move(positions));
   }
-  if (is_root())
+  if (is_root()) {
     spdlog::info("capture: {} training and {} test frames, {} poses, {} cameras",
                capture_->train().size(), capture_->test().size(), capture_->num_poses(),
                capture_->cameras().size());
+    const std::string batch_warning =
+        batch_size_warning(config_.train.batch_size, group_ ? group_->world_size() : 1,
+                           static_cast<int64_t>(capture_->train().size()));
+    if (!batch_warning.empty()) spdlog::warn("{}", batch_warning);
+  }
 
   avatar_ = std::make_unique<Avatar>(config_.model, load_rig_source(avatar_rig_source(config_)));
   camera_colors_ = make_camera_colors();

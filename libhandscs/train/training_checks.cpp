@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <utility>
 
@@ -66,6 +67,21 @@ std::string scaled_crop_problem(const FrameInfo& frame, int width, int height, d
          " the image losses need (SSIM window, LPIPS backbone after train.loss.lpips_scale); use at least " +
          smallest_scale(std::max(1, crop_side), min_side) +
          ", or set train.loss.ssim and train.loss.lpips to 0";
+}
+
+std::string batch_size_warning(int64_t batch_size, int64_t processes, int64_t training_views) {
+  const int64_t per_step = batch_size * processes;
+  if (per_step <= training_views) return "";
+  char text[320];
+  std::snprintf(text, sizeof(text),
+                "train.batch_size: %lld views a step%s but the capture has %lld training views: "
+                "each view is rendered ~%.1f times a step, and a step costs %lld renders",
+                static_cast<long long>(per_step),
+                processes > 1 ? (" (" + std::to_string(processes) + " processes)").c_str() : "",
+                static_cast<long long>(training_views),
+                static_cast<double>(per_step) / static_cast<double>(training_views),
+                static_cast<long long>(per_step));
+  return text;
 }
 
 void EmptyMaskWatch::record(const FrameInfo& frame, bool empty) {

@@ -26,6 +26,11 @@ void check_training_image_sizes(const std::vector<FrameInfo>& train, double scal
 std::string scaled_crop_problem(const FrameInfo& frame, int width, int height, double scale,
                                 int64_t min_side);
 
+// "" when a step's views (train.batch_size on each of `processes`) are no more than the capture's
+// `training_views`, else a warning naming train.batch_size, the counts and what a step then costs
+// (every view rendered several times a step: a 4096-view batch over 36 views took 107 s a step).
+std::string batch_size_warning(int64_t batch_size, int64_t processes, int64_t training_views);
+
 // Watches the masks of the first training steps: when every one of the first `steps` masks is
 // empty the run supervises nothing (the loss is 0 and PSNR is perfect), so record() throws Error;
 // later empty masks are warned about with their path (the first few), and counted.

@@ -128,9 +128,9 @@ TEST_CASE("config: each bad input names the file and key") {
   CHECK(error_of([&] { handscs::parse_json_file(nested); }) ==
         nested + ": poses[].trans: key given twice (remove one; JSON readers would keep the last)");
   CHECK(handscs::parse_json_file(temp_file("same_names.json", R"({"a": {"x": 1}, "b": {"x": 2}})"))["b"]["x"] == 2);
-  // A device that never ends: refused after kMaxJsonBytes, not read until memory runs out.
+  // A device that never ends: refused before it is opened, not read until memory runs out.
   CHECK(error_of([&] { handscs::load_config<RootConfig>("/dev/zero", {}); }) ==
-        "/dev/zero: larger than 256 MB; not a config, pose or camera file");
+        "/dev/zero: is not a regular file (a named pipe, a device or a socket); give a file");
 
   CHECK(error_of([&] { handscs::load_config<RootConfig>("", {"train.lr.mean=1"}); }) ==
         "--set train.lr.mean=1: unknown key train.lr.mean");

@@ -46,6 +46,11 @@ TEST_CASE("pose source: wrong types, overflowing numbers and huge interpolations
                            "}, \"steps\": 100000000}}") ==
         path + ": interpolate.steps: between 2 and 1000000, got 100000000");
   CHECK(error_of(dir, "") == dir + ": is a folder, not a JSON file");
+  // Two motion sources in one file: neither is silently ignored.
+  CHECK(error_of(path, "{\"poses\": [{\"pose\": " + pose + "}], \"interpolate\": {}}") ==
+        path + ": holds both \"poses\" and \"interpolate\"; give one motion source per file");
+  CHECK(error_of(path, "{\"interpolate\": {}, \"capture\": {}}") ==
+        path + ": holds both \"interpolate\" and \"capture\"; give one motion source per file");
 }
 
 TEST_CASE("pose source: poses beyond the MANO annotations' plausibility bounds are errors") {

@@ -130,6 +130,15 @@ TEST_CASE("cli: a bad POSES file gives a clear error") {
   CHECK(run(kBin + "/handscs-render --checkpoint " + dir + "/run --poses " + dir +
             "/broken.json --orbit 2 --out " + dir + "/out") == 1);
   CHECK(log_text().find(dir + "/broken.json: malformed JSON") != std::string::npos);
+  // A frame rate the video writer cannot use is refused by name before anything renders.
+  std::ofstream(dir + "/one.json") << R"({"poses": [{"pose": [0,0,0, 0,0,0, 0,0,0, 0,0,0,
+      0,0,0,0,0,0,0,0,0, 0,0,0,0,0,0,0,0,0, 0,0,0,0,0,0,0,0,0, 0,0,0,0,0,0,0,0,0]}]})";
+  for (const std::string fps : {"0", "nan", "-5", "1e9"}) {
+    INFO(fps);
+    CHECK(run(kBin + "/handscs-render --checkpoint " + dir + "/run --poses " + dir +
+              "/one.json --orbit 2 --video " + dir + "/v.mp4 --fps " + fps + " --out " + dir + "/out") != 0);
+    CHECK(log_text().find("--fps " + fps + ": a frame rate in [1, 240]") != std::string::npos);
+  }
 }
 
 TEST_CASE("cli: kill -9 during checkpoint writes leaves a loadable checkpoint") {
@@ -251,6 +260,10 @@ TEST_CASE("cli: handscs-eval refuses damaged ground truth and --set model.*") {
               " --threads 2 --set data.root=" + tiny_capture_dir() + " train.iterations=2") == 0);
   const std::string eval = kBin + "/handscs-eval --checkpoint " + run_dir + " --threads 2 --max-images 2 --out " +
                            run_dir + "_eval";
+  // A negative image count names the bound, not a 309-digit one.
+  CHECK(run(eval + " --max-images -1") != 0);
+  CHECK(log_text().find("100000000") != std::string::npos);
+  CHECK(log_text().find("1797693134862315") == std::string::npos);
   CHECK(run(eval + " --set model.embedding_dim=16") == 1);
   CHECK(log_text().find("--set model.embedding_dim=16: the model is the checkpoint's and cannot be changed "
                         "after training") != std::string::npos);

@@ -135,3 +135,14 @@ TEST_CASE("training checks: a capture whose masks are all empty stops at step 16
   CHECK(steps == 16);
   CHECK(error.rfind("the hand masks of the first 16 training images are all empty (the last: ", 0) == 0);
 }
+
+TEST_CASE("training checks: a batch larger than the training views is named with what a step costs") {
+  CHECK(handscs::batch_size_warning(36, 1, 36).empty());
+  CHECK(handscs::batch_size_warning(8, 2, 36).empty());
+  CHECK(handscs::batch_size_warning(4096, 1, 36) ==
+        "train.batch_size: 4096 views a step but the capture has 36 training views: each view is "
+        "rendered ~113.8 times a step, and a step costs 4096 renders");
+  CHECK(handscs::batch_size_warning(20, 2, 36) ==
+        "train.batch_size: 40 views a step (2 processes) but the capture has 36 training views: "
+        "each view is rendered ~1.1 times a step, and a step costs 40 renders");
+}
