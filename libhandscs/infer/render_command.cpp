@@ -43,6 +43,7 @@ void run_ply_mode(const PlyMode& mode) {
     spdlog::warn("{}: {}; they are left out", mode.ply, check.summary());
     ply = select_gaussians(ply, check.drawable);
   }
+  if (!check.scale_warning().empty()) spdlog::warn("{}: {}", mode.ply, check.scale_warning());
   const Camera camera = read_camera_json(mode.camera);
   for (float c : mode.background)
     require(c >= 0 && c <= 1, "--background: values must be in [0, 1]");

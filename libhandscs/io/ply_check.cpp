@@ -1,5 +1,7 @@
 #include "io/ply_check.h"
 
+#include <cstdio>
+
 #include <torch/types.h>
 
 namespace handscs {
@@ -15,6 +17,17 @@ std::string PlyCheck::summary() const {
   for (size_t i = 0; i < defects.size(); ++i)
     text += (i ? ", " : "") + defects[i].first + " " + std::to_string(defects[i].second);
   return text + ")";
+}
+
+std::string PlyCheck::scale_warning() const {
+  if (implausible_scales == 0) return "";
+  char text[256];
+  std::snprintf(text, sizeof(text),
+                "%lld of %lld Gaussians have a scale above %g (largest %.3g): are the file's scale_* "
+                "log-scales, as 3DGS writes them?",
+                static_cast<long long>(implausible_scales), static_cast<long long>(total),
+                kMaxPlausibleScale, largest_scale);
+  return text;
 }
 
 PlyCheck check_gaussian_ply(const GaussianPly& g) {
@@ -40,6 +53,10 @@ PlyCheck check_gaussian_ply(const GaussianPly& g) {
     if (count > 0) check.defects.emplace_back(defect, count);
     check.drawable = check.drawable.logical_and(good);
   }
+  const auto largest = torch::exp(g.log_scales.to(torch::kFloat64)).amax(1).masked_fill(
+      check.drawable.logical_not(), 0);
+  check.implausible_scales = (largest > kMaxPlausibleScale).sum().item<int64_t>();
+  check.largest_scale = largest.max().item<double>();
   return check;
 }
 

@@ -242,6 +242,18 @@ TEST_CASE("PLY check: undrawable Gaussians are counted by defect and left out") 
   CHECK(kept.f_rest.size(0) == 44);
   CHECK(check_gaussian_ply(kept).summary().empty());
   CHECK(check_gaussian_ply(GaussianPly{}).num_drawable() == 0);
+  CHECK(check.scale_warning().empty());  // the overflowing scale is undrawable, not implausible
+
+  // Scales of e^30 (a file whose scale_* are not log-scales): drawable, but named.
+  GaussianPly huge = random_ply(10, 0);
+  huge.log_scales[2][1] = 30.0f;
+  huge.log_scales[7][0] = 10.0f;  // e^10 = 22026 > 1e4
+  const PlyCheck named = check_gaussian_ply(huge);
+  CHECK(named.num_drawable() == 10);
+  CHECK(named.implausible_scales == 2);
+  CHECK(named.largest_scale == Approx(std::exp(30.0)).epsilon(1e-6));
+  CHECK(named.scale_warning() == "2 of 10 Gaussians have a scale above 10000 (largest 1.07e+13): are "
+                                 "the file's scale_* log-scales, as 3DGS writes them?");
 }
 
 TEST_CASE("handscs-render renders a PLY from a camera file (PLY mode end to end)") {
