@@ -17,15 +17,15 @@
 #include "core/float_vector.h"
 #include "core/progress.h"
 #include "data/mesh_mask.h"
+#include "infer/pose_source.h"
 #include "io/ply.h"
 #include "io/png.h"
 #include "metrics/image_tensor.h"
 #include "render/camera_export.h"
 #include "render/camera_json.h"
+#include "render/orbit.h"
 #include "run/avatar_state_io.h"
 #include "run/camera_color_transform.h"
-#include "render/orbit.h"
-#include "infer/pose_source.h"
 
 namespace handscs {
 

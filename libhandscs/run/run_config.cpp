@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "core/config.h"
 #include "core/error.h"
 #include "data/capture.h"
 
@@ -11,6 +12,25 @@ std::string avatar_rig_source(const RunConfig& config) {
   CaptureConfig data = config.data;
   data.rig = config.model.rig;
   return capture_rig_source(data);
+}
+
+std::vector<std::string> experiment_differences(const RunConfig& stored, const RunConfig& given) {
+  // Caches, prefetching, crop margins and mask refinement change how images are read, not which.
+  static const char* kIdentity[] = {"root",         "split",           "capture",
+                                    "sequences",    "hand",            "include_interacting",
+                                    "train_cameras", "test_cameras",   "frame_stride",
+                                    "drop_monochrome", "skip_black_images", "split_rule",
+                                    "held_out_poses", "train_poses",   "validation_poses",
+                                    "novel_view_train_views", "novel_view_test_views", "rig",
+                                    "flat_hand_mean"};
+  RunConfig a = stored, b = given;
+  const json all_a = config_to_json(a.data), all_b = config_to_json(b.data);
+  json id_a = json::object(), id_b = json::object();
+  for (const char* key : kIdentity) {
+    id_a[key] = all_a.at(key);
+    id_b[key] = all_b.at(key);
+  }
+  return json_differences(id_a, id_b, "data");
 }
 
 void validate_run_config(const RunConfig& config, const std::string& source) {

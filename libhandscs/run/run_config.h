@@ -3,6 +3,9 @@
 // this struct by `handscs-train --print-defaults` / `--print-docs`, and checked by a test).
 #pragma once
 
+#include <string>
+#include <vector>
+
 #include "avatar/avatar_config.h"
 #include "data/capture_config.h"
 #include "metrics/eval_config.h"
@@ -28,6 +31,11 @@ struct RunConfig {
 // The rig the avatar is built on: model.rig, with "builtin" meaning the built-in left hand when
 // data.hand is left (the same rig the capture poses its masks with, capture_rig_source).
 std::string avatar_rig_source(const RunConfig& config);
+
+// What makes two runs one experiment, beyond the model: the data.* keys that choose which images
+// train and which test (capture, split, held-out poses, cameras, hand, rig). The differences
+// between `stored` and `given` as "data.key: a -> b" lines (empty when a resume keeps them).
+std::vector<std::string> experiment_differences(const RunConfig& stored, const RunConfig& given);
 
 // Cross-section checks that single fields cannot express (e.g. data.rig and model.rig must agree).
 // `source` names the config in errors.

@@ -9,8 +9,8 @@
 
 #include "core/cli.h"
 #include "core/config.h"
-#include "train/data_parallel.h"
 #include "run/run_config.h"
+#include "train/data_parallel.h"
 #include "train/run_folder.h"
 #include "train/trainer.h"
 
@@ -30,6 +30,7 @@ int train_command(int argc, char** argv) {
       "machines\"."};
   std::string config_path, run_dir;
   bool resume = false, overwrite = false, print_defaults = false, print_docs = false;
+  bool resume_changing_data = false;
   CommonOptions common;
   app.add_option("--config", config_path, "JSON config (may \"extends\" another; see configs/)");
   app.add_option("--out", run_dir, "run folder for checkpoints, logs and renders");
@@ -37,6 +38,11 @@ int train_command(int argc, char** argv) {
   app.add_flag("--overwrite", overwrite,
                "replace the run in RUN_DIR (its checkpoints, config.json, metrics.csv, validation/)")
       ->excludes("--resume");
+  app.add_flag("--resume-changing-data", resume_changing_data,
+               "with --resume: accept a config that changes which images train and test (capture, "
+               "split, held-out poses, cameras; refused otherwise, as its scores would mix two "
+               "experiments)")
+      ->needs("--resume");
   app.add_flag("--print-defaults", print_defaults, "print the default config as JSON and exit");
   app.add_flag("--print-docs", print_docs, "print every config key as a Markdown table and exit");
   add_common_options(app, common, true);
@@ -93,7 +99,7 @@ int train_command(int argc, char** argv) {
     // that fails leaves the old run as it was.
     Trainer trainer(config, run_dir, group.get());
     if (root && !resume) prepare_fresh_run_folder(run_dir, overwrite);
-    if (root && resume && !trainer.resume())
+    if (root && resume && !trainer.resume(resume_changing_data))
       spdlog::warn("{}: no checkpoint to resume; starting afresh", run_dir);
     const auto summary = trainer.run();
     spdlog::info("{} steps in {:.1f} s ({:.2f} views/s), {} Gaussians, {} skipped steps, {} rollbacks",

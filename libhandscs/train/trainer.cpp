@@ -888,13 +888,30 @@ std::string Trainer::save_checkpoint() {
   return path;
 }
 
-bool Trainer::resume() {
+bool Trainer::resume(bool allow_changed_data) {
   const auto files = list_checkpoints(run_dir_);
   std::string reasons;
   for (size_t k = 0; k < files.size(); ++k) {
     const std::string& file = files[k];
     try {
-      load_from(load_checkpoint(file), file);
+      const Checkpoint checkpoint = load_checkpoint(file);
+      check_checkpoint_meta(checkpoint.meta, file);
+      RunConfig stored;
+      config_from_json(checkpoint.meta.at("config"), file + " (stored config)", stored);
+      const auto changes = experiment_differences(stored, config_);
+      if (!changes.empty()) {
+        std::string listed;
+        for (const auto& line : changes) listed += "\n  " + line;
+        const std::string text = file + ": the config changes what the run trains and tests on "
+                                        "(checkpoint -> given):" + listed;
+        // Not a damaged file: an older checkpoint of the run would differ the same way.
+        if (!allow_changed_data)
+          throw ExperimentChanged(text + "\nresume with the run's data settings, or pass "
+                                         "--resume-changing-data if you mean it (its scores then "
+                                         "mix two experiments)");
+        spdlog::warn("{}\ncontinuing as asked (--resume-changing-data)", text);
+      }
+      load_from(checkpoint, file);
       last_checkpoint_ = file;
       spdlog::info("resumed from {} at step {}", file, iteration_);
       // The newer files that could not be resumed are set aside, not deleted (the user may want to
@@ -909,6 +926,8 @@ bool Trainer::resume() {
       }
       truncate_metrics_log(run_dir_ + "/metrics.csv", iteration_);
       return true;
+    } catch (const ExperimentChanged&) {
+      throw;
     } catch (const Error& e) {
       spdlog::warn("cannot resume from {}; trying an older checkpoint", e.what());
       reasons += "\n" + std::string(e.what());

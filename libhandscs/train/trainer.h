@@ -24,15 +24,16 @@
 #include <vector>
 
 #include "avatar/avatar.h"
+#include "core/error.h"
 #include "data/capture.h"
+#include "run/checkpoint.h"
+#include "run/run_config.h"
 #include "train/adam.h"
 #include "train/camera_color.h"
-#include "run/checkpoint.h"
 #include "train/data_parallel.h"
 #include "train/densify.h"
 #include "train/losses.h"
 #include "train/pose_refine.h"
-#include "run/run_config.h"
 #include "train/training_checks.h"
 
 namespace handscs {
@@ -72,6 +73,13 @@ struct TrainSummary {
   int64_t views = 0;                 // views rendered by all ranks in those steps
 };
 
+// A resume refused because its config changes the experiment's data (Trainer::resume): every
+// checkpoint of the run would be refused the same way, so resume does not fall back past it.
+class ExperimentChanged : public Error {
+ public:
+  using Error::Error;
+};
+
 class Trainer {
  public:
   // Opens the capture, builds the avatar and optimiser; removes temporaries of killed writes from
@@ -84,8 +92,10 @@ class Trainer {
   // Loads the newest valid checkpoint of run_dir (an unreadable newest one is reported and the
   // previous one used) and drops metrics.csv rows after its step. Returns false when run_dir has
   // no checkpoint; throws Error, having changed nothing, when it has some and none can be resumed
-  // (damaged, or another model: the message lists the keys that differ).
-  bool resume();
+  // (damaged, or another model: the message lists the keys that differ). A resume whose config
+  // changes the experiment's data (experiment_differences: capture, split, held-out poses,
+  // cameras) is refused with the keys named, unless `allow_changed_data`, which warns instead.
+  bool resume(bool allow_changed_data = false);
   StepResult step();
   // Runs to config.train.iterations (or until SIGINT/SIGTERM), with a progress bar.
   TrainSummary run();

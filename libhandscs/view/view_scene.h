@@ -11,8 +11,8 @@
 
 #include "avatar/pose_memo.h"
 #include "infer/pose_source.h"
-#include "synth/hand_axes.h"
 #include "run/avatar_state_io.h"
+#include "synth/hand_axes.h"
 #include "view/view_request.h"
 
 namespace handscs {

@@ -26,9 +26,9 @@
 #include "core/threads.h"
 #include "data/capture.h"
 #include "run/avatar_state_io.h"
+#include "run/run_config.h"
 #include "train/consistency.h"
 #include "train/descriptor_tree.h"
-#include "run/run_config.h"
 #include "bench_timing.h"
 
 namespace {

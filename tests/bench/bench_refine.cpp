@@ -20,9 +20,9 @@
 #include "core/logging.h"
 #include "data/capture.h"
 #include "hand/lbs.h"
+#include "run/run_config.h"
 #include "synth/capture.h"
 #include "synth/config.h"
-#include "run/run_config.h"
 
 namespace {
 

@@ -13,9 +13,9 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "run/run_config.h"
 #include "synth/capture.h"
 #include "synth/config.h"
-#include "run/run_config.h"
 #include "train/trainer.h"
 #include "bench_timing.h"
 

@@ -17,8 +17,8 @@
 #include "gained_capture.h"
 #include "train/adam.h"
 #include "tiny_capture.h"
-#include "train/camera_color.h"
 #include "run/checkpoint.h"
+#include "train/camera_color.h"
 #include "train/trainer.h"
 
 using handscs_test::fresh_dir;

@@ -151,3 +151,31 @@ TEST_CASE("file reads: only regular files, and no more bytes than the format all
   CHECK(handscs_test::error_of([&] { handscs::read_file(dir + "/none"); }) ==
         dir + "/none: cannot open file");
 }
+
+TEST_CASE("checkpoint meta: a resume that changes the experiment's data is refused, unless asked") {
+  handscs::set_threads(1);
+  const auto dir = fresh_dir("meta_experiment");
+  train_four_steps(dir);
+  auto changed = four_step_config();
+  changed.train.iterations = 6;
+  changed.data.held_out_poses = 4;
+  changed.data.cache.budget_mb = 16;  // how images are read, not which: not a change of experiment
+  const auto newest = dir + "/checkpoints/" + handscs::checkpoint_name(4);
+  {
+    handscs::Trainer trainer(changed, dir);
+    CHECK(handscs_test::error_of([&] { trainer.resume(); }) ==
+          newest + ": the config changes what the run trains and tests on (checkpoint -> given):\n"
+                   "  data.held_out_poses: 3 -> 4\n"
+                   "resume with the run's data settings, or pass --resume-changing-data if you "
+                   "mean it (its scores then mix two experiments)");
+    CHECK(fs::exists(newest));  // nothing set aside or changed
+  }
+  handscs::Trainer trainer(changed, dir);
+  REQUIRE(trainer.resume(/*allow_changed_data=*/true));
+  CHECK(trainer.iteration() == 4);
+  // The identity keys are exactly the ones that choose images: a cache setting is not one.
+  auto stored = four_step_config();
+  CHECK(handscs::experiment_differences(stored, changed) ==
+        std::vector<std::string>{"data.held_out_poses: 3 -> 4"});
+  handscs::set_threads(2);
+}

@@ -5,9 +5,9 @@
 #include <filesystem>
 #include <string>
 
+#include "run/run_config.h"
 #include "synth/capture.h"
 #include "synth/config.h"
-#include "run/run_config.h"
 
 namespace handscs_test {
 
