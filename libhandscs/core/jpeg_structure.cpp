@@ -1,13 +1,13 @@
 #include "core/jpeg_structure.h"
 
 #include <algorithm>
-#include <cctype>
 #include <cstdint>
 #include <cstdio>
 #include <limits>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/jpeg_damage.h"
 #include "core/jpeg_entropy.h"
 #include "core/jpeg_markers.h"
 
@@ -34,28 +34,12 @@ bool is_segment_marker(uint8_t m) {
          m == 0xDF || (m >= 0xE0 && m <= 0xEF) || m == 0xFE;
 }
 
-std::string describe_start(const uint8_t* bytes, size_t n) {
-  static const uint8_t kPng[] = {0x89, 'P', 'N', 'G'};
-  if (n >= 4 && std::equal(kPng, kPng + 4, bytes)) return "not a JPEG file (PNG data)";
-  if (n >= 2 && bytes[0] == 'B' && bytes[1] == 'M') return "not a JPEG file (BMP data)";
-  if (n == 0) return "empty file";
-  return "not a JPEG file (no start-of-image marker)";
-}
-
 }  // namespace
-
-bool has_jpeg_extension(const std::string& path) {
-  const auto dot = path.find_last_of('.');
-  if (dot == std::string::npos) return false;
-  std::string ext = path.substr(dot + 1);
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext == "jpg" || ext == "jpeg";
-}
 
 std::string jpeg_structure_problem(const std::string& file_bytes) {
   const auto* bytes = reinterpret_cast<const uint8_t*>(file_bytes.data());
   const size_t n = file_bytes.size();
-  if (n < 2 || bytes[0] != 0xFF || bytes[1] != kSoi) return describe_start(bytes, n);
+  if (n < 2 || bytes[0] != 0xFF || bytes[1] != kSoi) return jpeg_damage(file_bytes);  // names what it holds
   bool seen_frame = false, seen_scan = false;
   size_t pos = 2;
   while (true) {

@@ -7,6 +7,8 @@
 
 #include <string>
 
+#include "core/jpeg_damage.h"  // has_jpeg_extension
+
 namespace handscs {
 
 // "" when the bytes are a structurally whole JPEG: SOI, well-formed segments, entropy-coded data
@@ -17,9 +19,6 @@ namespace handscs {
 // bits, or that the Huffman code recovers from within the scan, is not detected (it changes a few
 // 8x8 blocks, not the rest of the image).
 std::string jpeg_structure_problem(const std::string& file_bytes);
-
-// True for the .jpg / .jpeg extensions (any case): the files jpeg_structure_problem applies to.
-bool has_jpeg_extension(const std::string& path);
 
 // An image file's bytes, for a decoder; `jpeg_problem` receives jpeg_structure_problem's answer for
 // a .jpg/.jpeg ("" otherwise). Throws Error naming the file when it cannot be read or is over 2 GB
