@@ -5,11 +5,15 @@
 #include <csetjmp>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 
 // jpeglib.h needs FILE and size_t declared first (<cstdio>).
 #include <jpeglib.h>
 #include <jerror.h>
 
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/jpeg_entropy.h"
 
 namespace handscs {
 namespace {
@@ -48,6 +52,9 @@ void on_error(j_common_ptr common) {
 void on_message(j_common_ptr common, int level) {
   if (level != -1) return;  // trace messages
   auto* err = reinterpret_cast<ErrorManager*>(common->err);
+  // Metadata libjpeg reads past without changing a pixel: a JFIF revision it does not know (a
+  // writer's, or a flip there) and a malformed ICC profile chunk are no damage to the image.
+  if (err->pub.msg_code == JWRN_JFIF_MAJOR || err->pub.msg_code == JWRN_BOGUS_ICC) return;
   if (err->pub.msg_code == JWRN_JPEG_EOF) err->truncated = true;
   if (err->pub.num_warnings++ > 0) return;
   err->warning_code = err->pub.msg_code;
@@ -56,12 +63,13 @@ void on_message(j_common_ptr common, int level) {
 }
 
 // libjpeg's text without its "Corrupt JPEG data: " prefix (the caller says what is corrupt),
-// lower-cased at the start, with the byte when known.
+// its first letter lower-cased (not an acronym's), with the byte when known.
 std::string reword(const char* text, long at) {
   static const char kCorrupt[] = "Corrupt JPEG data: ";
   if (std::strncmp(text, kCorrupt, sizeof kCorrupt - 1) == 0) text += sizeof kCorrupt - 1;
   std::string out = text;
-  if (!out.empty()) out[0] = static_cast<char>(std::tolower(static_cast<unsigned char>(out[0])));
+  if (out.size() > 1 && !std::isupper(static_cast<unsigned char>(out[1])))  // "JPEG ..." stays
+    out[0] = static_cast<char>(std::tolower(static_cast<unsigned char>(out[0])));
   if (at >= 0) out += " at byte " + std::to_string(at);
   return out;
 }
@@ -122,7 +130,7 @@ void decode(const uint8_t* bytes, size_t n, ErrorManager& err, JpegThumbnail* th
 
 }  // namespace
 
-std::string jpeg_damage(const std::string& file_bytes, JpegThumbnail* thumbnail) {
+std::string libjpeg_damage(const std::string& file_bytes, JpegThumbnail* thumbnail) {
   const auto* bytes = reinterpret_cast<const uint8_t*>(file_bytes.data());
   const size_t n = file_bytes.size();
   if (thumbnail) *thumbnail = JpegThumbnail{};
@@ -140,12 +148,28 @@ std::string jpeg_damage(const std::string& file_bytes, JpegThumbnail* thumbnail)
   return kind + reword(err.warning, err.warning_at);
 }
 
+std::string jpeg_damage(const std::string& file_bytes, JpegThumbnail* thumbnail) {
+  std::string problem = libjpeg_damage(file_bytes, thumbnail);
+  if (problem.empty()) problem = jpeg_entropy_problem(file_bytes);  // the class libjpeg lets through
+  if (!problem.empty() && thumbnail) *thumbnail = JpegThumbnail{};
+  return problem;
+}
+
 bool has_jpeg_extension(const std::string& path) {
   const auto dot = path.find_last_of('.');
   if (dot == std::string::npos) return false;
   std::string ext = path.substr(dot + 1);
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   return ext == "jpg" || ext == "jpeg";
+}
+
+std::string read_image_file(const std::string& path, std::string& jpeg_problem, JpegThumbnail* thumbnail) {
+  std::string bytes = read_file(path);
+  if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max()))
+    throw Error(path + ": larger than 2 GB; not an image file");
+  if (thumbnail) *thumbnail = JpegThumbnail{};
+  jpeg_problem = has_jpeg_extension(path) ? jpeg_damage(bytes, thumbnail) : "";
+  return bytes;
 }
 
 }  // namespace handscs

@@ -1,17 +1,19 @@
-// handscs-bench-jpeg-damage: what the hand-written JPEG walker (core/jpeg_structure.h with
-// core/jpeg_entropy.h) and libjpeg's own errors and warnings (core/jpeg_damage.h) each find, over a
-// corpus of damaged files built at run time from the six files the JPEG tests use (four 96x64
-// OpenCV encodes: default, quality 100, restart interval 2, progressive; a grey one; the
-// InterHand2.6M image69148, progressive) and a restart-interval re-encode of that image. Per damage
-// class: files flagged by each, by one only (with examples and what OpenCV decodes for them: is
-// the damage a grey tail?), and by neither (how much of the image OpenCV's decode changes).
-// Classes: every cut (the file ends at each byte), every cut of the coded data closed with an
-// end-of-image marker (as the tests cut), single-bit flips (every bit, or --max-flips of them
-// drawn with a fixed seed), one byte set to a random value, restart markers renumbered, and the
-// undamaged files (false positives). Prints one JSON object.
+// handscs-bench-jpeg_damage: what the walk of the coded data (core/jpeg_entropy.h) and libjpeg's own
+// errors and warnings (libjpeg_damage, core/jpeg_damage.h) each find, over a corpus of damaged
+// files built at run time from the six files the JPEG tests use (four 96x64 OpenCV encodes:
+// default, quality 100, restart interval 2, progressive; a grey one; the InterHand2.6M image69148,
+// progressive) and a restart-interval re-encode of that image. Per damage class: files flagged by
+// each, by one only (with examples and what OpenCV decodes for them: is the damage a grey tail?),
+// and by neither (how much of the image OpenCV's decode changes). Classes: every cut (the file ends
+// at each byte), every cut of the coded data closed with an end-of-image marker (as the tests cut),
+// single-bit flips (every bit, or --max-flips of them drawn with a fixed seed), one byte set to a
+// random value, restart markers renumbered, and the undamaged files (false positives).
+// "walker_only" is what the check (jpeg_damage: libjpeg, then the walk) finds beyond libjpeg.
+// Prints one JSON object.
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
@@ -23,7 +25,7 @@
 #include "core/atomic_file.h"
 #include "core/cli.h"
 #include "core/jpeg_damage.h"
-#include "core/jpeg_structure.h"
+#include "core/jpeg_entropy.h"
 #include "core/logging.h"
 #include "core/threads.h"
 
@@ -93,19 +95,34 @@ struct ClassTally {
   int64_t total = 0, walker = 0, libjpeg = 0, both = 0, neither = 0;
   std::vector<nlohmann::json> walker_only, libjpeg_only;
   int64_t walker_only_count = 0, libjpeg_only_count = 0;
-  std::map<std::string, int64_t> walker_kinds, libjpeg_kinds;
+  std::map<std::string, int64_t> walker_kinds, libjpeg_kinds, walker_only_kinds, libjpeg_only_kinds;
   // Files flagged by neither whose OpenCV decode was compared with the whole file's (up to
   // kNeitherSample per file and class): how many change more than 1% of the pixels, the largest.
   int64_t neither_compared = 0, neither_over_1pct = 0;
   double neither_max_changed = 0;
+  // Every file flagged by one only, decoded by OpenCV: [0] walker only, [1] libjpeg only.
+  struct Decoded {
+    int64_t failed = 0, grey_tail = 0, over_1pct = 0;
+    std::vector<double> changed;
+  } one_sided[2];
 };
+
+nlohmann::json to_json(const ClassTally::Decoded& d) {
+  std::vector<double> changed = d.changed;
+  std::sort(changed.begin(), changed.end());
+  return {{"not_decoded", d.failed},
+          {"decoded", changed.size()},
+          {"grey_tail", d.grey_tail},
+          {"over_1pct_pixels_changed", d.over_1pct},
+          {"median_changed_pixel_fraction", changed.empty() ? 0.0 : changed[changed.size() / 2]}};
+}
 
 constexpr int kExamples = 5;         // examples kept per class for each one-sided outcome
 constexpr int kNeitherSample = 300;  // undetected files per class and file decoded by OpenCV
 
 void tally(ClassTally& t, const File& file, const std::string& damage, const std::string& bytes, int& neither_left) {
-  const std::string walker = handscs::jpeg_structure_problem(bytes);
-  const std::string libjpeg = handscs::jpeg_damage(bytes);
+  const std::string walker = handscs::jpeg_entropy_problem(bytes);
+  const std::string libjpeg = handscs::libjpeg_damage(bytes);
   ++t.total;
   t.walker += !walker.empty();
   t.libjpeg += !libjpeg.empty();
@@ -125,12 +142,19 @@ void tally(ClassTally& t, const File& file, const std::string& damage, const std
   } else {
     auto& examples = walker.empty() ? t.libjpeg_only : t.walker_only;
     ++(walker.empty() ? t.libjpeg_only_count : t.walker_only_count);
+    ++(walker.empty() ? t.libjpeg_only_kinds[kind_of(libjpeg)] : t.walker_only_kinds[kind_of(walker)]);
+    const nlohmann::json view = opencv_view(bytes, file.decoded);
+    auto& decoded = t.one_sided[walker.empty() ? 1 : 0];
+    if (!view["decoded"].get<bool>()) {
+      ++decoded.failed;
+    } else {
+      const double changed = view.value("changed_pixel_fraction", 1.0);
+      decoded.changed.push_back(changed);
+      decoded.over_1pct += changed > 0.01;
+      decoded.grey_tail += view.value("grey_tail_rows", 0) > 0;
+    }
     if (static_cast<int>(examples.size()) < kExamples)
-      examples.push_back({{"file", file.name},
-                          {"damage", damage},
-                          {"walker", walker},
-                          {"libjpeg", libjpeg},
-                          {"opencv", opencv_view(bytes, file.decoded)}});
+      examples.push_back({{"file", file.name}, {"damage", damage}, {"walker", walker}, {"libjpeg", libjpeg}, {"opencv", view}});
   }
 }
 
@@ -146,6 +170,10 @@ nlohmann::json to_json(const ClassTally& t) {
           {"libjpeg_only_examples", t.libjpeg_only},
           {"walker_kinds", t.walker_kinds},
           {"libjpeg_kinds", t.libjpeg_kinds},
+          {"walker_only_kinds", t.walker_only_kinds},
+          {"walker_only_decoded_by_opencv", to_json(t.one_sided[0])},
+          {"libjpeg_only_decoded_by_opencv", to_json(t.one_sided[1])},
+          {"libjpeg_only_kinds", t.libjpeg_only_kinds},
           {"neither_decoded_by_opencv", {{"compared", t.neither_compared},
                                          {"over_1pct_pixels_changed", t.neither_over_1pct},
                                          {"max_changed_pixel_fraction", t.neither_max_changed}}}};
@@ -155,7 +183,7 @@ nlohmann::json to_json(const ClassTally& t) {
 
 int main(int argc, char** argv) {
   handscs::log_to_stderr();  // stdout carries the JSON only
-  CLI::App app{"handscs-bench-jpeg-damage: the JPEG walker against libjpeg's warnings on damaged files"};
+  CLI::App app{"handscs-bench-jpeg_damage: the walk of JPEG coded data against libjpeg's warnings on damaged files"};
   handscs::CommonOptions common;
   handscs::add_common_options(app, common, false);
   const std::string samples = std::string(HANDSCS_SHARED_DIR) + "/testdata/interhand2.6m/";
@@ -166,7 +194,7 @@ int main(int argc, char** argv) {
   app.add_option("--random-bytes", random_bytes, "bytes set to a random value per file")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {
-    handscs::start_up(common, "handscs-bench-jpeg-damage");
+    handscs::start_up(common, "handscs-bench-jpeg_damage");
     handscs::set_threads(1);
     cv::RNG rng(2026);  // a fixed seed: the same corpus on every machine
     cv::Mat texture(64, 96, CV_8UC3);
@@ -189,8 +217,8 @@ int main(int argc, char** argv) {
     const auto check_whole = [&](const std::string& name, const std::string& bytes) {
       undamaged.push_back({{"file", name},
                            {"bytes", bytes.size()},
-                           {"walker", handscs::jpeg_structure_problem(bytes)},
-                           {"libjpeg", handscs::jpeg_damage(bytes)}});
+                           {"walker", handscs::jpeg_entropy_problem(bytes)},
+                           {"libjpeg", handscs::libjpeg_damage(bytes)}});
     };
     for (const auto& f : files) {
       check_whole(f.name, f.bytes);
