@@ -10,6 +10,7 @@ packages=(
   libopenblas0-openmp     # BLAS for LibTorch: 100 GFLOP/s/core instead of the 6 GFLOP/s reference BLAS
   libgloo-dev             # headers of the Gloo collectives LibTorch's c10d uses (data-parallel training)
   libopencv-dev           # image and video I/O
+  libjpeg62-turbo-dev     # libjpeg itself: JPEG damage from its own warnings (core/jpeg_damage.h)
   nlohmann-json3-dev      # configs, annotations
   libcli11-dev            # command lines
   libspdlog-dev           # logging

@@ -5,20 +5,15 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/jpeg_markers.h"
-
 namespace handscs {
 namespace {
 
-using jpeg::kDht;
-using jpeg::kDri;
-using jpeg::kEoi;
-using jpeg::kRst0;
-using jpeg::kRst7;
-using jpeg::kSof0;
-using jpeg::kSof1;
-using jpeg::kSof2;
-using jpeg::kSos;
+// Marker codes (ITU T.81 table B.1).
+constexpr uint8_t kSof0 = 0xC0, kSof1 = 0xC1, kSof2 = 0xC2, kDht = 0xC4, kDac = 0xCC;
+constexpr uint8_t kRst0 = 0xD0, kRst7 = 0xD7, kEoi = 0xD9, kSos = 0xDA, kDri = 0xDD;
+
+// A frame header SOF0-SOF15 (C0-CF without DHT C4, the reserved JPG C8 and DAC CC).
+constexpr bool is_frame_header(uint8_t m) { return m >= 0xC0 && m <= 0xCF && m != kDht && m != 0xC8 && m != kDac; }
 
 // Codes of up to this many bits are decoded by one table lookup (most of a JPEG's codes are).
 constexpr int kFastBits = 9;
@@ -433,7 +428,7 @@ std::string jpeg_entropy_problem(const std::string& file_bytes) {
     const uint8_t* body = bytes + pos + 2;
     const size_t body_length = length - 2;
     pos += length;
-    if (jpeg::is_frame_header(marker)) {
+    if (is_frame_header(marker)) {
       // Huffman-coded sequential and progressive frames are walked; lossless and arithmetic
       // coding are not, nor a height given later by a DNL marker.
       walkable = marker == kSof0 || marker == kSof1 || marker == kSof2;

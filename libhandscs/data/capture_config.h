@@ -101,7 +101,7 @@ struct CaptureConfig {
             "cache of the capture's annotations for fast reopening: auto (a .handscs-cache folder "
             "beside them if writable, else ~/.cache/handscs), off, or a folder");
     v.field("scan_cache", scan_cache,
-            "cache of the per-image checks (JPEG structure, 1/8 decode) for fast reopening: auto (a "
+            "cache of the per-image checks (JPEG damage, 1/8 decode) for fast reopening: auto (a "
             ".handscs-cache folder beside the images if writable, else ~/.cache/handscs), off, or a "
             "folder");
     v.section("mask_refine", mask_refine, "mask refinement against the image");

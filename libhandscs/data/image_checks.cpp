@@ -5,7 +5,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "core/jpeg_structure.h"
+#include "core/jpeg_damage.h"
 
 namespace handscs {
 
@@ -35,11 +35,14 @@ bool is_black(const cv::Mat& image, int level) {
 ImageScan scan_image(const std::string& path) {
   ImageScan scan;
   try {
-    const std::string bytes = read_image_file(path, scan.damage);
+    JpegThumbnail thumbnail;  // the damage check's own 1/8 decode: a JPEG is decoded once
+    const std::string bytes = read_image_file(path, scan.damage, &thumbnail);
     if (!scan.damage.empty()) return scan;
     const cv::Mat encoded(1, static_cast<int>(bytes.size()), CV_8UC1,
                           const_cast<char*>(bytes.data()));
-    const cv::Mat small = cv::imdecode(encoded, cv::IMREAD_REDUCED_COLOR_8);
+    const cv::Mat small = thumbnail.bgr.empty()
+                              ? cv::imdecode(encoded, cv::IMREAD_REDUCED_COLOR_8)
+                              : cv::Mat(thumbnail.height, thumbnail.width, CV_8UC3, thumbnail.bgr.data());
     if (small.empty()) return scan;
     scan.readable = true;
     scan.scaled_width = small.cols;

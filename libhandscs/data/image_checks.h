@@ -9,7 +9,7 @@ namespace handscs {
 
 struct ImageScan {
   bool readable = false;    // decoded without error
-  std::string damage;       // a .jpg/.jpeg whose bytes are not a whole JPEG: what is wrong (else "")
+  std::string damage;       // a .jpg/.jpeg found damaged (core/jpeg_damage.h): what is wrong (else "")
   bool black = false;       // brightest (8x8-averaged) value <= kBlackLevel
   bool monochrome = false;  // fewer than kMonochromeFraction of pixels have a channel spread > 4
   int scaled_width = 0, scaled_height = 0;  // size of the 1/8 decode: ceil(width / 8) for JPEG
@@ -18,7 +18,7 @@ struct ImageScan {
 // Version of scan_image's checks: bump whenever what it reports for a file can change (a check added
 // or altered, a constant below changed), so that scans cached by an earlier version are redone
 // (data/scan_cache.h).
-constexpr int kImageChecksVersion = 1;
+constexpr int kImageChecksVersion = 2;
 // Brightest 8x8-block average of a black (dropped-out) frame: JPEG noise on a black frame stays a
 // few levels above 0, a lit hand or body is several tens of levels brighter.
 constexpr int kBlackLevel = 16;
@@ -34,8 +34,9 @@ bool is_monochrome(const cv::Mat& bgr);
 // True when no pixel of an 8-bit image exceeds `level`.
 bool is_black(const cv::Mat& image, int level = kBlackLevel);
 
-// Reads `path`, checks a JPEG's structure (core/jpeg_structure.h), decodes it at 1/8 scale and runs
-// the checks. Never throws (unreadable and damaged files report so).
+// Reads `path`, checks a JPEG for damage (core/jpeg_damage.h, whose 1/8-scale decode it reuses;
+// other files are decoded at 1/8 scale by OpenCV) and runs the checks. Never throws (unreadable
+// and damaged files report so).
 ImageScan scan_image(const std::string& path);
 
 }  // namespace handscs

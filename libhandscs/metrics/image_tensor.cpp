@@ -8,7 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
-#include "core/jpeg_structure.h"
+#include "core/jpeg_damage.h"
 
 namespace handscs {
 
@@ -81,7 +81,7 @@ cv::Mat rgb_tensor_to_mat(const torch::Tensor& rgb) {
 }
 
 namespace {
-// The file decoded as stored (cv::IMREAD_UNCHANGED), after a structure check of JPEGs: a damaged
+// The file decoded as stored (cv::IMREAD_UNCHANGED), after a damage check of JPEGs: a damaged
 // JPEG would decode with a grey tail and be scored as if whole. `what` names the file's role.
 cv::Mat decode_checked(const std::string& path, const std::string& what) {
   if (!std::filesystem::is_regular_file(path)) throw Error(path + ": cannot read " + what);

@@ -1,17 +1,19 @@
-// The JPEG structure check against files written by libjpeg (through OpenCV): whole baseline,
-// progressive and restart-interval files pass; every truncation, a PNG or BMP renamed, an invalid
-// marker or a restart marker out of order is named; a damaged JPEG in a capture is skipped with
-// its path and reason; and the walk of the coded data finds every cut closed with an end-of-image
-// marker (libjpeg's grey tail) and names flips that put the Huffman decoder out of step, with the
-// messages of the earlier bit-at-a-time walker on 2,000 damaged InterHand2.6M samples.
+// The JPEG damage check (libjpeg's own errors and warnings, then the walk of the coded data) against
+// files written by libjpeg (through OpenCV): whole baseline, progressive and restart-interval files
+// pass; every truncation, a PNG or BMP renamed, an invalid marker or a restart marker out of order
+// is named; a damaged JPEG in a capture is skipped with its path and reason; every cut closed with
+// an end-of-image marker (libjpeg's grey tail) is found; flips that put the Huffman decoder out of
+// step are named, and the walk finds the run past coefficient 63 that libjpeg lets through; the
+// check's 1/8 decode is OpenCV's; and the walk keeps the messages of the earlier bit-at-a-time
+// walker on 2,000 damaged InterHand2.6M samples.
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "core/atomic_file.h"
 #include "core/hash.h"
+#include "core/jpeg_damage.h"
 #include "core/jpeg_entropy.h"
-#include "core/jpeg_structure.h"
 #include "data/capture.h"
 #include "data/image_checks.h"
 #include "data_test_helpers.h"
@@ -48,64 +50,63 @@ size_t scan_start(const std::string& jpeg) {
 
 }  // namespace
 
-TEST_CASE("jpeg structure: whole files written by libjpeg pass") {
-  CHECK(jpeg_structure_problem(encode(".jpg")).empty());
-  CHECK(jpeg_structure_problem(encode(".jpg", {cv::IMWRITE_JPEG_QUALITY, 100})).empty());
-  CHECK(jpeg_structure_problem(encode(".jpg", {cv::IMWRITE_JPEG_PROGRESSIVE, 1})).empty());
-  CHECK(jpeg_structure_problem(encode(".jpg", {cv::IMWRITE_JPEG_RST_INTERVAL, 2})).empty());
+TEST_CASE("jpeg damage: whole files written by libjpeg pass") {
+  CHECK(jpeg_damage(encode(".jpg")).empty());
+  CHECK(jpeg_damage(encode(".jpg", {cv::IMWRITE_JPEG_QUALITY, 100})).empty());
+  CHECK(jpeg_damage(encode(".jpg", {cv::IMWRITE_JPEG_PROGRESSIVE, 1})).empty());
+  CHECK(jpeg_damage(encode(".jpg", {cv::IMWRITE_JPEG_RST_INTERVAL, 2})).empty());
   // Trailing bytes after the end-of-image marker are allowed (cameras append data there).
-  CHECK(jpeg_structure_problem(encode(".jpg") + std::string(16, '\0')).empty());
+  CHECK(jpeg_damage(encode(".jpg") + std::string(16, '\0')).empty());
   // The InterHand2.6M samples.
   for (const auto& entry : std::filesystem::directory_iterator(data_test::samples_dir()))
     if (has_jpeg_extension(entry.path().string())) {
       INFO(entry.path());
-      CHECK(jpeg_structure_problem(read_file(entry.path().string())).empty());
+      CHECK(jpeg_damage(read_file(entry.path().string())).empty());
     }
 }
 
-TEST_CASE("jpeg structure: every truncation is found") {
+TEST_CASE("jpeg damage: every truncation is found") {
   for (const auto& jpeg : {encode(".jpg"), encode(".jpg", {cv::IMWRITE_JPEG_PROGRESSIVE, 1})}) {
     // Brute force over every length short of the final EOI marker's two bytes.
     for (size_t length = 0; length + 2 <= jpeg.size() - 1; ++length) {
-      const std::string problem = jpeg_structure_problem(jpeg.substr(0, length));
+      const std::string problem = jpeg_damage(jpeg.substr(0, length));
       INFO("length " << length << " of " << jpeg.size());
       CHECK_FALSE(problem.empty());
     }
-    CHECK(jpeg_structure_problem(jpeg.substr(0, jpeg.size() / 2)) ==
+    CHECK(jpeg_damage(jpeg.substr(0, jpeg.size() / 2)) ==
           "truncated: the image data ends without an end-of-image marker");
   }
 }
 
-TEST_CASE("jpeg structure: other formats, invalid markers and restart order are named") {
-  CHECK(jpeg_structure_problem(encode(".png")) == "not a JPEG file (PNG data)");
-  CHECK(jpeg_structure_problem(encode(".bmp")) == "not a JPEG file (BMP data)");
-  CHECK(jpeg_structure_problem("") == "empty file");
-  CHECK(jpeg_structure_problem("not a jpeg") == "not a JPEG file (no start-of-image marker)");
+TEST_CASE("jpeg damage: other formats, invalid markers and restart order are named") {
+  CHECK(jpeg_damage(encode(".png")) == "not a JPEG file (PNG data)");
+  CHECK(jpeg_damage(encode(".bmp")) == "not a JPEG file (BMP data)");
+  CHECK(jpeg_damage("") == "empty file");
+  CHECK(jpeg_damage("not a jpeg") == "not a JPEG file (no start-of-image marker)");
 
   // A 0xFF byte followed by a code that is no marker, inside the image data.
   std::string bad = encode(".jpg");
   const size_t at = scan_start(bad) + 10;
   bad[at] = '\xFF';
   bad[at + 1] = '\x02';
-  CHECK(jpeg_structure_problem(bad) == "corrupt: unknown marker 0x02 at byte " + std::to_string(at));
+  CHECK(jpeg_damage(bad) == "corrupt: unsupported marker type 0x02 at byte " + std::to_string(at));
 
   // Restart markers must count RST0, RST1, ...: swap the first one for RST5.
   std::string restarts = encode(".jpg", {cv::IMWRITE_JPEG_RST_INTERVAL, 1});
   const size_t rst = restarts.find("\xFF\xD0", scan_start(restarts));
   REQUIRE(rst != std::string::npos);
   restarts[rst + 1] = '\xD5';
-  CHECK(jpeg_structure_problem(restarts) ==
-        "corrupt: restart marker 0xD5 out of sequence at byte " + std::to_string(rst));
+  CHECK(jpeg_damage(restarts) == "corrupt image data: found marker 0xd5 instead of RST0 at byte " + std::to_string(rst));
 }
 
-TEST_CASE("jpeg structure: a truncated JPEG in a capture is skipped with its reason") {
+TEST_CASE("jpeg damage: a truncated JPEG in a capture is skipped with its reason") {
   const std::string root = data_test::copy_of_tiny("damaged_jpeg");
   const auto& scene = data_test::tiny_capture().scene;
   const std::string path = root + "/images/test/Capture0/0000_synth_rom/cam400004/image" +
                            std::to_string(scene.frames[5].frame_idx) + ".jpg";
   const std::string whole = read_file(path);
   data_test::write_text(path, whole.substr(0, whole.size() * 3 / 4));
-  // libjpeg alone decodes it (with a grey tail): the structure check is what catches it.
+  // OpenCV decodes it (with a grey tail): the damage check is what catches it.
   CHECK_FALSE(cv::imread(path).empty());
   CHECK(scan_image(path).damage == "truncated: the image data ends without an end-of-image marker");
   Capture capture = Capture::open(data_test::tiny_config(root));
@@ -115,9 +116,9 @@ TEST_CASE("jpeg structure: a truncated JPEG in a capture is skipped with its rea
   CHECK(capture.frames().size() == 47);
 }
 
-TEST_CASE("jpeg entropy: image data cut anywhere and closed with an end-of-image marker is found") {
-  // The grey-tail case the structure check cannot see: libjpeg decodes such a file, filling the
-  // missing blocks with grey, and only prints "Premature end of JPEG file" without a path.
+TEST_CASE("jpeg damage: image data cut anywhere and closed with an end-of-image marker is found") {
+  // The grey-tail case: libjpeg decodes such a file, filling the missing blocks with grey, and
+  // through OpenCV only prints "Corrupt JPEG data: premature end of data segment" without a path.
   const cv::Mat grey = [] {
     cv::Mat g;
     cv::cvtColor(test_image(), g, cv::COLOR_BGR2GRAY);
@@ -132,7 +133,7 @@ TEST_CASE("jpeg entropy: image data cut anywhere and closed with an end-of-image
                                           // an InterHand2.6M image (progressive, 10 scans)
                                           read_file(data_test::samples_dir() + "/image69148.jpg")};
   for (const auto& jpeg : files) {
-    REQUIRE(jpeg_structure_problem(jpeg).empty());
+    REQUIRE(jpeg_damage(jpeg).empty());
     const size_t start = scan_start(jpeg);
     const size_t end = jpeg.rfind("\xFF\xD9");
     size_t found = 0, cuts = 0;
@@ -142,7 +143,7 @@ TEST_CASE("jpeg entropy: image data cut anywhere and closed with an end-of-image
       if (static_cast<uint8_t>(jpeg[cut - 1]) == 0xFF) continue;
       // A progressive file cut just before a marker is a whole file with fewer scans (legal).
       if (static_cast<uint8_t>(jpeg[cut]) == 0xFF && static_cast<uint8_t>(jpeg[cut + 1]) != 0x00) continue;
-      if (!jpeg_structure_problem(jpeg.substr(0, cut) + "\xFF\xD9").empty()) ++found;
+      if (!jpeg_damage(jpeg.substr(0, cut) + "\xFF\xD9").empty()) ++found;
       ++cuts;
     }
     INFO("cuts " << cuts);
@@ -152,14 +153,18 @@ TEST_CASE("jpeg entropy: image data cut anywhere and closed with an end-of-image
   const std::string half = jpeg.substr(0, (scan_start(jpeg) + jpeg.size()) / 2) + "\xFF\xD9";
   std::vector<uint8_t> half_bytes(half.begin(), half.end());
   CHECK_FALSE(cv::imdecode(half_bytes, cv::IMREAD_COLOR).empty());  // libjpeg takes it
-  const std::string problem = jpeg_structure_problem(half);
+  const std::string problem = jpeg_damage(half);
   INFO(problem);
-  CHECK(problem.rfind("truncated image data: it ends at block ", 0) == 0);
-  // 96x64 at libjpeg's default 4:2:0 sampling: 6 x 4 MCUs of 4 Y, 1 Cb and 1 Cr blocks.
-  CHECK(problem.find(" of 144 (byte ") != std::string::npos);
+  CHECK(problem.rfind("truncated image data: premature end of data segment at byte ", 0) == 0);
+  // The walk names the block: 96x64 at libjpeg's default 4:2:0 sampling is 6 x 4 MCUs of 4 Y, 1 Cb
+  // and 1 Cr blocks.
+  const std::string walked = jpeg_entropy_problem(half);
+  INFO(walked);
+  CHECK(walked.rfind("truncated image data: it ends at block ", 0) == 0);
+  CHECK(walked.find(" of 144 (byte ") != std::string::npos);
 }
 
-TEST_CASE("jpeg entropy: flipped bits that put the Huffman decoder out of step are named") {
+TEST_CASE("jpeg damage: flipped bits that put the Huffman decoder out of step are named") {
   const std::string jpeg = encode(".jpg");
   const size_t start = scan_start(jpeg);
   int named = 0;
@@ -171,7 +176,7 @@ TEST_CASE("jpeg entropy: flipped bits that put the Huffman decoder out of step a
       if (static_cast<uint8_t>(flipped[at]) == 0xFF || static_cast<uint8_t>(jpeg[at]) == 0xFF ||
           static_cast<uint8_t>(jpeg[at - 1]) == 0xFF)
         continue;
-      const std::string problem = jpeg_structure_problem(flipped);
+      const std::string problem = jpeg_damage(flipped);
       if (problem.empty()) continue;
       ++named;
       INFO(problem);
@@ -182,6 +187,67 @@ TEST_CASE("jpeg entropy: flipped bits that put the Huffman decoder out of step a
       }
     }
   CHECK(named > 0);
+}
+
+TEST_CASE("jpeg damage: libjpeg and the walk each find a class the other misses") {
+  const std::string whole = read_file(data_test::samples_dir() + "/image69148.jpg");
+  const auto flipped = [&whole](size_t at, int bit) {
+    std::string copy = whole;
+    copy[at] = static_cast<char>(static_cast<uint8_t>(copy[at]) ^ (1 << bit));
+    return copy;
+  };
+  // A flip in the first (DC) scan that ends it a byte early: libjpeg's bit buffer has already taken
+  // the byte left over and drops it without a warning; the walk names it.
+  const std::string early = flipped(388, 0);
+  CHECK(libjpeg_damage(early).empty());
+  CHECK(jpeg_damage(early) == "corrupt image data: 1 bytes left over after the last block (byte 1736)");
+  std::vector<uint8_t> early_bytes(early.begin(), early.end());
+  CHECK_FALSE(cv::imdecode(early_bytes, cv::IMREAD_COLOR).empty());  // OpenCV decodes it
+  // A flip in a later scan's header that the walk reads past: libjpeg refuses the progression.
+  const std::string header = flipped(6508, 5);
+  CHECK(jpeg_entropy_problem(header).empty());
+  CHECK(jpeg_damage(header) == "corrupt: invalid progressive parameters Ss=1 Se=63 Ah=3 Al=0 at byte 6509");
+  // Metadata libjpeg warns about without changing a pixel is no damage: a JFIF revision 2.01.
+  std::string jfif = encode(".jpg");
+  REQUIRE(jfif.compare(6, 5, std::string("JFIF\0", 5)) == 0);
+  jfif[11] = 2;
+  CHECK(jpeg_damage(jfif).empty());
+}
+
+TEST_CASE("jpeg damage: the check's 1/8 decode is OpenCV's IMREAD_REDUCED_COLOR_8") {
+  cv::Mat grey;
+  cv::cvtColor(test_image(), grey, cv::COLOR_BGR2GRAY);
+  std::vector<uint8_t> grey_bytes;
+  REQUIRE(cv::imencode(".jpg", grey, grey_bytes));
+  cv::Mat odd;  // partial MCUs at the right and bottom edges
+  cv::resize(test_image(), odd, cv::Size(97, 61));
+  std::vector<uint8_t> odd_bytes;
+  REQUIRE(cv::imencode(".jpg", odd, odd_bytes, {cv::IMWRITE_JPEG_PROGRESSIVE, 1}));
+  std::vector<std::string> files = {encode(".jpg"), encode(".jpg", {cv::IMWRITE_JPEG_RST_INTERVAL, 2}),
+                                    encode(".jpg", {cv::IMWRITE_JPEG_PROGRESSIVE, 1}),
+                                    std::string(grey_bytes.begin(), grey_bytes.end()),
+                                    std::string(odd_bytes.begin(), odd_bytes.end())};
+  for (const char* name : {"image2017.jpg", "image29590.jpg", "image44669.jpg", "image69148.jpg"})
+    files.push_back(read_file(data_test::samples_dir() + "/" + name));
+  for (const auto& jpeg : files) {
+    JpegThumbnail thumbnail;
+    REQUIRE(jpeg_damage(jpeg, &thumbnail).empty());
+    const std::vector<uint8_t> bytes(jpeg.begin(), jpeg.end());
+    const cv::Mat expected = cv::imdecode(bytes, cv::IMREAD_REDUCED_COLOR_8);
+    REQUIRE(thumbnail.width == expected.cols);
+    REQUIRE(thumbnail.height == expected.rows);
+    const cv::Mat got(thumbnail.height, thumbnail.width, CV_8UC3, thumbnail.bgr.data());
+    CHECK(cv::norm(got, expected, cv::NORM_INF) == 0);
+  }
+  // No decode is handed out for a damaged file, nor for one with Exif data (OpenCV would apply its
+  // orientation): an APP1 "Exif" segment after the start-of-image marker.
+  JpegThumbnail thumbnail;
+  const std::string jpeg = encode(".jpg");
+  CHECK_FALSE(jpeg_damage(jpeg.substr(0, jpeg.size() / 2), &thumbnail).empty());
+  CHECK(thumbnail.bgr.empty());
+  const std::string exif = jpeg.substr(0, 2) + std::string("\xFF\xE1\x00\x08" "Exif\0\0", 10) + jpeg.substr(2);
+  CHECK(jpeg_damage(exif, &thumbnail).empty());
+  CHECK(thumbnail.bgr.empty());
 }
 
 TEST_CASE("jpeg entropy: 2,000 damaged InterHand2.6M images keep the messages of the bit-at-a-time walker") {
