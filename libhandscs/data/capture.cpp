@@ -381,6 +381,7 @@ struct ImageSelection {
   std::vector<size_t> usable;               // candidate indices
   std::vector<std::string> monochrome;      // cameras whose readable images are mostly grey
   size_t dropped_monochrome = 0;
+  std::vector<std::string> grey_in_colour;  // grey images (R = G = B) of cameras that record colour
 };
 
 // Step 5: image checks (decoded at 1/8 scale, or their results from the scan cache) and hand-in-view
@@ -441,6 +442,10 @@ ImageSelection select_usable_images(const CaptureConfig& c, const std::string& i
       ++selection.dropped_monochrome;
       continue;
     }
+    // A grey image from a colour camera (a converted or substituted file) trains the avatar's
+    // colours towards grey for that view: kept, but named.
+    if (!mono.count(cand.image->camera) && scans[i].monochrome)
+      selection.grey_in_colour.push_back(cand.path);
     selection.usable.push_back(static_cast<size_t>(i));
   }
   if (damaged > kDamageLines) spdlog::warn("... and {} more damaged JPEGs", damaged - kDamageLines);
@@ -526,6 +531,10 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
                            skipped);
   std::vector<size_t>& usable = selection.usable;
   impl->monochrome_cameras = selection.monochrome;
+  impl->grey_images = selection.grey_in_colour;
+  if (!impl->grey_images.empty())
+    spdlog::warn("{} grey image(s) (R = G = B) in colour cameras, used as they are (first: {})",
+                 impl->grey_images.size(), impl->grey_images.front());
   impl->skipped = skipped;
   impl->skip_summary = make_summary(layout.data_json, skipped, considered);
   if (!impl->skip_summary.empty()) spdlog::warn("{}", impl->skip_summary);
@@ -589,6 +598,7 @@ const std::vector<FrameInfo>& Capture::test() const { return impl_->test; }
 int Capture::num_poses() const { return impl_->num_poses; }
 std::vector<std::string> Capture::cameras() const { return impl_->cameras; }
 std::vector<std::string> Capture::monochrome_cameras() const { return impl_->monochrome_cameras; }
+const std::vector<std::string>& Capture::grey_images() const { return impl_->grey_images; }
 const std::vector<SkippedImage>& Capture::skipped() const { return impl_->skipped; }
 const std::string& Capture::skip_summary() const { return impl_->skip_summary; }
 const std::vector<float>& Capture::posed_vertices(int pose_index) const {

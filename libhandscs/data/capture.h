@@ -104,6 +104,8 @@ class Capture {
   int num_poses() const;
   std::vector<std::string> cameras() const;             // camera ids kept, sorted
   std::vector<std::string> monochrome_cameras() const;  // detected (dropped if drop_monochrome)
+  // Grey images (R = G = B) of cameras that record colour: used, and warned about at open.
+  const std::vector<std::string>& grey_images() const;
   const std::vector<SkippedImage>& skipped() const;
   // "<data.json>: skipped N of M images (null MANO a, black image b): path, path, ..." or "".
   const std::string& skip_summary() const;

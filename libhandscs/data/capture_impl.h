@@ -24,6 +24,7 @@ struct Capture::Impl {
   std::vector<int64_t> faces;                      // [F * 3]
   int64_t num_vertices = 0;
   std::vector<std::string> cameras, monochrome_cameras;
+  std::vector<std::string> grey_images;  // grey images of colour cameras (Capture::grey_images)
   std::vector<SkippedImage> skipped;
   std::string skip_summary;
   std::string mask_folder;  // "" = no disk cache

@@ -145,6 +145,21 @@ TEST_CASE("capture errors: monochrome cameras are detected and dropped") {
   Capture kept = Capture::open(config);
   CHECK(kept.monochrome_cameras() == std::vector<std::string>{"400008"});
   CHECK(kept.frames().size() == 48);
+  // The grey images of a monochrome camera are that camera's, not grey images in a colour camera.
+  CHECK(kept.grey_images().empty());
+}
+
+TEST_CASE("capture errors: a grey image in a colour camera is used and named") {
+  const std::string root = data_test::copy_of_tiny("grey_image");
+  const std::string path = image_path(root, "400004", data_test::tiny_capture().scene.frames[2].frame_idx);
+  cv::Mat grey = cv::imread(path, cv::IMREAD_GRAYSCALE), bgr;
+  cv::cvtColor(grey, bgr, cv::COLOR_GRAY2BGR);
+  cv::imwrite(path, bgr);
+  Capture capture = Capture::open(data_test::tiny_config(root));
+  CHECK(capture.monochrome_cameras().empty());
+  CHECK(capture.frames().size() == 48);
+  CHECK(capture.grey_images() == std::vector<std::string>{path});
+  CHECK(Capture::open(data_test::tiny_config(data_test::copy_of_tiny("colour_only"))).grey_images().empty());
 }
 
 TEST_CASE("capture errors: bad configuration values name the key") {
