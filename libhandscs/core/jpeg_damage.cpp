@@ -13,6 +13,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/image_header.h"
 #include "core/jpeg_entropy.h"
 
 namespace handscs {
@@ -168,6 +169,7 @@ std::string read_image_file(const std::string& path, std::string& jpeg_problem, 
   std::string bytes = read_file(path, std::uintmax_t{300} << 20);
   if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max()))
     throw Error(path + ": larger than 2 GB; not an image file");
+  refuse_oversized_image_header(bytes, path);
   if (thumbnail) *thumbnail = JpegThumbnail{};
   jpeg_problem = has_jpeg_extension(path) ? jpeg_damage(bytes, thumbnail) : "";
   return bytes;
