@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Data-parallel training on one machine (issue 16, docs/BENCHMARKS.md "Data-parallel training"):
+# Data-parallel training on one machine (docs/BENCHMARKS.md "Data-parallel training"):
 # the same number of training views three ways, each seed trained and scored as the ablation is.
 #   single   1 process, 2 threads, batch_size 1, VIEWS steps        (today's default)
 #   batch2   1 process, 2 threads, batch_size 2, VIEWS/2 steps

@@ -1,4 +1,4 @@
-// The avatar's per-Gaussian 3x3 chain (issue 13), in one pass over the Gaussians:
+// The avatar's per-Gaussian 3x3 chain, in one pass over the Gaussians:
 //   dSigma = R(q_g) diag(exp(s_g)) R(q_g)^T,  dSigma^f likewise (decoders/spd_from_raw),
 //   Sigma = R(q) diag(exp(s))^2 R(q)^T,  Sigma' = A Sigma A^T with A = dSigma^f dSigma,
 //   posed = L Sigma' L^T (upper triangle), L the blend transform's 3x3 part.

@@ -1,4 +1,4 @@
-// The three decoders' inputs in bfloat16, built in one pass (issue 13): geometry [P, e_g, vec(T)],
+// The three decoders' inputs in bfloat16, built in one pass: geometry [P, e_g, vec(T)],
 // appearance [P, e_a, vec(T)], fusion [P, e_g, e_a, vec(T)] (avatar/decoders.h), in place of the
 // LibTorch form: three cats and three casts, and in the backward three casts and the slices. Values
 // and gradients are that form's bit for bit: the same rounding (c10's round to nearest even; NaN as

@@ -1,4 +1,4 @@
-// Back-facing Gaussians (issue 13, beyond the paper; train.cull): the Gaussians whose rig vertex
+// Back-facing Gaussians (beyond the paper; train.cull): the Gaussians whose rig vertex
 // faces away from every camera of a step lie on the far side of the hand's closed surface, behind
 // its front side, so they are neither decoded nor rasterised. Each Gaussian's normal is its rig
 // vertex's rest normal (area-weighted face normals of the template) carried by the Gaussian's own

@@ -1,4 +1,4 @@
-// The offset decoders of one avatar at inference (issue 13). With the weights and the embeddings
+// The offset decoders of one avatar at inference. With the weights and the embeddings
 // fixed, each decoder's first layer W [P, e, vec(T)] + b splits into W_P P + W_T vec(T), which
 // changes with the pose, and W_e e + b, a constant per Gaussian: that part is computed once, in
 // float, and kept in the decoders' precision. The weights are cast to bf16 once (in bf16 the hidden

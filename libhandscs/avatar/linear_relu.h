@@ -1,5 +1,5 @@
 // A decoder's hidden layer in bf16, relu(x W^T + b), as a GEMM without bias followed by one pass
-// that adds the bias and applies the ReLU in place (issue 13). LibTorch's addmm adds a bias by
+// that adds the bias and applies the ReLU in place. LibTorch's addmm adds a bias by
 // filling its output with it and letting oneDNN add the product to that (a "sum" post-op), which
 // costs more than the pass: mm alone plus the pass measured 0.3-0.5 ms faster per [10k, K] x [K, 256]
 // layer than addmm + relu_ (docs/BENCHMARKS.md). The sum is taken in float from the GEMM's bf16

@@ -1,5 +1,5 @@
 // Linear blend skinning of one pose in plain loops, wherever no gradient must reach the pose, shape
-// or translation: inference, and training without pose refinement (issue 13). The outputs of lbs()
+// or translation: inference, and training without pose refinement. The outputs of lbs()
 // with B = 1, without its ~150 small LibTorch ops and without converting the rig's blend shapes
 // (~320k values) to the pose's dtype on every call. Computed in double from the rig's float64
 // arrays and returned in the pose's dtype, so it is lbs() in double rounded once; no autograd.

@@ -2,7 +2,7 @@
 // n(f) = f / (|f|_c + 1e-10) with |f|_c = sqrt(sum_c f^2) where that sum is > 0, else 0.
 //
 // Why: Lpips::layer_distances' LibTorch form (unit_normalize_channels twice, sub, square, 1x1 conv)
-// is ~10 kernels and ~10 passes over the features, ~3-4 ms of a ~34 ms 512x334 score (issue 13).
+// is ~10 kernels and ~10 passes over the features, ~3-4 ms of a ~34 ms 512x334 score.
 // This is two passes over the channels: the squared norms of both sides, then the weighted squared
 // difference, with per-pixel accumulators. Same formula and rounding steps in the features' dtype
 // (divisions, not reciprocals; no FMA contraction in this library); only the order of the channel

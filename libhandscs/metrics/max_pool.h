@@ -1,4 +1,4 @@
-// 2-D max pooling without autograd, for LPIPS's backbones at evaluation (issue 13): LibTorch 1.13
+// 2-D max pooling without autograd, for LPIPS's backbones at evaluation: LibTorch 1.13
 // runs at::max_pool2d through max_pool2d_with_indices on the CPU even when no gradient is wanted,
 // ~4.3 ms of every 512x334 LPIPS score (two AlexNet pools). A maximum has no rounding, so this
 // gives at::max_pool2d's values, NaN propagation included (tests/metrics/test_max_pool.cpp); only

@@ -101,7 +101,7 @@ struct LearningRates {
   }
 };
 
-// On by default (issue 13): in the full sweep on `bench` (docs/BENCHMARKS.md, "Full sweep") every
+// On by default: in the full sweep on `bench` (docs/BENCHMARKS.md, "Full sweep") every
 // LPIPS front point beyond 1.5 minutes of training and every PSNR front point beyond 5 minutes is a
 // densified run; threshold 1e-5 is the sweep's densify_5k and configs/demo.json's (N settles near
 // 3k on the built-in hand, threshold-limited, so the step stays cheap).
@@ -210,12 +210,12 @@ struct PoseRefineConfig {
   }
 };
 
-// Back-facing Gaussians skipped in training (issue 13, beyond the paper; avatar/facing_cull.h): a
+// Back-facing Gaussians skipped in training (beyond the paper; avatar/facing_cull.h): a
 // Gaussian whose rig-vertex normal, carried by its blend transform, faces away from every camera of
 // the step is neither decoded nor rasterised; L_reg then averages over the decoded Gaussians and
 // L_con takes only the pairs whose two Gaussians were decoded.
 // Off: it takes a quarter off the forward + backward at 10k Gaussians but costs 0.11 dB of PSNR
-// (3 seeds on real_demo, docs/BENCHMARKS.md), more than issue 13's 0.05 dB for a default.
+// (3 seeds on real_demo, docs/BENCHMARKS.md), more than the 0.05 dB a default change needs.
 struct CullConfig {
   bool enabled = false;
   // Kept while cos(normal, view ray) <= max_cos: 0.3 (~17 degrees past the silhouette), the value

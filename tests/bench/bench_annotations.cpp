@@ -44,7 +44,7 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 constexpr int kCameras = 80;          // cameras per capture in the release (varies 60-140)
-constexpr int kFillerCaptures = 9;    // the measured set: the tiny capture and nine more
+constexpr int kFillerCaptures = 9;    // the measured set: the tiny capture and nine more
 constexpr int64_t kFillerIdBase = 100000000;  // filler image ids start above any synthetic id
 
 struct FileCloser {

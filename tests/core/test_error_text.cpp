@@ -1,5 +1,5 @@
 // What a program prints for the exception that ends it: LibTorch errors without their C++ stack
-// trace (issue 14: a user error printed a dozen frames of addresses), other errors as they are.
+// trace (a user error printed a dozen frames of addresses), other errors as they are.
 #include <c10/util/Exception.h>
 
 #include <cstdlib>

@@ -157,7 +157,7 @@ TEST_CASE("annotation errors: data.json missing keys and wrong shapes") {
   p = file("d10.json", d);
   CHECK(error_of([&] { read_interhand_images(p, {}); }) ==
         p + ": images[0].frame_idx: expected integer, got 7.5");
-  // Paths leaving the images folder, duplicate image ids and duplicate annotations (issue 14).
+  // Paths leaving the images folder, duplicate image ids and duplicate annotations.
   for (const char* bad : {"../../../../etc/passwd", "/etc/passwd", "Capture0/../../x.jpg"}) {
     json escaping = valid_data();
     escaping["images"][0]["file_name"] = bad;
@@ -208,7 +208,7 @@ TEST_CASE("annotation errors: camera.json missing capture, keys and wrong shapes
   p = file("c1.json", c);
   CHECK(error_of([&] { read_interhand_cameras(p, 0); }) ==
         p + ": 0.camrot.400002[1]: expected array of 3, got array of 2");
-  // An all-zero rotation (issue 14: reported as "hand outside image") is named.
+  // An all-zero rotation (reported as "hand outside image") is named.
   c = valid_cameras();
   c["0"]["camrot"]["400002"] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
   p = file("c_zero_rot.json", c);
@@ -291,7 +291,7 @@ TEST_CASE("annotation errors: MANO_NeuralAnnot.json wrong shapes and keys") {
   CHECK(error_of([&] { read_interhand_mano(p, 0); }) ==
         p + ": 0.7.left: expected object, got number");
 
-  // Implausible values name the file, frame, hand and value (issue 14: shape 1e6 gave empty masks).
+  // Implausible values name the file, frame, hand and value (shape 1e6 gave empty masks).
   m = valid_mano();
   m["0"]["7"]["right"]["shape"][3] = 1e6;
   p = file("m6.json", m);
@@ -336,7 +336,7 @@ TEST_CASE("annotation errors: streaming keeps only the selected capture") {
 }
 
 TEST_CASE("annotation errors: a key given twice in a streamed file names its path") {
-  // nlohmann keeps the last of two equal keys; the streamed readers refuse them (issue 14).
+  // nlohmann keeps the last of two equal keys; the streamed readers refuse them.
   const std::string twice = ": key given twice (remove one; JSON readers would keep the last)";
   auto raw = [](const std::string& name, const std::string& text) {
     static const std::string dir = data_test::fresh_dir("duplicate_keys");
