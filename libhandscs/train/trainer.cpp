@@ -796,10 +796,23 @@ Checkpoint Trainer::make_checkpoint() {
   return ckpt;
 }
 
-void Trainer::load_from(const Checkpoint& ckpt, const std::string& source) {
+void Trainer::load_from(const Checkpoint& ckpt, const std::string& source, bool allow_changed_data) {
   check_checkpoint_meta(ckpt.meta, source);
   RunConfig stored;
   config_from_json(ckpt.meta.at("config"), source + " (stored config)", stored);
+  const auto changes = experiment_differences(stored, config_);
+  if (!changes.empty()) {
+    std::string listed;
+    for (const auto& line : changes) listed += "\n  " + line;
+    const std::string text = source + ": the config changes what the run trains and tests on "
+                                      "(checkpoint -> given):" + listed;
+    // Not a damaged file: an older checkpoint of the run would differ the same way.
+    if (!allow_changed_data)
+      throw ExperimentChanged(text + "\nresume with the run's data settings, or pass "
+                                     "--resume-changing-data if you mean it (its scores then "
+                                     "mix two experiments)");
+    spdlog::warn("{}\ncontinuing as asked (--resume-changing-data)", text);
+  }
   if (config_to_json(stored.model) != config_to_json(config_.model)) {
     std::string differences;
     for (const auto& line :
@@ -894,24 +907,7 @@ bool Trainer::resume(bool allow_changed_data) {
   for (size_t k = 0; k < files.size(); ++k) {
     const std::string& file = files[k];
     try {
-      const Checkpoint checkpoint = load_checkpoint(file);
-      check_checkpoint_meta(checkpoint.meta, file);
-      RunConfig stored;
-      config_from_json(checkpoint.meta.at("config"), file + " (stored config)", stored);
-      const auto changes = experiment_differences(stored, config_);
-      if (!changes.empty()) {
-        std::string listed;
-        for (const auto& line : changes) listed += "\n  " + line;
-        const std::string text = file + ": the config changes what the run trains and tests on "
-                                        "(checkpoint -> given):" + listed;
-        // Not a damaged file: an older checkpoint of the run would differ the same way.
-        if (!allow_changed_data)
-          throw ExperimentChanged(text + "\nresume with the run's data settings, or pass "
-                                         "--resume-changing-data if you mean it (its scores then "
-                                         "mix two experiments)");
-        spdlog::warn("{}\ncontinuing as asked (--resume-changing-data)", text);
-      }
-      load_from(checkpoint, file);
+      load_from(load_checkpoint(file), file, allow_changed_data);
       last_checkpoint_ = file;
       spdlog::info("resumed from {} at step {}", file, iteration_);
       // The newer files that could not be resumed are set aside, not deleted (the user may want to

@@ -150,7 +150,10 @@ class Trainer {
   Checkpoint make_checkpoint();
   void put_chains(Checkpoint& checkpoint) const;  // this rank's inter-pose chains, by view
   void gather_chains();  // data parallel, every rank: rank 0 receives the others' chains
-  void load_from(const Checkpoint& checkpoint, const std::string& source);
+  // Restores the trainer from `checkpoint` (its metadata, model and experiment checked first:
+  // ExperimentChanged unless `allow_changed_data`, see resume()).
+  void load_from(const Checkpoint& checkpoint, const std::string& source,
+                 bool allow_changed_data = false);
   bool rollback();
   // The frames entry `entry_index` (= iteration x entries_per_step() + its place in the step)
   // renders: one frame of a per-epoch shuffle of the training frames (views_per_pose 1), else up
