@@ -3,9 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <filesystem>
+#include <optional>
 
-#include <opencv2/videoio.hpp>
 #include <spdlog/spdlog.h>
 #include <torch/types.h>
 #include <torch/linalg.h>  // after types.h: it is not self-contained
@@ -18,6 +17,7 @@
 #include "core/progress.h"
 #include "data/mesh_mask.h"
 #include "infer/pose_source.h"
+#include "io/mp4_writer.h"
 #include "io/ply.h"
 #include "io/png.h"
 #include "metrics/image_tensor.h"
@@ -117,8 +117,9 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
 
   ensure_directory(options.out_dir);
   const int64_t count = std::max<int64_t>(poses.size(), cameras.empty() ? poses.size() : cameras.size());
-  cv::VideoWriter video;
-  std::string video_temp;
+  // Opened before the first frame, so a target that cannot be written is named before any work.
+  std::optional<Mp4Writer> video;
+  if (!options.video.empty()) video.emplace(options.video, options.video_fps);
   AvatarRenderResult result;
   RasterSettings settings;
   settings.background = options.background;
@@ -167,29 +168,14 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
     if (options.export_ply) write_posed_ply(base + ".ply", out.state.posed, options.ply_sh_degree);
     write_camera_json(base + "_camera.json", camera);
     frame_cameras.push_back({frame_name(k) + ".png", camera});
-    if (!options.video.empty()) {
-      if (!video.isOpened()) {
-        // Written beside the target and renamed at the end, so a failed run leaves no torn MP4.
-        video_temp = options.video + ".tmp.mp4";
-        video.open(video_temp, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), options.video_fps,
-                   cv::Size(camera.width, camera.height));
-        require(video.isOpened(), options.video + ": OpenCV cannot write MP4 video here");
-      }
-      cv::Mat frame = rgb;
-      if (rgb.cols != camera.width || rgb.rows != camera.height)
-        throw Error(options.video + ": all frames of a video need one image size");
-      video.write(frame);
-    }
+    if (video) video->write(rgb);
     result.width = camera.width;
     result.height = camera.height;
     bar.update(k + 1);
   }
   bar.finish();
   if (out_of_view == count) {
-    if (video.isOpened()) {
-      video.release();
-      std::filesystem::remove(video_temp);
-    }
+    if (video) video->abandon();
     throw Error("no frame shows the hand: in all " + std::to_string(count) + " frames it is behind " +
                 "the camera or outside the image (" +
                 camera_source(options, poses.front(), 0, static_cast<int64_t>(cameras.size())) +
@@ -203,10 +189,7 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
   if (out_of_view > kOutOfViewLines)
     spdlog::warn("{} of {} frames show no hand (the first {} are named above)", out_of_view, count,
                  kOutOfViewLines);
-  if (video.isOpened()) {
-    video.release();
-    std::filesystem::rename(video_temp, options.video);
-  }
+  if (video) video->finish();
   write_file_atomic(options.out_dir + "/transforms.json",
                     nerfstudio_transforms(frame_cameras).dump(2));
   result.frames = count;
