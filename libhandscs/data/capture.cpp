@@ -341,8 +341,11 @@ std::vector<Candidate> annotated_candidates(const CaptureConfig& c, const Captur
       reason = "other hand";
     } else if (image.hand_type == "interacting" && !c.include_interacting) {
       reason = "interacting";
-    } else if (!fs::is_regular_file(path)) {
-      reason = "missing image";
+    } else if (std::error_code ec; !fs::is_regular_file(path, ec)) {
+      // A link loop or an unreadable folder is skipped like a missing image, its cause logged.
+      const bool absent = !ec || ec == std::errc::no_such_file_or_directory;
+      reason = absent ? "missing image" : "unreadable image";
+      if (!absent) spdlog::warn("{}: {}", path, ec.message());
     }
     if (!reason.empty()) {
       skipped.push_back({path, reason});

@@ -11,14 +11,17 @@ namespace fs = std::filesystem;
 CaptureLayout resolve_capture_layout(const std::string& root, const std::string& split,
                                      const std::string& root_key) {
   require(!root.empty(), root_key + ": empty (set it to the dataset folder)");
-  require(fs::is_directory(root), root + ": capture root is not a folder");
+  std::error_code ec;
+  if (!fs::is_directory(root, ec))  // a link loop says so; a missing folder is just not a folder
+    throw Error(root + ": capture root is not a folder" +
+                (ec && ec != std::errc::no_such_file_or_directory ? " (" + ec.message() + ")" : ""));
   // The 5 fps release unpacks its images into InterHand2.6M_5fps_batch1/; annotations are
   // downloaded separately and may sit beside it or inside it.
   const fs::path base(root);
   const fs::path batch = base / "InterHand2.6M_5fps_batch1";
   CaptureLayout layout;
   for (const fs::path& candidate : {base / "images" / split, batch / "images" / split}) {
-    if (fs::is_directory(candidate)) {
+    if (fs::is_directory(candidate, ec)) {
       layout.images_dir = candidate.string();
       break;
     }
@@ -28,7 +31,7 @@ CaptureLayout resolve_capture_layout(const std::string& root, const std::string&
                                           split + "/)");
   fs::path annotations;
   for (const fs::path& candidate : {base / "annotations" / split, batch / "annotations" / split}) {
-    if (fs::is_directory(candidate)) {
+    if (fs::is_directory(candidate, ec)) {
       annotations = candidate;
       break;
     }

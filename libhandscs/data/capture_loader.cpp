@@ -78,7 +78,7 @@ cv::Mat Capture::Impl::compute_mask(const FrameInfo& frame, const cv::Mat& bgr) 
 cv::Mat Capture::Impl::mask_for(const FrameInfo& frame, const cv::Mat& bgr) const {
   if (mask_folder.empty()) return compute_mask(frame, bgr);
   const fs::path file = fs::path(mask_folder) / fs::path(frame.file_name).replace_extension(".png");
-  if (fs::is_regular_file(file)) {
+  if (std::error_code ec; fs::is_regular_file(file, ec)) {
     cv::Mat stored = cv::imread(file.string(), cv::IMREAD_GRAYSCALE);
     if (stored.cols == bgr.cols && stored.rows == bgr.rows) {
       cv::Mat mask;

@@ -37,7 +37,11 @@ std::vector<std::pair<std::string, std::string>> list_images(const std::string& 
   if (!fs::is_directory(dir, ec)) throw Error(dir + ": not a folder");
   std::map<std::string, std::string> by_name;
   for (const auto& item : fs::directory_iterator(dir, ec)) {
-    if (!item.is_regular_file() || !is_image_file(item.path())) continue;
+    if (!is_image_file(item.path())) continue;
+    // An image name whose status cannot be read (a link loop, a dangling link) is kept: it then
+    // fails by name with its reason, where skipping it would hide it.
+    std::error_code status_error;
+    if (!item.is_regular_file(status_error) && !status_error) continue;
     const std::string name = item.path().stem().string();
     const std::string path = item.path().string();
     const auto [it, inserted] = by_name.emplace(name, path);

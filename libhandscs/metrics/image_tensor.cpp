@@ -84,7 +84,10 @@ namespace {
 // The file decoded as stored (cv::IMREAD_UNCHANGED), after a damage check of JPEGs: a damaged
 // JPEG would decode with a grey tail and be scored as if whole. `what` names the file's role.
 cv::Mat decode_checked(const std::string& path, const std::string& what) {
-  if (!std::filesystem::is_regular_file(path)) throw Error(path + ": cannot read " + what);
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw Error(path + ": cannot read " + what +
+                (ec && ec != std::errc::no_such_file_or_directory ? " (" + ec.message() + ")" : ""));
   std::string problem;
   const std::string bytes = read_image_file(path, problem);
   if (!problem.empty()) throw Error(path + ": damaged JPEG " + what + " (" + problem + ")");

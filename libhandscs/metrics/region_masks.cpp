@@ -36,7 +36,8 @@ std::string depth_text(int depth) {
 }  // namespace
 
 RegionLegend read_region_legend(const std::string& path) {
-  require(std::filesystem::is_regular_file(path), path + ": region legend not found");
+  std::error_code ec;
+  require(std::filesystem::is_regular_file(path, ec), path + ": region legend not found");
   const json file = load_json_file(path);
   const auto list = file.find("regions");
   require(list != file.end() && list->is_array(),
@@ -82,7 +83,8 @@ std::string region_mask_path(const std::string& regions_dir, const std::string& 
 }
 
 torch::Tensor load_region_mask(const std::string& path, int64_t width, int64_t height) {
-  require(std::filesystem::is_regular_file(path), path + ": region mask not found");
+  std::error_code ec;
+  require(std::filesystem::is_regular_file(path, ec), path + ": region mask not found");
   const cv::Mat mask = cv::imread(path, cv::IMREAD_UNCHANGED);
   require(!mask.empty(), path + ": cannot read region mask");
   require(mask.depth() == CV_8U && mask.channels() == 1,

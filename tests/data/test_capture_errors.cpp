@@ -94,6 +94,27 @@ TEST_CASE("capture errors: null MANO, missing and black images are skipped with 
   CHECK(Capture::open(keep_black).frames().size() == 48 - 7);
 }
 
+TEST_CASE("capture errors: an image that is a link to itself is skipped, a looping root is named") {
+  const std::string root = data_test::copy_of_tiny("link_loop");
+  const auto& scene = data_test::tiny_capture().scene;
+  const std::string looped = image_path(root, "400004", scene.frames[2].frame_idx);
+  std::filesystem::remove(looped);
+  std::filesystem::create_symlink(std::filesystem::path(looped).filename(), looped);
+  // std::filesystem's throwing status() aborted the whole capture ("Too many levels of symbolic
+  // links"); a missing image is only skipped, and so is this one.
+  Capture capture = Capture::open(data_test::tiny_config(root));
+  CHECK(capture.frames().size() == 48 - 1);
+  REQUIRE(capture.skipped().size() == 1);
+  CHECK(capture.skipped()[0].path == looped);
+  CHECK(capture.skipped()[0].reason == "unreadable image");
+  const std::string loop_root = root + "_loop";
+  std::filesystem::remove_all(loop_root);
+  std::filesystem::create_symlink(loop_root, loop_root);
+  CHECK(error_of([&] { Capture::open(data_test::tiny_config(loop_root)); }) ==
+        loop_root + ": capture root is not a folder (Too many levels of symbolic links)");
+  std::filesystem::remove(loop_root);
+}
+
 TEST_CASE("capture errors: frames whose hand is outside the view are skipped") {
   const std::string root = data_test::copy_of_tiny("outside");
   // Turn camera 400004 around (180 degrees about its y axis): the hand is behind it.

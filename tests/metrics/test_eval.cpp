@@ -3,6 +3,7 @@
 #include "metrics_test_utils.h"  // first: brings Catch2 in after torch (see there)
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 
 #include <nlohmann/json.hpp>
@@ -117,10 +118,12 @@ TEST_CASE("folder eval turns each bad pair into a failure entry excluded from th
     std::ofstream(pred + "/i.jpg", std::ios::binary)
         .write(reinterpret_cast<const char*>(jpeg.data()), static_cast<std::streamsize>(jpeg.size() - 20));
   }                                                                       // truncated JPEG
+  write_png(gt + "/j.png", random_hwc(16, 20, 12));
+  std::filesystem::create_symlink("j.png", pred + "/j.png");             // a link to itself
   std::ofstream(pred + "/notes.txt") << "ignored: not an image";
 
   const auto report = handscs::run_folder_eval({pred, gt, "", ""}, handscs::EvalConfig{});
-  REQUIRE(report.entries.size() == 9);
+  REQUIRE(report.entries.size() == 10);
   std::map<std::string, std::string> errors;
   for (const auto& entry : report.entries) errors[entry.name] = entry.ok ? "ok" : entry.error;
   CHECK(errors["a"] == "ok");
@@ -134,20 +137,21 @@ TEST_CASE("folder eval turns each bad pair into a failure entry excluded from th
                            "/h.png): convert one so both match");
   CHECK(errors["i"] == pred + "/i.jpg: damaged JPEG image (truncated: the image data ends without an "
                                "end-of-image marker)");
+  CHECK(errors["j"] == pred + "/j.png: cannot read image (Too many levels of symbolic links)");
   const auto s = report.summary();
-  CHECK(s.num_entries == 9);
+  CHECK(s.num_entries == 10);
   CHECK(s.num_scored == 1);
-  CHECK(s.num_failed == 8);
+  CHECK(s.num_failed == 9);
   CHECK(*s.psnr == report.entries[0].scores.psnr);
   CHECK(*s.ssim == report.entries[0].scores.ssim);
   const auto j = handscs::eval_report_to_json(report);
-  CHECK(j["summary"]["failed"] == 8);
+  CHECK(j["summary"]["failed"] == 9);
   CHECK(j["images"].size() == 1);
-  CHECK(j["failed"].size() == 8);
+  CHECK(j["failed"].size() == 9);
   CHECK(j["failed"][0]["name"] == "b");
   CHECK(j["failed"][0]["error"] == "size mismatch: prediction 20x16, ground truth 24x16");
   const auto table = handscs::format_eval_table(report);
-  CHECK(table.find("8 of 9 images failed and are excluded from the means:") != std::string::npos);
+  CHECK(table.find("9 of 10 images failed and are excluded from the means:") != std::string::npos);
 }
 
 TEST_CASE("image checks: the range's edges, infinities and dtypes", "[eval]") {
