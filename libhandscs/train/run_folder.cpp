@@ -65,20 +65,6 @@ void refuse_run_folder_without_overwrite(const std::string& dir, bool overwrite)
                 "); continue it with --resume, replace it with --overwrite, or choose another --out");
 }
 
-void prepare_fresh_run_folder(const std::string& dir, bool overwrite) {
-  refuse_run_folder_without_overwrite(dir, overwrite);
-  const auto contents = inspect_run_folder(dir);
-  if (!contents.holds_run()) return;
-  spdlog::warn("--overwrite: removing the run in {} ({})", dir, contents.describe());
-  const fs::path root(dir);
-  std::error_code ec;
-  for (const auto& file : contents.checkpoints) fs::remove(file, ec);
-  for (const char* name : {"config.json", "metrics.csv", "pose_refine.csv"}) fs::remove(root / name, ec);
-  fs::remove_all(root / "validation", ec);
-  if (inspect_run_folder(dir).holds_run())
-    throw Error(dir + ": could not remove the earlier run's files (permissions?)");
-}
-
 int remove_stale_temporaries(const std::string& dir) {
   int removed = 0;
   for (const auto& folder : {fs::path(dir), fs::path(dir) / "checkpoints"}) {

@@ -9,7 +9,7 @@
 
 namespace handscs {
 
-// The files of one run: what --overwrite removes and what makes a folder hold a run. The mask
+// The files of one run: what makes a folder hold a run (--overwrite sets them aside: set_aside_run.h). The mask
 // cache (cache/) is not among them: it is keyed by a hash of its settings and shared safely.
 struct RunFolderContents {
   std::vector<std::string> checkpoints;  // checkpoints/step_*.ckpt, newest first
@@ -26,10 +26,6 @@ RunFolderContents inspect_run_folder(const std::string& dir);
 
 // Throws Error naming the folder and what it holds when it holds a run and not `overwrite`.
 void refuse_run_folder_without_overwrite(const std::string& dir, bool overwrite);
-
-// Before a fresh (not resumed) run writes its first file: as refuse_run_folder_without_overwrite,
-// and with `overwrite` the earlier run's files (RunFolderContents) are removed.
-void prepare_fresh_run_folder(const std::string& dir, bool overwrite);
 
 // Removes "<file>.tmp.<pid>" files of write_file_atomic whose writer is no longer running, in dir
 // and dir/checkpoints. Returns how many were removed.

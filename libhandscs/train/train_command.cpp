@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
+#include <optional>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
@@ -12,6 +14,7 @@
 #include "run/run_config.h"
 #include "train/data_parallel.h"
 #include "train/run_folder.h"
+#include "train/set_aside_run.h"
 #include "train/trainer.h"
 
 namespace handscs {
@@ -92,13 +95,19 @@ int train_command(int argc, char** argv) {
       if (!root)
         config_from_json(nlohmann::json::parse(config_text), "rank 0's config", config);
     }
-    // A fresh run into a folder holding another is refused before anything else happens...
+    // An earlier run a killed --overwrite set aside is put back first; a fresh run into a folder
+    // holding another is refused before anything else happens...
+    if (root && std::filesystem::is_directory(run_dir)) recover_set_aside_runs(run_dir);
     if (root && !resume) refuse_run_folder_without_overwrite(run_dir, overwrite);
-    // ...and with --overwrite the old run is removed only once the new one has opened its capture
-    // and passed the trainer's checks (nothing a run keeps is written before that), so a config
-    // that fails leaves the old run as it was.
+    // ...and with --overwrite the old run is set aside only once the new one has opened its
+    // capture and passed the trainer's checks, and deleted once the new one has its first
+    // checkpoint; a new run that ends before that puts it back.
     Trainer trainer(config, run_dir, group.get());
-    if (root && !resume) prepare_fresh_run_folder(run_dir, overwrite);
+    std::optional<SetAsideRun> replaced;
+    if (root && !resume && overwrite) {
+      replaced.emplace(run_dir);
+      trainer.on_first_checkpoint([&replaced] { replaced->discard(); });
+    }
     if (root && resume && !trainer.resume(resume_changing_data))
       spdlog::warn("{}: no checkpoint to resume; starting afresh", run_dir);
     const auto summary = trainer.run();

@@ -12,6 +12,7 @@
 #include <random>
 #include <set>
 #include <sstream>
+#include <utility>
 
 #include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
@@ -893,11 +894,13 @@ void Trainer::load_from(const Checkpoint& ckpt, const std::string& source, bool 
 
 std::string Trainer::save_checkpoint() {
   write_run_files();
+  ensure_directory(run_dir_ + "/checkpoints");  // --overwrite set the earlier run's folder aside
   const std::string path = run_dir_ + "/checkpoints/" + checkpoint_name(iteration_);
   handscs::save_checkpoint(path, make_checkpoint());
   last_checkpoint_ = path;
   const auto files = list_checkpoints(run_dir_);
   for (size_t i = kCheckpointsKept; i < files.size(); ++i) std::filesystem::remove(files[i]);
+  if (first_checkpoint_hook_) std::exchange(first_checkpoint_hook_, nullptr)();
   return path;
 }
 

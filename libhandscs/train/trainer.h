@@ -18,6 +18,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -101,6 +102,9 @@ class Trainer {
   TrainSummary run();
 
   std::string save_checkpoint();  // writes checkpoints/step_<iteration>.ckpt; returns the path
+  // Called once, right after the first checkpoint this trainer writes (--overwrite then deletes
+  // the run it replaces).
+  void on_first_checkpoint(std::function<void()> hook) { first_checkpoint_hook_ = std::move(hook); }
   bool is_root() const { return !group_ || group_->is_root(); }  // writes the run folder
   int64_t iteration() const { return iteration_; }
   Avatar& avatar() { return *avatar_; }
@@ -190,6 +194,7 @@ class Trainer {
   int64_t bad_in_a_row_ = 0;
   int64_t rollbacks_ = 0;
   std::string last_checkpoint_;
+  std::function<void()> first_checkpoint_hook_;
   bool run_files_written_ = false;
   std::vector<std::string> metrics_columns_;  // metrics.csv's header, the order of its cells
   std::string initial_state_;  // a fresh run's step-0 checkpoint, serialised: rollback's last resort

@@ -247,6 +247,38 @@ TEST_CASE("cli: a run folder is never overwritten or mixed without --overwrite")
         std::string::npos);
   CHECK(snapshot(run_dir) == evaluated);
 
+  // --overwrite killed (-9) before the new run's first checkpoint: the old run waits set aside,
+  // and the next handscs-train in the folder puts it back, every byte as it was.
+  {
+    const pid_t pid = fork();
+    REQUIRE(pid >= 0);
+    if (pid == 0) {
+      execl("/bin/sh", "sh", "-c",
+            ("exec " + train + " train.iterations=100000 train.checkpoint_every=100000 " +
+             "--overwrite > /dev/null 2>&1").c_str(), nullptr);
+      _exit(127);
+    }
+    const std::string aside = run_dir + "/.overwritten." + std::to_string(pid);
+    // Wait until the new run has set the old one aside and logged a step (<= 60 s), then kill.
+    for (int i = 0; i < 3000 && !(std::filesystem::exists(aside) &&
+                                  std::filesystem::exists(run_dir + "/metrics.csv"));
+         ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    kill(pid, SIGKILL);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    REQUIRE(std::filesystem::is_directory(aside));
+    CHECK(run(train + " train.iterations=2") == 1);  // no --overwrite: refused, old run back first
+    CHECK(log_text().find("an interrupted --overwrite had set the earlier run aside before the new "
+                          "run's first checkpoint; it is back") != std::string::npos);
+    auto restored = snapshot(run_dir);  // the shared mask cache may have grown; the run is as was
+    auto expected = evaluated;
+    for (auto* files : {&restored, &expected})
+      for (auto it = files->begin(); it != files->end();)
+        it = it->first.rfind(run_dir + "/cache/", 0) == 0 ? files->erase(it) : std::next(it);
+    CHECK(restored == expected);
+  }
+
   // --overwrite replaces the run: the old checkpoint is gone, the new run's is there.
   CHECK(run(train + " train.iterations=2 --resume --overwrite") != 0);  // exclusive flags
   REQUIRE(run(train + " train.iterations=2 --overwrite") == 0);

@@ -1,5 +1,6 @@
 // Run-folder safety against hand-made folders: a folder holding a run is refused and left byte for
-// byte unless --overwrite, which removes that run's files only; temporaries of dead writers go,
+// byte unless --overwrite, which replaces that run's files only, putting them back byte for byte
+// when the new run ends (or is killed) before its first checkpoint; temporaries of dead writers go,
 // those of live ones stay; a resume drops log rows after its checkpoint, torn rows too, and keeps
 // the log one table when the run's columns change; an incompatible resume names the keys and
 // changes nothing; a user error at step 1 writes nothing.
@@ -20,6 +21,7 @@
 #include "core/threads.h"
 #include "tiny_capture.h"
 #include "train/run_folder.h"
+#include "train/set_aside_run.h"
 #include "train/trainer.h"
 
 namespace fs = std::filesystem;
@@ -35,30 +37,96 @@ void write(const std::string& path, const std::string& text) {
 
 }  // namespace
 
-TEST_CASE("run folder: a folder holding a run is refused, and --overwrite removes only that run") {
+TEST_CASE("run folder: a folder holding a run is refused, and --overwrite replaces only that run") {
   const auto dir = handscs_test::fresh_dir("folder_guard");
-  handscs::prepare_fresh_run_folder(dir, false);  // absent: fine
+  handscs::refuse_run_folder_without_overwrite(dir, false);  // absent: fine
   fs::create_directories(dir + "/cache");
   write(dir + "/cache/masks-1/a.png", "mask");
-  handscs::prepare_fresh_run_folder(dir, false);  // a mask cache alone is no run
+  handscs::refuse_run_folder_without_overwrite(dir, false);  // a mask cache alone is no run
   write(dir + "/config.json", "{}");
   write(dir + "/metrics.csv", "iteration\n1\n");
   write(dir + "/checkpoints/step_00000010.ckpt", "ten");
   write(dir + "/checkpoints/step_00000020.ckpt", "twenty");
   write(dir + "/validation/step_00000020.png", "png");
+  write(dir + "/eval/metrics.json", "the old run's scores");
   write(dir + "/notes.txt", "the user's own file");
   const auto before = snapshot(dir);
-  CHECK_THROWS_WITH(handscs::prepare_fresh_run_folder(dir, false),
+  CHECK_THROWS_WITH(handscs::refuse_run_folder_without_overwrite(dir, false),
                     dir + " holds a run (2 checkpoints (newest step_00000020.ckpt), config.json, "
                           "metrics.csv, validation/); continue it with --resume, replace it with "
                           "--overwrite, or choose another --out");
   CHECK(snapshot(dir) == before);
-  handscs::prepare_fresh_run_folder(dir, true);
+  {
+    handscs::SetAsideRun replaced(dir);
+    CHECK(replaced.holds_files());
+    CHECK_FALSE(handscs::inspect_run_folder(dir).holds_run());
+    replaced.discard();  // the new run's first checkpoint
+  }
   const auto after = snapshot(dir);
   CHECK(after.size() == 2);
   CHECK(after.count(dir + "/cache/masks-1/a.png") == 1);
   CHECK(after.count(dir + "/notes.txt") == 1);
   CHECK_FALSE(handscs::inspect_run_folder(dir).holds_run());
+}
+
+TEST_CASE("run folder: a new run that ends before its first checkpoint puts the old run back") {
+  const auto dir = handscs_test::fresh_dir("folder_aside");
+  write(dir + "/config.json", "{\"old\": true}");
+  write(dir + "/metrics.csv", "iteration\n1\n");
+  write(dir + "/checkpoints/step_00000020.ckpt", "twenty");
+  write(dir + "/camera_color.csv", "old colours");
+  write(dir + "/notes.txt", "the user's own file");
+  const auto before = snapshot(dir);
+  // An error after the set-aside (a failing first step): the new run's files go, the old come back.
+  CHECK(handscs_test::error_of([&] {
+          handscs::SetAsideRun replaced(dir);
+          write(dir + "/config.json", "{\"new\": true}");
+          write(dir + "/metrics.csv", "iteration\n");
+          write(dir + "/validation/step_00000005.png", "new");
+          throw handscs::Error("step 1 failed");
+        }) == "step 1 failed");
+  CHECK(snapshot(dir) == before);
+
+  // A killed run (no destructor runs): the old run waits set aside, and the next handscs-train in
+  // the folder puts it back byte for byte.
+  const pid_t child = fork();
+  REQUIRE(child >= 0);
+  if (child == 0) {
+    auto* replaced = new handscs::SetAsideRun(dir);  // never destroyed: as under kill -9
+    (void)replaced;
+    write(dir + "/metrics.csv", "iteration\n");
+    _exit(0);
+  }
+  int status = 0;
+  waitpid(child, &status, 0);
+  REQUIRE(fs::is_directory(dir + "/.overwritten." + std::to_string(child)));
+  CHECK_FALSE(handscs::inspect_run_folder(dir).checkpoints.size() > 0);
+  handscs::recover_set_aside_runs(dir);
+  CHECK(snapshot(dir) == before);
+
+  // Killed after the new run's first checkpoint, before the old run was deleted: the deletion is
+  // finished and the new run kept.
+  const pid_t second = fork();
+  REQUIRE(second >= 0);
+  if (second == 0) {
+    auto* replaced = new handscs::SetAsideRun(dir);
+    (void)replaced;
+    write(dir + "/checkpoints/step_00000005.ckpt", "five");
+    _exit(0);
+  }
+  waitpid(second, &status, 0);
+  handscs::recover_set_aside_runs(dir);
+  const auto kept = snapshot(dir);
+  CHECK(kept.size() == 2);
+  CHECK(kept.count(dir + "/checkpoints/step_00000005.ckpt") == 1);
+  CHECK(kept.count(dir + "/notes.txt") == 1);
+
+  // A live process's set-aside run is never touched: two runs in one folder are refused.
+  fs::create_directories(dir + "/.overwritten.1");  // pid 1 (init) is always alive
+  CHECK(handscs_test::error_of([&] { handscs::recover_set_aside_runs(dir); }) ==
+        dir + ": another handscs-train (process 1) is replacing the run in this folder; wait for it "
+              "or choose another --out");
+  fs::remove(dir + "/.overwritten.1");
 }
 
 TEST_CASE("run folder: temporaries of dead writers are removed, a live writer's are kept") {
@@ -171,7 +239,7 @@ TEST_CASE("run folder: a run stopped by a user error at step 1 leaves the folder
     it = it->first.rfind(dir + "/cache/", 0) == 0 ? after.erase(it) : std::next(it);
   CHECK(after == before);
   CHECK_FALSE(handscs::inspect_run_folder(dir).holds_run());
-  CHECK_NOTHROW(handscs::prepare_fresh_run_folder(dir, /*overwrite=*/false));  // no --overwrite needed
+  CHECK_NOTHROW(handscs::refuse_run_folder_without_overwrite(dir, /*overwrite=*/false));  // no --overwrite needed
 }
 
 TEST_CASE("run folder: config differences are listed key by key") {
