@@ -211,6 +211,8 @@ void apply_overrides(json& object, const std::vector<std::string>& overrides) {
       value = json::parse(raw);
     } catch (const json::parse_error&) {
       value = raw;  // bare words are strings: --set data.split=novel_view
+    } catch (const json::out_of_range&) {  // a number beyond a double's range, e.g. 1e999
+      throw Error("--set " + text + ": " + raw + " is beyond the range of a number (about 1.8e308)");
     }
     json* node = &object;
     std::string walked;

@@ -138,6 +138,9 @@ TEST_CASE("config: each bad input names the file and key") {
         "defaults + --set: train.iterations: expected integer, got string");
   CHECK(error_of([&] { handscs::load_config<RootConfig>("", {"novalue"}); }) ==
         "--set novalue: expected key.path=value");
+  // A number beyond a double is named with its --set, not as the parser's raw exception.
+  CHECK(error_of([&] { handscs::load_config<RootConfig>("", {"train.iterations=1e999"}); }) ==
+        "--set train.iterations=1e999: 1e999 is beyond the range of a number (about 1.8e308)");
   // A section given a value is blamed itself, not the valid --set after it.
   const auto section_error = error_of([&] { handscs::load_config<RootConfig>("", {"train=5", "train.iterations=3"}); });
   CHECK(section_error.rfind("--set train=5: train is a section, not a value; set its keys, e.g. train.", 0) == 0);
