@@ -101,7 +101,18 @@ std::vector<std::string> list_checkpoints(const std::string& run_dir) {
     if (name.rfind("step_", 0) == 0 && entry.path().extension() == ".ckpt")
       files.push_back(entry.path().string());
   }
-  std::sort(files.rbegin(), files.rend());  // newest first (zero-padded step numbers)
+  // Newest first, by the step in the name read as a number: zero padding to 8 digits orders names
+  // only up to step 99,999,999 (a name without a number sorts last; loading names the mismatch).
+  const auto step_of = [](const std::string& path) -> long long {
+    const std::string name = std::filesystem::path(path).stem().string().substr(5);
+    if (name.empty() || name.size() > 18 || !std::all_of(name.begin(), name.end(), ::isdigit))
+      return -1;
+    return std::stoll(name);
+  };
+  std::sort(files.begin(), files.end(), [&](const std::string& a, const std::string& b) {
+    const long long sa = step_of(a), sb = step_of(b);
+    return sa != sb ? sa > sb : a > b;
+  });
   return files;
 }
 

@@ -12,6 +12,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/text.h"
+#include "run/checkpoint.h"
 
 namespace handscs {
 
@@ -45,12 +46,7 @@ RunFolderContents inspect_run_folder(const std::string& dir) {
   RunFolderContents c;
   std::error_code ec;
   const fs::path root(dir);
-  for (const auto& entry : fs::directory_iterator(root / "checkpoints", ec)) {
-    const auto name = entry.path().filename().string();
-    if (name.rfind("step_", 0) == 0 && entry.path().extension() == ".ckpt")
-      c.checkpoints.push_back(entry.path().string());
-  }
-  std::sort(c.checkpoints.rbegin(), c.checkpoints.rend());  // zero-padded steps: newest first
+  c.checkpoints = list_checkpoints(dir);
   c.config = fs::exists(root / "config.json", ec);
   c.metrics = fs::exists(root / "metrics.csv", ec);
   c.validation = fs::is_directory(root / "validation", ec);

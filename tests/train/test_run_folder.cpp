@@ -19,6 +19,7 @@
 #include "core/csv_table.h"
 #include "core/error.h"
 #include "core/threads.h"
+#include "run/checkpoint.h"
 #include "tiny_capture.h"
 #include "train/run_folder.h"
 #include "train/set_aside_run.h"
@@ -127,6 +128,21 @@ TEST_CASE("run folder: a new run that ends before its first checkpoint puts the 
         dir + ": another handscs-train (process 1) is replacing the run in this folder; wait for it "
               "or choose another --out");
   fs::remove(dir + "/.overwritten.1");
+}
+
+TEST_CASE("run folder: checkpoints are ordered by the step their name says, as a number") {
+  const auto dir = handscs_test::fresh_dir("folder_order");
+  // 8-digit padding orders names as text only up to step 99,999,999.
+  for (const char* name : {"step_00000005.ckpt", "step_99999999.ckpt", "step_100000000.ckpt",
+                           "step_x.ckpt", "notes.ckpt"})
+    write(dir + "/checkpoints/" + name, "c");
+  const auto files = handscs::list_checkpoints(dir);
+  REQUIRE(files.size() == 4);
+  CHECK(files[0] == dir + "/checkpoints/step_100000000.ckpt");
+  CHECK(files[1] == dir + "/checkpoints/step_99999999.ckpt");
+  CHECK(files[2] == dir + "/checkpoints/step_00000005.ckpt");
+  CHECK(files[3] == dir + "/checkpoints/step_x.ckpt");  // no number: last
+  CHECK(handscs::inspect_run_folder(dir).checkpoints == files);
 }
 
 TEST_CASE("run folder: temporaries of dead writers are removed, a live writer's are kept") {
