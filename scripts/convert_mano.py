@@ -17,6 +17,8 @@ MANO_LEFT.pkl is fixed (shapedirs[:, 0, :] *= -1; pass --no-left-shapedirs-fix f
 Usage:
   convert_mano.py MANO_RIGHT.pkl mano_right.json
   convert_mano.py MANO_LEFT.pkl mano_left.json [--hand left] [--tips 745,317,445,556,673]
+
+An existing output file is replaced only with --force; the input pickle never is.
 """
 
 import argparse
@@ -40,7 +42,11 @@ SUM_TOLERANCE = 1e-4
 
 
 class ConversionError(Exception):
-    pass
+    """Bad input: reported with the pickle's path."""
+
+
+class OutputError(Exception):
+    """An output that must not be written: reported with the output's path."""
 
 
 class _Inert:
@@ -339,17 +345,39 @@ def convert(data, hand, tips, left_fix, name):
     ]
 
 
+def check_output(pickle_path, path, force):
+    """Refuses an output that would destroy the input or another file, before anything is read."""
+    if not os.path.lexists(path):
+        return
+    # samefile follows symlinks and sees hard links (same device and inode).
+    if os.path.exists(path) and os.path.samefile(pickle_path, path):
+        raise OutputError(f"is the input pickle {pickle_path}; name another output file")
+    if os.path.isdir(path):
+        raise OutputError("is a folder; name a rig file to write")
+    if not force:
+        raise OutputError("exists; pass --force to replace it")
+
+
 def write_rig(entries, path):
-    """One key per line; floats as Python's shortest round-trip repr (exact float64)."""
+    """One key per line; floats as Python's shortest round-trip repr (exact float64). Written to
+    path.tmp.PID and renamed over path, so path is the old file or the whole new one; the temporary
+    is removed on every failure (a full disk, an interrupt)."""
     lines = [f"  {json.dumps(key)}: {json.dumps(value, separators=(',', ':'), allow_nan=False)}"
              for key, value in entries]
     text = "{\n" + ",\n".join(lines) + "\n}\n"
     temp = f"{path}.tmp.{os.getpid()}"
-    with open(temp, "w", encoding="utf-8") as stream:
-        stream.write(text)
-        stream.flush()
-        os.fsync(stream.fileno())
-    os.replace(temp, path)
+    created = False
+    try:
+        with open(temp, "w", encoding="utf-8") as stream:
+            created = True
+            stream.write(text)
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.replace(temp, path)
+        created = False
+    finally:
+        if created:
+            os.remove(temp)
 
 
 def main(argv=None):
@@ -364,6 +392,8 @@ def main(argv=None):
                         help="do not negate shapedirs[:, 0, :] of a left hand (file already fixed)")
     parser.add_argument("--name",
                         help="rig name (default: the pickle's file name without extension)")
+    parser.add_argument("--force", action="store_true",
+                        help="replace an existing output file (never the input pickle)")
     args = parser.parse_args(argv)
 
     stem = os.path.splitext(os.path.basename(args.pickle))[0]
@@ -387,11 +417,15 @@ def main(argv=None):
             print("convert_mano.py: --tips needs 5 comma-separated vertex ids", file=sys.stderr)
             return 2
     try:
+        check_output(args.pickle, args.output, args.force)
         entries = convert(read_mano(args.pickle), hand, tips, not args.no_left_shapedirs_fix,
                           args.name or stem)
         write_rig(entries, args.output)
     except ConversionError as error:
         print(f"convert_mano.py: {args.pickle}: {error}", file=sys.stderr)
+        return 1
+    except OutputError as error:
+        print(f"convert_mano.py: {args.output}: {error}", file=sys.stderr)
         return 1
     except OSError as error:
         print(f"convert_mano.py: {args.output}: cannot write ({error.strerror})", file=sys.stderr)
