@@ -144,8 +144,19 @@ _ALLOWED = {
 }
 
 
+def latin1_bytes(text, encoding=None):
+    """_codecs.encode as a protocol-2 pickle from Python 3 uses it: numpy's raw array bytes arrive as
+    _codecs.encode(str, 'latin1'). Only that call is answered (any other is refused)."""
+    if not isinstance(text, str) or encoding != "latin1":
+        raise ConversionError(f"the pickle calls _codecs.encode with a {type(text).__name__} and "
+                              f"{encoding!r}: only latin1 text to bytes is supported")
+    return text.encode("latin1")
+
+
 class ManoUnpickler(pickle.Unpickler):
     def find_class(self, module, name):
+        if (module, name) == ("_codecs", "encode"):
+            return latin1_bytes
         if module.startswith("chumpy"):
             return chumpy_stand_in(module, name)
         if module.startswith("scipy.sparse"):

@@ -8,17 +8,21 @@ holds 'a' (a chumpy.ch.Ch with 20 shape components in 'x'), 'idxs' (flat indices
 'preferred_shape' (V, 3, 10); J_regressor a scipy.sparse.csc.csc_matrix (state data, indices, indptr,
 _shape, maxprint); the released extra keys (J, hands_components, hands_coeffs, bs_style, bs_type).
 Neither chumpy nor scipy is needed: the classes are stand-ins registered under those module names.
-Also written: files the converter must refuse (a missing key, an unsupported chumpy expression, a
-body model with 24 joints, a dictionary that is no model).
+Also written: the right hand as a plain dictionary of numpy arrays pickled by Python 3 with protocol
+2 (plain_right.pkl), and files the converter must refuse (a missing key, an unsupported chumpy
+expression, a body model with 24 joints, a dictionary that is no model, a _codecs.encode call with
+an encoding other than latin1).
 
 The reference is MANO's LBS written here in numpy (independent of the C++ code), for the converted
 rig (left hand: with the shapedirs fix), for a few poses/shapes/translations, with and without
 flat_hand_mean.
 
-Usage: fake_mano.py OUT_DIR   -> OUT_DIR/MANO_RIGHT.pkl, MANO_LEFT.pkl, reference.json and the
-                                 refused broken_right, unsupported_right, body_right, other_right.pkl
+Usage: fake_mano.py OUT_DIR   -> OUT_DIR/MANO_RIGHT.pkl, MANO_LEFT.pkl, plain_right.pkl,
+                                 reference.json and the refused broken_right, unsupported_right,
+                                 body_right, other_right, codecs_right.pkl
 """
 
+import codecs
 import io
 import json
 import os
@@ -122,6 +126,33 @@ def py2_pickle(obj):
     return stream.getvalue()
 
 
+class CodecsCall(object):
+    """Pickles as _codecs.encode(text, encoding): the call protocol 2 makes for bytes, here with an
+    encoding the converter must refuse."""
+
+    def __init__(self, text, encoding):
+        self.text = text
+        self.encoding = encoding
+
+    def __reduce__(self):
+        return codecs.encode, (self.text, self.encoding)
+
+
+def plain_model(model):
+    """The model as a plain dictionary of numpy arrays (J_regressor dense, shapedirs evaluated), to
+    be pickled by Python 3's own pickle with protocol 2: its raw array bytes become
+    _codecs.encode(text, 'latin1') calls."""
+    plain = dict(model)
+    sparse = model["J_regressor"]
+    regressor = np.zeros(sparse._shape)
+    for j in range(sparse._shape[1]):
+        for p in range(sparse.indptr[j], sparse.indptr[j + 1]):
+            regressor[sparse.indices[p], j] = sparse.data[p]
+    plain["J_regressor"] = regressor
+    plain["shapedirs"] = shapedirs_value(model)
+    return plain
+
+
 def released_shapedirs(components):
     """shapedirs as MANO_RIGHT.pkl stores it: the first 10 of 20 shape components, selected."""
     idxs = np.arange(components.size).reshape(components.shape)[:, :, :10].ravel()
@@ -218,6 +249,9 @@ def main():
         model = make_model(rng, hand == "left")
         with open(os.path.join(out, f"MANO_{hand.upper()}.pkl"), "wb") as stream:
             stream.write(py2_pickle(model))
+        if hand == "right":
+            with open(os.path.join(out, "plain_right.pkl"), "wb") as stream:
+                pickle.dump(plain_model(model), stream, protocol=2)
         shapedirs = shapedirs_value(model)
         if hand == "left":
             shapedirs[:, 0, :] *= -1  # the converter's left-hand fix
@@ -242,6 +276,10 @@ def main():
         stream.write(py2_pickle(body))
     with open(os.path.join(out, "other_right.pkl"), "wb") as stream:
         stream.write(py2_pickle({"weights_of_a_network": np.zeros(3), "epoch": 7}))
+    codecs_call = make_model(rng, False)
+    codecs_call["bs_style"] = CodecsCall("lbs", "utf-16")
+    with open(os.path.join(out, "codecs_right.pkl"), "wb") as stream:
+        pickle.dump(codecs_call, stream, protocol=2)
     with open(os.path.join(out, "reference.json"), "w") as stream:
         json.dump(reference, stream)
 

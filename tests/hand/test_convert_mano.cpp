@@ -249,3 +249,40 @@ TEST_CASE("convert_mano.py: never overwrites its input or an existing file, and 
   CHECK(read_file(pickle) == pickle_bytes);
   std::filesystem::remove_all(dir);
 }
+
+TEST_CASE("convert_mano.py: a plain numpy MANO pickled by Python 3 with protocol 2 converts as the "
+          "released file does") {
+  const std::string python = python_with_numpy();
+  REQUIRE_FALSE(python.empty());
+  const std::string dir = fake_mano_dir(python, "mano_plain");
+  const std::string script =
+      python + " '" + std::string(HANDSCS_SOURCE_DIR) + "/scripts/convert_mano.py' ";
+  const std::string tips = " --tips 3,11,19,27,35";
+
+  // Its array bytes are _codecs.encode(text, 'latin1') calls (the converter once stubbed them:
+  // "not a MANO pickle (TypeError: Cannot interpret '<__main__._Inert object ...>' as a data type)").
+  Run r = run(script + "'" + dir + "/plain_right.pkl' '" + dir + "/plain.json'" + tips, dir);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  REQUIRE(run(script + "'" + dir + "/MANO_RIGHT.pkl' '" + dir + "/released.json'" + tips, dir)
+              .status == 0);
+  const Rig plain = load_rig(dir + "/plain.json");
+  const Rig released = load_rig(dir + "/released.json");
+  CHECK(plain.handedness == released.handedness);
+  CHECK(torch::equal(plain.v_template, released.v_template));
+  CHECK(torch::equal(plain.faces, released.faces));
+  CHECK(torch::equal(plain.weights, released.weights));
+  CHECK(torch::equal(plain.j_regressor, released.j_regressor));
+  CHECK(torch::equal(plain.posedirs, released.posedirs));
+  CHECK(torch::equal(plain.shapedirs, released.shapedirs));
+  CHECK(torch::equal(plain.hands_mean, released.hands_mean));
+
+  // Only latin1 text to bytes is answered.
+  r = run(script + "'" + dir + "/codecs_right.pkl' '" + dir + "/codecs.json'" + tips, dir);
+  CHECK(WEXITSTATUS(r.status) == 1);
+  CHECK(r.output == "convert_mano.py: " + dir +
+                        "/codecs_right.pkl: the pickle calls _codecs.encode with a str and "
+                        "'utf-16': only latin1 text to bytes is supported\n");
+  CHECK_FALSE(std::filesystem::exists(dir + "/codecs.json"));
+  std::filesystem::remove_all(dir);
+}
