@@ -23,6 +23,7 @@ An existing output file is replaced only with --force; the input pickle never is
 
 import argparse
 import json
+import operator
 import os
 import pickle
 import sys
@@ -78,31 +79,66 @@ def chumpy_stand_in(module, name):
     return _CHUMPY_CLASSES[full_name]
 
 
+# MANO's largest array, posedirs, holds 778 x 3 x 135 = 315,090 values; a sparse matrix standing for
+# more than 10 million (80 MB dense) is no MANO array, and is refused before anything is allocated.
+MAX_SPARSE_VALUES = 10_000_000
+
+
 class SparseMatrix(_Inert):
-    def toarray(self, key):
+    def toarray(self, key, expected_shape=None):
+        """The dense matrix, after checking its shape (against expected_shape when the key has
+        one) before allocating it, and every pointer and index against that shape."""
         state = self.state()
+        layout = self.layout
         if not isinstance(state, dict):
             raise ConversionError(f"{key}: scipy sparse matrix without a state dictionary")
         shape = state.get("_shape", state.get("shape"))
         try:
-            data = np.asarray(state["data"], dtype=np.float64)
-            indices = np.asarray(state["indices"], dtype=np.int64)
-            indptr = np.asarray(state["indptr"], dtype=np.int64)
-            rows, cols = int(shape[0]), int(shape[1])
-        except (KeyError, TypeError, IndexError) as error:
-            raise ConversionError(f"{key}: scipy sparse matrix missing {error}") from None
-        layout = self.layout
-        dense = np.zeros((rows, cols), dtype=np.float64)
-        outer = cols if layout == "csc" else rows
+            rows, cols = (operator.index(n) for n in shape)
+        except (TypeError, ValueError):
+            raise ConversionError(f"{key}: {layout} matrix without a _shape of two integers") \
+                from None
+        if rows < 0 or cols < 0:
+            raise ConversionError(f"{key}: {layout} matrix of negative shape [{rows}, {cols}]")
+        if expected_shape is not None and (rows, cols) != tuple(expected_shape):
+            raise ConversionError(
+                f"{key}: expected shape {list(expected_shape)}, got [{rows}, {cols}]")
+        if rows * cols > MAX_SPARSE_VALUES:
+            raise ConversionError(f"{key}: {layout} matrix of shape [{rows}, {cols}]: more values "
+                                  f"than any MANO array (at most {MAX_SPARSE_VALUES})")
+        arrays = {}
+        for name, kinds in (("data", "fiu"), ("indices", "iu"), ("indptr", "iu")):
+            if name not in state:
+                raise ConversionError(f"{key}: {layout} matrix without its '{name}'")
+            array = np.asarray(state[name])
+            if array.ndim != 1 or array.dtype.kind not in kinds:
+                raise ConversionError(f"{key}: {layout} matrix '{name}' is not a flat array of "
+                                      f"{'numbers' if name == 'data' else 'integers'}")
+            arrays[name] = array
+        data = arrays["data"].astype(np.float64)
+        indices = arrays["indices"].astype(np.int64)
+        indptr = arrays["indptr"].astype(np.int64)
+        outer, inner = (cols, rows) if layout == "csc" else (rows, cols)
         if len(indptr) != outer + 1:
             raise ConversionError(
                 f"{key}: {layout} matrix with {len(indptr)} pointers for {outer} slices")
-        for j in range(outer):
-            for p in range(indptr[j], indptr[j + 1]):
-                if layout == "csc":
-                    dense[indices[p], j] += data[p]
-                else:
-                    dense[j, indices[p]] += data[p]
+        if len(indices) != len(data):
+            raise ConversionError(
+                f"{key}: {layout} matrix with {len(data)} values but {len(indices)} indices")
+        if indptr[0] != 0 or indptr[-1] != len(data) or np.any(np.diff(indptr) < 0):
+            raise ConversionError(f"{key}: {layout} matrix indptr does not rise from 0 to its "
+                                  f"{len(data)} values")
+        bad = np.flatnonzero((indices < 0) | (indices >= inner))
+        if bad.size:
+            axis = "row" if layout == "csc" else "column"
+            raise ConversionError(f"{key}: {layout} matrix {axis} index {indices[bad[0]]} out of "
+                                  f"range [0, {inner})")
+        slices = np.repeat(np.arange(outer), np.diff(indptr))
+        dense = np.zeros((rows, cols), dtype=np.float64)
+        if layout == "csc":
+            np.add.at(dense, (indices, slices), data)
+        else:
+            np.add.at(dense, (slices, indices), data)
         return dense
 
 
@@ -227,14 +263,15 @@ def chumpy_value(value, key, depth):
                           "the file's origin")
 
 
-def to_array(value, key, depth=0):
-    """The numeric array behind a pickled value (ndarray, chumpy expression or sparse matrix)."""
+def to_array(value, key, depth=0, expected_shape=None):
+    """The numeric array behind a pickled value (ndarray, chumpy expression or sparse matrix); a
+    sparse matrix is checked against expected_shape before it is made dense."""
     if depth > MAX_CHUMPY_DEPTH:
         raise ConversionError(f"{key}: chumpy expressions nested deeper than {MAX_CHUMPY_DEPTH}")
     if isinstance(value, np.ndarray):
         return value
     if isinstance(value, SparseMatrix):
-        return value.toarray(key)
+        return value.toarray(key, expected_shape)
     if isinstance(value, ChumpyObject):
         return chumpy_value(value, key, depth)
     if isinstance(value, (list, tuple, float, int)):
@@ -262,7 +299,7 @@ def read_mano(path):
 def float_array(data, key, shape):
     if key not in data:
         raise ConversionError(f"missing key '{key}'")
-    array = np.asarray(to_array(data[key], key), dtype=np.float64)
+    array = np.asarray(to_array(data[key], key, expected_shape=shape), dtype=np.float64)
     if tuple(array.shape) != tuple(shape):
         raise ConversionError(f"{key}: expected shape {list(shape)}, got {list(array.shape)}")
     if not np.all(np.isfinite(array)):

@@ -11,7 +11,7 @@ Neither chumpy nor scipy is needed: the classes are stand-ins registered under t
 Also written: the right hand as a plain dictionary of numpy arrays pickled by Python 3 with protocol
 2 (plain_right.pkl), and files the converter must refuse (a missing key, an unsupported chumpy
 expression, a body model with 24 joints, a dictionary that is no model, a _codecs.encode call with
-an encoding other than latin1).
+an encoding other than latin1, and J_regressor's sparse matrix damaged each way in SPARSE_DAMAGE).
 
 The reference is MANO's LBS written here in numpy (independent of the C++ code), for the converted
 rig (left hand: with the shapedirs fix), for a few poses/shapes/translations, with and without
@@ -19,7 +19,7 @@ flat_hand_mean.
 
 Usage: fake_mano.py OUT_DIR   -> OUT_DIR/MANO_RIGHT.pkl, MANO_LEFT.pkl, plain_right.pkl,
                                  reference.json and the refused broken_right, unsupported_right,
-                                 body_right, other_right, codecs_right.pkl
+                                 body_right, other_right, codecs_right, sparse_*_right.pkl
 """
 
 import codecs
@@ -194,6 +194,33 @@ def make_model(rng, left):
     }
 
 
+def _set_regressor(**state):
+    def edit(model):
+        for name, value in state.items():
+            setattr(model["J_regressor"], name, value)
+    return edit
+
+
+def _huge_shapedirs_source(model):
+    """shapedirs a Select of a sparse matrix of 10^8 values (no expected shape reaches it)."""
+    sparse = csc_matrix(np.zeros((1, 1)))
+    sparse._shape = (100000, 1000)
+    sparse.indptr = np.zeros(1001, dtype=np.int32)
+    model["shapedirs"].a = sparse
+
+
+# J_regressor damaged each way the converter must name before it allocates anything.
+SPARSE_DAMAGE = {
+    "huge": _set_regressor(_shape=(1000000, 1000000)),
+    "big": _set_regressor(_shape=(40000, 40000)),
+    "negative": _set_regressor(_shape=(-16, V)),
+    "fractional": _set_regressor(_shape=(16.5, V)),
+    "index": lambda model: model["J_regressor"].indices.__setitem__(0, 10**9),
+    "pointers": lambda model: model["J_regressor"].indptr.__setitem__(1, 10**6),
+    "nested": _huge_shapedirs_source,
+}
+
+
 # --- reference LBS (MANO, numpy) ---------------------------------------------------------------
 def rodrigues(a):
     theta = np.linalg.norm(a)
@@ -276,6 +303,11 @@ def main():
         stream.write(py2_pickle(body))
     with open(os.path.join(out, "other_right.pkl"), "wb") as stream:
         stream.write(py2_pickle({"weights_of_a_network": np.zeros(3), "epoch": 7}))
+    for name, edit in SPARSE_DAMAGE.items():
+        damaged = make_model(rng, False)
+        edit(damaged)
+        with open(os.path.join(out, f"sparse_{name}_right.pkl"), "wb") as stream:
+            stream.write(py2_pickle(damaged))
     codecs_call = make_model(rng, False)
     codecs_call["bs_style"] = CodecsCall("lbs", "utf-16")
     with open(os.path.join(out, "codecs_right.pkl"), "wb") as stream:

@@ -286,3 +286,37 @@ TEST_CASE("convert_mano.py: a plain numpy MANO pickled by Python 3 with protocol
   CHECK_FALSE(std::filesystem::exists(dir + "/codecs.json"));
   std::filesystem::remove_all(dir);
 }
+
+TEST_CASE("convert_mano.py: a damaged sparse J_regressor is named before anything is allocated") {
+  const std::string python = python_with_numpy();
+  REQUIRE_FALSE(python.empty());
+  const std::string dir = fake_mano_dir(python, "mano_sparse");
+  const std::string script =
+      python + " '" + std::string(HANDSCS_SOURCE_DIR) + "/scripts/convert_mano.py' ";
+  // Each once ended in a traceback: numpy's "Unable to allocate 7.28 TiB" (huge), an IndexError
+  // (index), "negative dimensions are not allowed" (negative); big allocated 12.8 GB of zeros
+  // before its pointers were found short.
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"huge", "J_regressor: expected shape [16, 40], got [1000000, 1000000]"},
+      {"big", "J_regressor: expected shape [16, 40], got [40000, 40000]"},
+      {"negative", "J_regressor: csc matrix of negative shape [-16, 40]"},
+      {"fractional", "J_regressor: csc matrix without a _shape of two integers"},
+      {"index", "J_regressor: csc matrix row index 1000000000 out of range [0, 16)"},
+      {"pointers", "J_regressor: csc matrix indptr does not rise from 0 to its 201 values"},
+      {"nested", "shapedirs.a: csc matrix of shape [100000, 1000]: more values than any MANO "
+                 "array (at most 10000000)"},
+  };
+  for (const auto& [name, message] : cases) {
+    const std::string pickle = dir + "/sparse_" + name + "_right.pkl";
+    // 8 GB of address space: far more than python and numpy start with, less than big's 12.8 GB,
+    // so an allocation before the checks fails here even where memory is overcommitted.
+    const Run r = run("(ulimit -v 8000000; " + script + "'" + pickle + "' '" + dir +
+                          "/out.json' --tips 3,11,19,27,35)",
+                      dir);
+    INFO(name);
+    CHECK(WEXITSTATUS(r.status) == 1);
+    CHECK(r.output == "convert_mano.py: " + pickle + ": " + message + "\n");
+  }
+  CHECK_FALSE(std::filesystem::exists(dir + "/out.json"));
+  std::filesystem::remove_all(dir);
+}
