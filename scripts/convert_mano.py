@@ -307,6 +307,48 @@ def float_array(data, key, shape):
     return array
 
 
+# Rest joints the handedness test reads (MANO order).
+WRIST, INDEX_KNUCKLE, MIDDLE_KNUCKLE, PINKY_KNUCKLE = 0, 1, 4, 7
+# A hand in MANO's frame gives a cosine near 1 (0.98 for the built-in hand); below 0.5 its back is
+# turned more than 60 degrees away from +y (or its knuckle line runs along its fingers), and the
+# joints name no hand.
+MIN_HANDEDNESS_COSINE = 0.5
+
+
+def geometric_handedness(v_template, j_regressor):
+    """("right" / "left" / None, cosine): the hand the rest joints form. In MANO's frame the back of
+    the hand faces +y for both hands (the left is the right mirrored through x = 0). The fingers
+    (wrist to middle knuckle) crossed with the knuckle line (pinky to index knuckle) point to the
+    back of a right hand and to the palm of a left one, however the hand is turned about y; the
+    cosine is that cross product's y over the two lengths."""
+    joints = j_regressor @ v_template
+    fingers = joints[MIDDLE_KNUCKLE] - joints[WRIST]
+    knuckles = joints[INDEX_KNUCKLE] - joints[PINKY_KNUCKLE]
+    lengths = np.linalg.norm(fingers) * np.linalg.norm(knuckles)
+    cosine = float(np.cross(fingers, knuckles)[1] / lengths) if lengths > 0 else 0.0
+    if cosine >= MIN_HANDEDNESS_COSINE:
+        return "right", cosine
+    if cosine <= -MIN_HANDEDNESS_COSINE:
+        return "left", cosine
+    return None, cosine
+
+
+def check_handedness(v_template, j_regressor, hand, claim):
+    """Refuses a hand label (claim: where it came from) that the geometry contradicts."""
+    geometry, cosine = geometric_handedness(v_template, j_regressor)
+    if geometry is None:
+        raise ConversionError(
+            f"the rest joints form no hand in MANO's frame (their fingers x knuckle line is at "
+            f"cosine {cosine:.2f} to y; a hand's is at least {MIN_HANDEDNESS_COSINE} either way): "
+            "cannot tell which hand it is")
+    if geometry != hand:
+        side = "+y, a right hand's back" if geometry == "right" else "-y, a left hand's palm"
+        raise ConversionError(
+            f"{claim}, but the geometry is a {geometry} hand: its fingers (wrist to middle "
+            f"knuckle) x knuckle line (pinky to index) point to {side} in MANO's frame; "
+            f"use --hand {geometry}")
+
+
 MANO_KEYS = ["v_template", "f", "weights", "J_regressor", "posedirs", "shapedirs", "hands_mean"]
 
 
@@ -326,7 +368,7 @@ def check_is_mano(data):
                 "SMPL+H 52, SMPL-X 55): not a MANO hand model")
 
 
-def convert(data, hand, tips, left_fix, name):
+def convert(data, hand, claim, tips, left_fix, name):
     check_is_mano(data)
     if "v_template" not in data:
         raise ConversionError("missing key 'v_template'")
@@ -349,6 +391,7 @@ def convert(data, hand, tips, left_fix, name):
     if abs(sums[worst] - 1.0) > SUM_TOLERANCE:
         raise ConversionError(f"weights[{worst}]: row sums to {sums[worst]:.6f}, expected 1")
     j_regressor = float_array(data, "J_regressor", (16, num_vertices))
+    check_handedness(v_template, j_regressor, hand, claim)
     posedirs = float_array(data, "posedirs", (num_vertices, 3, 135))
     shapedirs = float_array(data, "shapedirs", (num_vertices, 3, 10)).copy()
     hands_mean = float_array(data, "hands_mean", (45,))
@@ -466,8 +509,9 @@ def main(argv=None):
             return 2
     try:
         check_output(args.pickle, args.output, args.force)
-        entries = convert(read_mano(args.pickle), hand, tips, not args.no_left_shapedirs_fix,
-                          args.name or stem)
+        claim = f"--hand {hand}" if args.hand else f"the file name says {hand}"
+        entries = convert(read_mano(args.pickle), hand, claim, tips,
+                          not args.no_left_shapedirs_fix, args.name or stem)
         write_rig(entries, args.output)
     except ConversionError as error:
         print(f"convert_mano.py: {args.pickle}: {error}", file=sys.stderr)

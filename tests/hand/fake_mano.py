@@ -10,7 +10,8 @@ _shape, maxprint); the released extra keys (J, hands_components, hands_coeffs, b
 Neither chumpy nor scipy is needed: the classes are stand-ins registered under those module names.
 Also written: the right hand as a plain dictionary of numpy arrays pickled by Python 3 with protocol
 2 (plain_right.pkl), and files the converter must refuse (a missing key, an unsupported chumpy
-expression, a body model with 24 joints, a dictionary that is no model, a _codecs.encode call with
+expression, a body model with 24 joints, a dictionary that is no model, a right hand turned 90
+degrees about x (its back facing +z: no hand in MANO's frame), a _codecs.encode call with
 an encoding other than latin1, and J_regressor's sparse matrix damaged each way in SPARSE_DAMAGE).
 
 The reference is MANO's LBS written here in numpy (independent of the C++ code), for the converted
@@ -19,7 +20,8 @@ flat_hand_mean.
 
 Usage: fake_mano.py OUT_DIR   -> OUT_DIR/MANO_RIGHT.pkl, MANO_LEFT.pkl, plain_right.pkl,
                                  reference.json and the refused broken_right, unsupported_right,
-                                 body_right, other_right, codecs_right, sparse_*_right.pkl
+                                 body_right, other_right, turned_right, codecs_right,
+                                 sparse_*_right.pkl
 """
 
 import codecs
@@ -165,16 +167,31 @@ def shapedirs_value(model):
 
 
 # --- the fake model ------------------------------------------------------------------------------
+# A right hand's rest joints laid out in MANO's frame (docs/RIG_FORMAT.md: fingers along -x from the
+# wrist, thumb and index on the +z side, back of the hand +y), in metres; round numbers, not MANO's.
+RIGHT_JOINTS = np.array([
+    [0.090, 0.0, 0.0],                                                # wrist
+    [0.005, 0.0, 0.025], [-0.030, 0.0, 0.028], [-0.055, 0.0, 0.030],  # index
+    [0.000, 0.0, 0.005], [-0.040, 0.0, 0.005], [-0.065, 0.0, 0.005],  # middle
+    [0.015, 0.0, -0.035], [-0.010, 0.0, -0.040], [-0.030, 0.0, -0.045],  # pinky
+    [0.005, 0.0, -0.015], [-0.030, 0.0, -0.018], [-0.055, 0.0, -0.020],  # ring
+    [0.065, -0.010, 0.025], [0.045, -0.015, 0.045], [0.025, -0.020, 0.060],  # thumb
+])
+
+
 def make_model(rng, left):
-    v_template = rng.normal(scale=0.05, size=(V, 3))
+    """Vertex v sits near joint v % 16 (5 mm of noise) and the regressor averages each joint's own
+    vertices, so the rest joints form a hand (the converter checks its handedness); the left hand
+    is the right one mirrored through x = 0."""
+    owner = np.arange(V) % 16
+    v_template = RIGHT_JOINTS[owner] + rng.normal(scale=0.005, size=(V, 3))
     if left:
         v_template[:, 0] *= -1
     faces = np.array([[i, (i + 1) % V, (i + 7) % V] for i in range(F)], dtype=np.uint32)
     weights = rng.random((V, 16)) * (rng.random((V, 16)) > 0.5)
     weights[:, 0] += 1e-3
     weights /= weights.sum(axis=1, keepdims=True)
-    regressor = rng.random((16, V)) * (rng.random((16, V)) > 0.7)
-    regressor[:, 0] += 1e-3
+    regressor = rng.random((16, V)) * (owner[None, :] == np.arange(16)[:, None])
     regressor /= regressor.sum(axis=1, keepdims=True)
     kintree = np.array([[4294967295] + PARENTS[1:], list(range(16))], dtype=np.int64)
     return {
@@ -308,6 +325,10 @@ def main():
         edit(damaged)
         with open(os.path.join(out, f"sparse_{name}_right.pkl"), "wb") as stream:
             stream.write(py2_pickle(damaged))
+    turned = make_model(rng, False)
+    turned["v_template"] = turned["v_template"] @ np.array([[1, 0, 0], [0, 0, 1], [0, -1, 0]])
+    with open(os.path.join(out, "turned_right.pkl"), "wb") as stream:
+        stream.write(py2_pickle(turned))
     codecs_call = make_model(rng, False)
     codecs_call["bs_style"] = CodecsCall("lbs", "utf-16")
     with open(os.path.join(out, "codecs_right.pkl"), "wb") as stream:

@@ -302,7 +302,7 @@ TEST_CASE("convert_mano.py: a damaged sparse J_regressor is named before anythin
       {"negative", "J_regressor: csc matrix of negative shape [-16, 40]"},
       {"fractional", "J_regressor: csc matrix without a _shape of two integers"},
       {"index", "J_regressor: csc matrix row index 1000000000 out of range [0, 16)"},
-      {"pointers", "J_regressor: csc matrix indptr does not rise from 0 to its 201 values"},
+      {"pointers", "J_regressor: csc matrix indptr does not rise from 0 to its 40 values"},
       {"nested", "shapedirs.a: csc matrix of shape [100000, 1000]: more values than any MANO "
                  "array (at most 10000000)"},
   };
@@ -318,5 +318,51 @@ TEST_CASE("convert_mano.py: a damaged sparse J_regressor is named before anythin
     CHECK(r.output == "convert_mano.py: " + pickle + ": " + message + "\n");
   }
   CHECK_FALSE(std::filesystem::exists(dir + "/out.json"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("convert_mano.py: a hand label the geometry contradicts is refused") {
+  const std::string python = python_with_numpy();
+  REQUIRE_FALSE(python.empty());
+  const std::string dir = fake_mano_dir(python, "mano_hand");
+  const std::string script =
+      python + " '" + std::string(HANDSCS_SOURCE_DIR) + "/scripts/convert_mano.py' ";
+  const std::string tips = " --tips 3,11,19,27,35";
+  const std::string left_geometry =
+      "the geometry is a left hand: its fingers (wrist to middle knuckle) x knuckle line (pinky to "
+      "index) point to -y, a left hand's palm in MANO's frame; use --hand left\n";
+
+  // Once written as a right rig holding the left hand's geometry (rc 0).
+  Run r = run(script + "'" + dir + "/MANO_LEFT.pkl' '" + dir + "/out.json' --hand right" + tips,
+              dir);
+  CHECK(WEXITSTATUS(r.status) == 1);
+  CHECK(r.output == "convert_mano.py: " + dir + "/MANO_LEFT.pkl: --hand right, but " + left_geometry);
+
+  std::filesystem::copy_file(dir + "/MANO_LEFT.pkl", dir + "/copy_RIGHT.pkl");
+  r = run(script + "'" + dir + "/copy_RIGHT.pkl' '" + dir + "/out.json'" + tips, dir);
+  CHECK(WEXITSTATUS(r.status) == 1);
+  CHECK(r.output == "convert_mano.py: " + dir + "/copy_RIGHT.pkl: the file name says right, but " +
+                        left_geometry);
+
+  r = run(script + "'" + dir + "/MANO_RIGHT.pkl' '" + dir + "/out.json' --hand left" + tips, dir);
+  CHECK(WEXITSTATUS(r.status) == 1);
+  CHECK(r.output == "convert_mano.py: " + dir +
+                        "/MANO_RIGHT.pkl: --hand left, but the geometry is a right hand: its "
+                        "fingers (wrist to middle knuckle) x knuckle line (pinky to index) point "
+                        "to +y, a right hand's back in MANO's frame; use --hand right\n");
+
+  // A hand whose back faces +z is no hand in MANO's frame: neither label can be checked.
+  r = run(script + "'" + dir + "/turned_right.pkl' '" + dir + "/out.json'" + tips, dir);
+  CHECK(WEXITSTATUS(r.status) == 1);
+  CHECK(r.output == "convert_mano.py: " + dir +
+                        "/turned_right.pkl: the rest joints form no hand in MANO's frame (their "
+                        "fingers x knuckle line is at cosine 0.14 to y; a hand's is at least 0.5 "
+                        "either way): cannot tell which hand it is\n");
+  CHECK_FALSE(std::filesystem::exists(dir + "/out.json"));
+
+  r = run(script + "'" + dir + "/copy_RIGHT.pkl' '" + dir + "/out.json' --hand left" + tips, dir);
+  INFO(r.output);
+  CHECK(r.status == 0);
+  CHECK(load_rig(dir + "/out.json").handedness == Handedness::left);
   std::filesystem::remove_all(dir);
 }
