@@ -320,7 +320,8 @@ def geometric_handedness(v_template, j_regressor):
     the hand faces +y for both hands (the left is the right mirrored through x = 0). The fingers
     (wrist to middle knuckle) crossed with the knuckle line (pinky to index knuckle) point to the
     back of a right hand and to the palm of a left one, however the hand is turned about y; the
-    cosine is that cross product's y over the two lengths."""
+    cosine is that cross product's y over the two lengths. load_rig's test is the same
+    (libhandscs/hand/rig_handedness.h)."""
     joints = j_regressor @ v_template
     fingers = joints[MIDDLE_KNUCKLE] - joints[WRIST]
     knuckles = joints[INDEX_KNUCKLE] - joints[PINKY_KNUCKLE]
