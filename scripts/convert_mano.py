@@ -181,8 +181,8 @@ _ALLOWED = {
 
 
 def latin1_bytes(text, encoding=None):
-    """_codecs.encode as a protocol-2 pickle from Python 3 uses it: numpy's raw array bytes arrive as
-    _codecs.encode(str, 'latin1'). Only that call is answered (any other is refused)."""
+    """_codecs.encode as protocol-2 pickles from Python 3 use it: numpy's raw array bytes arrive
+    as _codecs.encode(str, 'latin1'). Only that call is answered (any other is refused)."""
     if not isinstance(text, str) or encoding != "latin1":
         raise ConversionError(f"the pickle calls _codecs.encode with a {type(text).__name__} and "
                               f"{encoding!r}: only latin1 text to bytes is supported")

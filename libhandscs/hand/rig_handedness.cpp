@@ -20,8 +20,8 @@ const char* hand_name(Handedness hand) { return hand == Handedness::left ? "left
 }  // namespace
 
 GeometricHandedness geometric_handedness(const Rig& rig) {
-  const torch::Tensor joints =
-      torch::mm(rig.j_regressor.to(torch::kFloat64), rig.v_template.to(torch::kFloat64));  // [16, 3]
+  const torch::Tensor joints =  // [16, 3] rest joints
+      torch::mm(rig.j_regressor.to(torch::kFloat64), rig.v_template.to(torch::kFloat64));
   const torch::Tensor fingers = joints[kMiddleKnuckle] - joints[kWrist];
   const torch::Tensor knuckles = joints[kIndexKnuckle] - joints[kPinkyKnuckle];
   const double lengths = (fingers.norm() * knuckles.norm()).item<double>();

@@ -1,5 +1,6 @@
 // Which hand a rig's geometry forms, from its rest joints J = j_regressor . v_template in MANO's
-// frame (back of the hand towards +y): cosine = ((J4 - J0) x (J1 - J7)) . y / (|J4 - J0| |J1 - J7|).
+// frame (back of the hand towards +y):
+//   cosine = ((J4 - J0) x (J1 - J7)) . y / (|J4 - J0| |J1 - J7|),  right >= 0.5, left <= -0.5.
 #pragma once
 
 #include <optional>

@@ -224,7 +224,8 @@ TEST_CASE("convert_mano.py: never overwrites its input or an existing file, and 
   CHECK(load_rig(dir + "/old.json").name == "MANO_RIGHT");
 
   // A full disk: a file size limit of 64 blocks (at most 64 KiB) stops the ~0.4 MB rig mid-write.
-  r = run("(ulimit -f 64; " + script + "'" + pickle + "' '" + dir + "/full.json'" + tips + ")", dir);
+  r = run("(ulimit -f 64; " + script + "'" + pickle + "' '" + dir + "/full.json'" + tips + ")",
+          dir);
   CHECK(WEXITSTATUS(r.status) == 1);
   CHECK(r.output == "convert_mano.py: " + dir + "/full.json: cannot write (File too large)\n");
   CHECK_FALSE(std::filesystem::exists(dir + "/full.json"));
@@ -260,7 +261,8 @@ TEST_CASE("convert_mano.py: a plain numpy MANO pickled by Python 3 with protocol
   const std::string tips = " --tips 3,11,19,27,35";
 
   // Its array bytes are _codecs.encode(text, 'latin1') calls (the converter once stubbed them:
-  // "not a MANO pickle (TypeError: Cannot interpret '<__main__._Inert object ...>' as a data type)").
+  // "not a MANO pickle (TypeError: Cannot interpret '<__main__._Inert object ...>' as a data
+  // type)").
   Run r = run(script + "'" + dir + "/plain_right.pkl' '" + dir + "/plain.json'" + tips, dir);
   INFO(r.output);
   REQUIRE(r.status == 0);
@@ -336,7 +338,8 @@ TEST_CASE("convert_mano.py: a hand label the geometry contradicts is refused") {
   Run r = run(script + "'" + dir + "/MANO_LEFT.pkl' '" + dir + "/out.json' --hand right" + tips,
               dir);
   CHECK(WEXITSTATUS(r.status) == 1);
-  CHECK(r.output == "convert_mano.py: " + dir + "/MANO_LEFT.pkl: --hand right, but " + left_geometry);
+  CHECK(r.output ==
+        "convert_mano.py: " + dir + "/MANO_LEFT.pkl: --hand right, but " + left_geometry);
 
   std::filesystem::copy_file(dir + "/MANO_LEFT.pkl", dir + "/copy_RIGHT.pkl");
   r = run(script + "'" + dir + "/copy_RIGHT.pkl' '" + dir + "/out.json'" + tips, dir);

@@ -1,6 +1,6 @@
-// Handedness from a rig's geometry (hand/rig_handedness.h): the built-in hand of each side forms the
-// hand it is labelled, a mirror forms the other, a hand turned out of MANO's frame forms none, and
-// load_rig warns about a file whose label its geometry contradicts (naming file, label and hand).
+// Handedness from a rig's geometry (hand/rig_handedness.h): the built-in hand of each side forms
+// the hand it is labelled, a mirror forms the other, a hand turned out of MANO's frame forms none,
+// and load_rig warns about a file whose label its geometry contradicts (naming file, label, hand).
 #include <ATen/ATen.h>
 
 #include <spdlog/sinks/ringbuffer_sink.h>
@@ -52,7 +52,8 @@ std::string handedness_dir() {
 
 }  // namespace
 
-TEST_CASE("rig handedness: the built-in hands form the hands they are labelled, mirrors the other") {
+TEST_CASE("rig handedness: the built-in hands form the hands they are labelled, mirrors the "
+          "other") {
   const Rig right = make_procedural_hand(Handedness::right);
   const Rig left = make_procedural_hand(Handedness::left);
   const GeometricHandedness right_geometry = geometric_handedness(right);
