@@ -438,10 +438,12 @@ def convert(data, hand, claim, tips, left_fix, name):
 
 
 def check_output(pickle_path, path, force):
-    """Refuses an output that would destroy the input or another file, before anything is read."""
+    """Refuses an output that would destroy the input or another file, before anything is
+    converted."""
     if not os.path.lexists(path):
         return
-    # samefile follows symlinks and sees hard links (same device and inode).
+    # samefile follows symlinks and sees hard links (same device and inode); the pickle exists, as
+    # it has been read.
     if os.path.exists(path) and os.path.samefile(pickle_path, path):
         raise OutputError(f"is the input pickle {pickle_path}; name another output file")
     if os.path.isdir(path):
@@ -509,10 +511,11 @@ def main(argv=None):
             print("convert_mano.py: --tips needs 5 comma-separated vertex ids", file=sys.stderr)
             return 2
     try:
+        data = read_mano(args.pickle)
         check_output(args.pickle, args.output, args.force)
         claim = f"--hand {hand}" if args.hand else f"the file name says {hand}"
-        entries = convert(read_mano(args.pickle), hand, claim, tips,
-                          not args.no_left_shapedirs_fix, args.name or stem)
+        entries = convert(data, hand, claim, tips, not args.no_left_shapedirs_fix,
+                          args.name or stem)
         write_rig(entries, args.output)
     except ConversionError as error:
         print(f"convert_mano.py: {args.pickle}: {error}", file=sys.stderr)

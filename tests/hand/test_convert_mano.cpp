@@ -219,6 +219,11 @@ TEST_CASE("convert_mano.py: never overwrites its input or an existing file, and 
   CHECK(WEXITSTATUS(r.status) == 1);
   CHECK(r.output == "convert_mano.py: " + dir + "/old.json: exists; pass --force to replace it\n");
   CHECK(read_file(dir + "/old.json") == "mine");
+  // A missing pickle is named as such, not as an output that exists.
+  r = run(script + "'" + dir + "/missing_right.pkl' '" + dir + "/old.json'" + tips, dir);
+  CHECK(WEXITSTATUS(r.status) == 1);
+  CHECK(r.output == "convert_mano.py: " + dir +
+                        "/missing_right.pkl: cannot read: No such file or directory\n");
   r = run(script + "'" + pickle + "' '" + dir + "/old.json' --force" + tips, dir);
   CHECK(r.status == 0);
   CHECK(load_rig(dir + "/old.json").name == "MANO_RIGHT");
