@@ -17,10 +17,13 @@ MANO_LEFT.pkl is fixed (shapedirs[:, 0, :] *= -1; pass --no-left-shapedirs-fix f
 Usage:
   convert_mano.py MANO_RIGHT.pkl mano_right.json
   convert_mano.py MANO_LEFT.pkl mano_left.json [--hand left] [--tips 745,317,445,556,673]
+
+An existing output file is replaced only with --force; the input pickle never is.
 """
 
 import argparse
 import json
+import operator
 import os
 import pickle
 import sys
@@ -40,7 +43,11 @@ SUM_TOLERANCE = 1e-4
 
 
 class ConversionError(Exception):
-    pass
+    """Bad input: reported with the pickle's path."""
+
+
+class OutputError(Exception):
+    """An output that must not be written: reported with the output's path."""
 
 
 class _Inert:
@@ -72,31 +79,66 @@ def chumpy_stand_in(module, name):
     return _CHUMPY_CLASSES[full_name]
 
 
+# MANO's largest array, posedirs, holds 778 x 3 x 135 = 315,090 values; a sparse matrix standing for
+# more than 10 million (80 MB dense) is no MANO array, and is refused before anything is allocated.
+MAX_SPARSE_VALUES = 10_000_000
+
+
 class SparseMatrix(_Inert):
-    def toarray(self, key):
+    def toarray(self, key, expected_shape=None):
+        """The dense matrix, after checking its shape (against expected_shape when the key has
+        one) before allocating it, and every pointer and index against that shape."""
         state = self.state()
+        layout = self.layout
         if not isinstance(state, dict):
             raise ConversionError(f"{key}: scipy sparse matrix without a state dictionary")
         shape = state.get("_shape", state.get("shape"))
         try:
-            data = np.asarray(state["data"], dtype=np.float64)
-            indices = np.asarray(state["indices"], dtype=np.int64)
-            indptr = np.asarray(state["indptr"], dtype=np.int64)
-            rows, cols = int(shape[0]), int(shape[1])
-        except (KeyError, TypeError, IndexError) as error:
-            raise ConversionError(f"{key}: scipy sparse matrix missing {error}") from None
-        layout = self.layout
-        dense = np.zeros((rows, cols), dtype=np.float64)
-        outer = cols if layout == "csc" else rows
+            rows, cols = (operator.index(n) for n in shape)
+        except (TypeError, ValueError):
+            raise ConversionError(f"{key}: {layout} matrix without a _shape of two integers") \
+                from None
+        if rows < 0 or cols < 0:
+            raise ConversionError(f"{key}: {layout} matrix of negative shape [{rows}, {cols}]")
+        if expected_shape is not None and (rows, cols) != tuple(expected_shape):
+            raise ConversionError(
+                f"{key}: expected shape {list(expected_shape)}, got [{rows}, {cols}]")
+        if rows * cols > MAX_SPARSE_VALUES:
+            raise ConversionError(f"{key}: {layout} matrix of shape [{rows}, {cols}]: more values "
+                                  f"than any MANO array (at most {MAX_SPARSE_VALUES})")
+        arrays = {}
+        for name, kinds in (("data", "fiu"), ("indices", "iu"), ("indptr", "iu")):
+            if name not in state:
+                raise ConversionError(f"{key}: {layout} matrix without its '{name}'")
+            array = np.asarray(state[name])
+            if array.ndim != 1 or array.dtype.kind not in kinds:
+                raise ConversionError(f"{key}: {layout} matrix '{name}' is not a flat array of "
+                                      f"{'numbers' if name == 'data' else 'integers'}")
+            arrays[name] = array
+        data = arrays["data"].astype(np.float64)
+        indices = arrays["indices"].astype(np.int64)
+        indptr = arrays["indptr"].astype(np.int64)
+        outer, inner = (cols, rows) if layout == "csc" else (rows, cols)
         if len(indptr) != outer + 1:
             raise ConversionError(
                 f"{key}: {layout} matrix with {len(indptr)} pointers for {outer} slices")
-        for j in range(outer):
-            for p in range(indptr[j], indptr[j + 1]):
-                if layout == "csc":
-                    dense[indices[p], j] += data[p]
-                else:
-                    dense[j, indices[p]] += data[p]
+        if len(indices) != len(data):
+            raise ConversionError(
+                f"{key}: {layout} matrix with {len(data)} values but {len(indices)} indices")
+        if indptr[0] != 0 or indptr[-1] != len(data) or np.any(np.diff(indptr) < 0):
+            raise ConversionError(f"{key}: {layout} matrix indptr does not rise from 0 to its "
+                                  f"{len(data)} values")
+        bad = np.flatnonzero((indices < 0) | (indices >= inner))
+        if bad.size:
+            axis = "row" if layout == "csc" else "column"
+            raise ConversionError(f"{key}: {layout} matrix {axis} index {indices[bad[0]]} out of "
+                                  f"range [0, {inner})")
+        slices = np.repeat(np.arange(outer), np.diff(indptr))
+        dense = np.zeros((rows, cols), dtype=np.float64)
+        if layout == "csc":
+            np.add.at(dense, (indices, slices), data)
+        else:
+            np.add.at(dense, (slices, indices), data)
         return dense
 
 
@@ -138,8 +180,19 @@ _ALLOWED = {
 }
 
 
+def latin1_bytes(text, encoding=None):
+    """_codecs.encode as protocol-2 pickles from Python 3 use it: numpy's raw array bytes arrive
+    as _codecs.encode(str, 'latin1'). Only that call is answered (any other is refused)."""
+    if not isinstance(text, str) or encoding != "latin1":
+        raise ConversionError(f"the pickle calls _codecs.encode with a {type(text).__name__} and "
+                              f"{encoding!r}: only latin1 text to bytes is supported")
+    return text.encode("latin1")
+
+
 class ManoUnpickler(pickle.Unpickler):
     def find_class(self, module, name):
+        if (module, name) == ("_codecs", "encode"):
+            return latin1_bytes
         if module.startswith("chumpy"):
             return chumpy_stand_in(module, name)
         if module.startswith("scipy.sparse"):
@@ -210,14 +263,15 @@ def chumpy_value(value, key, depth):
                           "the file's origin")
 
 
-def to_array(value, key, depth=0):
-    """The numeric array behind a pickled value (ndarray, chumpy expression or sparse matrix)."""
+def to_array(value, key, depth=0, expected_shape=None):
+    """The numeric array behind a pickled value (ndarray, chumpy expression or sparse matrix); a
+    sparse matrix is checked against expected_shape before it is made dense."""
     if depth > MAX_CHUMPY_DEPTH:
         raise ConversionError(f"{key}: chumpy expressions nested deeper than {MAX_CHUMPY_DEPTH}")
     if isinstance(value, np.ndarray):
         return value
     if isinstance(value, SparseMatrix):
-        return value.toarray(key)
+        return value.toarray(key, expected_shape)
     if isinstance(value, ChumpyObject):
         return chumpy_value(value, key, depth)
     if isinstance(value, (list, tuple, float, int)):
@@ -245,12 +299,55 @@ def read_mano(path):
 def float_array(data, key, shape):
     if key not in data:
         raise ConversionError(f"missing key '{key}'")
-    array = np.asarray(to_array(data[key], key), dtype=np.float64)
+    array = np.asarray(to_array(data[key], key, expected_shape=shape), dtype=np.float64)
     if tuple(array.shape) != tuple(shape):
         raise ConversionError(f"{key}: expected shape {list(shape)}, got {list(array.shape)}")
     if not np.all(np.isfinite(array)):
         raise ConversionError(f"{key}: non-finite value")
     return array
+
+
+# Rest joints the handedness test reads (MANO order).
+WRIST, INDEX_KNUCKLE, MIDDLE_KNUCKLE, PINKY_KNUCKLE = 0, 1, 4, 7
+# A hand in MANO's frame gives a cosine near 1 (0.98 for the built-in hand); below 0.5 its back is
+# turned more than 60 degrees away from +y (or its knuckle line runs along its fingers), and the
+# joints name no hand.
+MIN_HANDEDNESS_COSINE = 0.5
+
+
+def geometric_handedness(v_template, j_regressor):
+    """("right" / "left" / None, cosine): the hand the rest joints form. In MANO's frame the back of
+    the hand faces +y for both hands (the left is the right mirrored through x = 0). The fingers
+    (wrist to middle knuckle) crossed with the knuckle line (pinky to index knuckle) point to the
+    back of a right hand and to the palm of a left one, however the hand is turned about y; the
+    cosine is that cross product's y over the two lengths. load_rig's test is the same
+    (libhandscs/hand/rig_handedness.h)."""
+    joints = j_regressor @ v_template
+    fingers = joints[MIDDLE_KNUCKLE] - joints[WRIST]
+    knuckles = joints[INDEX_KNUCKLE] - joints[PINKY_KNUCKLE]
+    lengths = np.linalg.norm(fingers) * np.linalg.norm(knuckles)
+    cosine = float(np.cross(fingers, knuckles)[1] / lengths) if lengths > 0 else 0.0
+    if cosine >= MIN_HANDEDNESS_COSINE:
+        return "right", cosine
+    if cosine <= -MIN_HANDEDNESS_COSINE:
+        return "left", cosine
+    return None, cosine
+
+
+def check_handedness(v_template, j_regressor, hand, claim):
+    """Refuses a hand label (claim: where it came from) that the geometry contradicts."""
+    geometry, cosine = geometric_handedness(v_template, j_regressor)
+    if geometry is None:
+        raise ConversionError(
+            f"the rest joints form no hand in MANO's frame (their fingers x knuckle line is at "
+            f"cosine {cosine:.2f} to y; a hand's is at least {MIN_HANDEDNESS_COSINE} either way): "
+            "cannot tell which hand it is")
+    if geometry != hand:
+        side = "+y, a right hand's back" if geometry == "right" else "-y, a left hand's palm"
+        raise ConversionError(
+            f"{claim}, but the geometry is a {geometry} hand: its fingers (wrist to middle "
+            f"knuckle) x knuckle line (pinky to index) point to {side} in MANO's frame; "
+            f"use --hand {geometry}")
 
 
 MANO_KEYS = ["v_template", "f", "weights", "J_regressor", "posedirs", "shapedirs", "hands_mean"]
@@ -272,7 +369,7 @@ def check_is_mano(data):
                 "SMPL+H 52, SMPL-X 55): not a MANO hand model")
 
 
-def convert(data, hand, tips, left_fix, name):
+def convert(data, hand, claim, tips, left_fix, name):
     check_is_mano(data)
     if "v_template" not in data:
         raise ConversionError("missing key 'v_template'")
@@ -295,6 +392,7 @@ def convert(data, hand, tips, left_fix, name):
     if abs(sums[worst] - 1.0) > SUM_TOLERANCE:
         raise ConversionError(f"weights[{worst}]: row sums to {sums[worst]:.6f}, expected 1")
     j_regressor = float_array(data, "J_regressor", (16, num_vertices))
+    check_handedness(v_template, j_regressor, hand, claim)
     posedirs = float_array(data, "posedirs", (num_vertices, 3, 135))
     shapedirs = float_array(data, "shapedirs", (num_vertices, 3, 10)).copy()
     hands_mean = float_array(data, "hands_mean", (45,))
@@ -339,17 +437,41 @@ def convert(data, hand, tips, left_fix, name):
     ]
 
 
+def check_output(pickle_path, path, force):
+    """Refuses an output that would destroy the input or another file, before anything is
+    converted."""
+    if not os.path.lexists(path):
+        return
+    # samefile follows symlinks and sees hard links (same device and inode); the pickle exists, as
+    # it has been read.
+    if os.path.exists(path) and os.path.samefile(pickle_path, path):
+        raise OutputError(f"is the input pickle {pickle_path}; name another output file")
+    if os.path.isdir(path):
+        raise OutputError("is a folder; name a rig file to write")
+    if not force:
+        raise OutputError("exists; pass --force to replace it")
+
+
 def write_rig(entries, path):
-    """One key per line; floats as Python's shortest round-trip repr (exact float64)."""
+    """One key per line; floats as Python's shortest round-trip repr (exact float64). Written to
+    path.tmp.PID and renamed over path, so path is the old file or the whole new one; the temporary
+    is removed on every failure (a full disk, an interrupt)."""
     lines = [f"  {json.dumps(key)}: {json.dumps(value, separators=(',', ':'), allow_nan=False)}"
              for key, value in entries]
     text = "{\n" + ",\n".join(lines) + "\n}\n"
     temp = f"{path}.tmp.{os.getpid()}"
-    with open(temp, "w", encoding="utf-8") as stream:
-        stream.write(text)
-        stream.flush()
-        os.fsync(stream.fileno())
-    os.replace(temp, path)
+    created = False
+    try:
+        with open(temp, "w", encoding="utf-8") as stream:
+            created = True
+            stream.write(text)
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.replace(temp, path)
+        created = False
+    finally:
+        if created:
+            os.remove(temp)
 
 
 def main(argv=None):
@@ -364,6 +486,8 @@ def main(argv=None):
                         help="do not negate shapedirs[:, 0, :] of a left hand (file already fixed)")
     parser.add_argument("--name",
                         help="rig name (default: the pickle's file name without extension)")
+    parser.add_argument("--force", action="store_true",
+                        help="replace an existing output file (never the input pickle)")
     args = parser.parse_args(argv)
 
     stem = os.path.splitext(os.path.basename(args.pickle))[0]
@@ -387,11 +511,17 @@ def main(argv=None):
             print("convert_mano.py: --tips needs 5 comma-separated vertex ids", file=sys.stderr)
             return 2
     try:
-        entries = convert(read_mano(args.pickle), hand, tips, not args.no_left_shapedirs_fix,
+        data = read_mano(args.pickle)
+        check_output(args.pickle, args.output, args.force)
+        claim = f"--hand {hand}" if args.hand else f"the file name says {hand}"
+        entries = convert(data, hand, claim, tips, not args.no_left_shapedirs_fix,
                           args.name or stem)
         write_rig(entries, args.output)
     except ConversionError as error:
         print(f"convert_mano.py: {args.pickle}: {error}", file=sys.stderr)
+        return 1
+    except OutputError as error:
+        print(f"convert_mano.py: {args.output}: {error}", file=sys.stderr)
         return 1
     except OSError as error:
         print(f"convert_mano.py: {args.output}: cannot write ({error.strerror})", file=sys.stderr)

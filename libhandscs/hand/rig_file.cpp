@@ -7,6 +7,7 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <spdlog/spdlog.h>
 #include <sstream>
 
 #include "core/atomic_file.h"
@@ -16,6 +17,7 @@
 #include "hand/joint_order.h"
 #include "hand/procedural_hand.h"
 #include "hand/rig.h"
+#include "hand/rig_handedness.h"
 #include "hand/rig_validate.h"
 
 namespace handscs {
@@ -296,6 +298,10 @@ Rig load_rig(const std::string& path) {
     rig.vertex_labels = torch::tensor(reader.integers("vertex_labels", label_shape), torch::kInt64);
   }
   validate_rig(rig, path);
+  // A warning, not an error: a rig's geometry is the user's (its regressor's row sums are not
+  // checked either), and rigs converted before the converter checked the label still load.
+  if (const std::string warning = handedness_disagreement(rig, path); !warning.empty())
+    spdlog::warn("{}", warning);
   return rig;
 }
 

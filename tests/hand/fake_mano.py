@@ -8,17 +8,23 @@ holds 'a' (a chumpy.ch.Ch with 20 shape components in 'x'), 'idxs' (flat indices
 'preferred_shape' (V, 3, 10); J_regressor a scipy.sparse.csc.csc_matrix (state data, indices, indptr,
 _shape, maxprint); the released extra keys (J, hands_components, hands_coeffs, bs_style, bs_type).
 Neither chumpy nor scipy is needed: the classes are stand-ins registered under those module names.
-Also written: files the converter must refuse (a missing key, an unsupported chumpy expression, a
-body model with 24 joints, a dictionary that is no model).
+Also written: the right hand as a plain dictionary of numpy arrays pickled by Python 3 with protocol
+2 (plain_right.pkl), and files the converter must refuse (a missing key, an unsupported chumpy
+expression, a body model with 24 joints, a dictionary that is no model, a right hand turned 90
+degrees about x (its back facing +z: no hand in MANO's frame), a _codecs.encode call with
+an encoding other than latin1, and J_regressor's sparse matrix damaged each way in SPARSE_DAMAGE).
 
 The reference is MANO's LBS written here in numpy (independent of the C++ code), for the converted
 rig (left hand: with the shapedirs fix), for a few poses/shapes/translations, with and without
 flat_hand_mean.
 
-Usage: fake_mano.py OUT_DIR   -> OUT_DIR/MANO_RIGHT.pkl, MANO_LEFT.pkl, reference.json and the
-                                 refused broken_right, unsupported_right, body_right, other_right.pkl
+Usage: fake_mano.py OUT_DIR   -> OUT_DIR/MANO_RIGHT.pkl, MANO_LEFT.pkl, plain_right.pkl,
+                                 reference.json and the refused broken_right, unsupported_right,
+                                 body_right, other_right, turned_right, codecs_right,
+                                 sparse_*_right.pkl
 """
 
+import codecs
 import io
 import json
 import os
@@ -122,6 +128,33 @@ def py2_pickle(obj):
     return stream.getvalue()
 
 
+class CodecsCall(object):
+    """Pickles as _codecs.encode(text, encoding): the call protocol 2 makes for bytes, here with an
+    encoding the converter must refuse."""
+
+    def __init__(self, text, encoding):
+        self.text = text
+        self.encoding = encoding
+
+    def __reduce__(self):
+        return codecs.encode, (self.text, self.encoding)
+
+
+def plain_model(model):
+    """The model as a plain dictionary of numpy arrays (J_regressor dense, shapedirs evaluated), to
+    be pickled by Python 3's own pickle with protocol 2: its raw array bytes become
+    _codecs.encode(text, 'latin1') calls."""
+    plain = dict(model)
+    sparse = model["J_regressor"]
+    regressor = np.zeros(sparse._shape)
+    for j in range(sparse._shape[1]):
+        for p in range(sparse.indptr[j], sparse.indptr[j + 1]):
+            regressor[sparse.indices[p], j] = sparse.data[p]
+    plain["J_regressor"] = regressor
+    plain["shapedirs"] = shapedirs_value(model)
+    return plain
+
+
 def released_shapedirs(components):
     """shapedirs as MANO_RIGHT.pkl stores it: the first 10 of 20 shape components, selected."""
     idxs = np.arange(components.size).reshape(components.shape)[:, :, :10].ravel()
@@ -134,16 +167,31 @@ def shapedirs_value(model):
 
 
 # --- the fake model ------------------------------------------------------------------------------
+# A right hand's rest joints laid out in MANO's frame (docs/RIG_FORMAT.md: fingers along -x from the
+# wrist, thumb and index on the +z side, back of the hand +y), in metres; round numbers, not MANO's.
+RIGHT_JOINTS = np.array([
+    [0.090, 0.0, 0.0],                                                # wrist
+    [0.005, 0.0, 0.025], [-0.030, 0.0, 0.028], [-0.055, 0.0, 0.030],  # index
+    [0.000, 0.0, 0.005], [-0.040, 0.0, 0.005], [-0.065, 0.0, 0.005],  # middle
+    [0.015, 0.0, -0.035], [-0.010, 0.0, -0.040], [-0.030, 0.0, -0.045],  # pinky
+    [0.005, 0.0, -0.015], [-0.030, 0.0, -0.018], [-0.055, 0.0, -0.020],  # ring
+    [0.065, -0.010, 0.025], [0.045, -0.015, 0.045], [0.025, -0.020, 0.060],  # thumb
+])
+
+
 def make_model(rng, left):
-    v_template = rng.normal(scale=0.05, size=(V, 3))
+    """Vertex v sits near joint v % 16 (5 mm of noise) and the regressor averages each joint's own
+    vertices, so the rest joints form a hand (the converter checks its handedness); the left hand
+    is the right one mirrored through x = 0."""
+    owner = np.arange(V) % 16
+    v_template = RIGHT_JOINTS[owner] + rng.normal(scale=0.005, size=(V, 3))
     if left:
         v_template[:, 0] *= -1
     faces = np.array([[i, (i + 1) % V, (i + 7) % V] for i in range(F)], dtype=np.uint32)
     weights = rng.random((V, 16)) * (rng.random((V, 16)) > 0.5)
     weights[:, 0] += 1e-3
     weights /= weights.sum(axis=1, keepdims=True)
-    regressor = rng.random((16, V)) * (rng.random((16, V)) > 0.7)
-    regressor[:, 0] += 1e-3
+    regressor = rng.random((16, V)) * (owner[None, :] == np.arange(16)[:, None])
     regressor /= regressor.sum(axis=1, keepdims=True)
     kintree = np.array([[4294967295] + PARENTS[1:], list(range(16))], dtype=np.int64)
     return {
@@ -161,6 +209,33 @@ def make_model(rng, left):
         "bs_style": "lbs",
         "bs_type": "lrotmin",
     }
+
+
+def _set_regressor(**state):
+    def edit(model):
+        for name, value in state.items():
+            setattr(model["J_regressor"], name, value)
+    return edit
+
+
+def _huge_shapedirs_source(model):
+    """shapedirs a Select of a sparse matrix of 10^8 values (no expected shape reaches it)."""
+    sparse = csc_matrix(np.zeros((1, 1)))
+    sparse._shape = (100000, 1000)
+    sparse.indptr = np.zeros(1001, dtype=np.int32)
+    model["shapedirs"].a = sparse
+
+
+# J_regressor damaged each way the converter must name before it allocates anything.
+SPARSE_DAMAGE = {
+    "huge": _set_regressor(_shape=(1000000, 1000000)),
+    "big": _set_regressor(_shape=(40000, 40000)),
+    "negative": _set_regressor(_shape=(-16, V)),
+    "fractional": _set_regressor(_shape=(16.5, V)),
+    "index": lambda model: model["J_regressor"].indices.__setitem__(0, 10**9),
+    "pointers": lambda model: model["J_regressor"].indptr.__setitem__(1, 10**6),
+    "nested": _huge_shapedirs_source,
+}
 
 
 # --- reference LBS (MANO, numpy) ---------------------------------------------------------------
@@ -218,6 +293,9 @@ def main():
         model = make_model(rng, hand == "left")
         with open(os.path.join(out, f"MANO_{hand.upper()}.pkl"), "wb") as stream:
             stream.write(py2_pickle(model))
+        if hand == "right":
+            with open(os.path.join(out, "plain_right.pkl"), "wb") as stream:
+                pickle.dump(plain_model(model), stream, protocol=2)
         shapedirs = shapedirs_value(model)
         if hand == "left":
             shapedirs[:, 0, :] *= -1  # the converter's left-hand fix
@@ -242,6 +320,19 @@ def main():
         stream.write(py2_pickle(body))
     with open(os.path.join(out, "other_right.pkl"), "wb") as stream:
         stream.write(py2_pickle({"weights_of_a_network": np.zeros(3), "epoch": 7}))
+    for name, edit in SPARSE_DAMAGE.items():
+        damaged = make_model(rng, False)
+        edit(damaged)
+        with open(os.path.join(out, f"sparse_{name}_right.pkl"), "wb") as stream:
+            stream.write(py2_pickle(damaged))
+    turned = make_model(rng, False)
+    turned["v_template"] = turned["v_template"] @ np.array([[1, 0, 0], [0, 0, 1], [0, -1, 0]])
+    with open(os.path.join(out, "turned_right.pkl"), "wb") as stream:
+        stream.write(py2_pickle(turned))
+    codecs_call = make_model(rng, False)
+    codecs_call["bs_style"] = CodecsCall("lbs", "utf-16")
+    with open(os.path.join(out, "codecs_right.pkl"), "wb") as stream:
+        pickle.dump(codecs_call, stream, protocol=2)
     with open(os.path.join(out, "reference.json"), "w") as stream:
         json.dump(reference, stream)
 

@@ -7,7 +7,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
+#include <sys/wait.h>
+#include <vector>
 
 #include "core/atomic_file.h"
 #include "hand/lbs.h"
@@ -40,6 +43,31 @@ Run run(const std::string& command, const std::string& dir) {
   return {status, read_file(log)};
 }
 
+// A fresh folder <temp>/handscs_<tag>_<pid> holding tests/hand/fake_mano.py's pickles.
+std::string fake_mano_dir(const std::string& python, const std::string& tag) {
+  const std::string dir = (std::filesystem::temp_directory_path() /
+                           ("handscs_" + tag + "_" + std::to_string(::getpid())))
+                              .string();
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const Run fake = run(python + " '" + HANDSCS_SOURCE_DIR + "/tests/hand/fake_mano.py' '" + dir +
+                           "'",
+                       dir);
+  INFO(fake.output);
+  REQUIRE(fake.status == 0);
+  return dir;
+}
+
+// Names in `dir` that hold ".tmp." (a writer's temporary left behind).
+std::vector<std::string> temporaries(const std::string& dir) {
+  std::vector<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    const std::string name = entry.path().filename().string();
+    if (name.find(".tmp.") != std::string::npos) names.push_back(name);
+  }
+  return names;
+}
+
 torch::Tensor tensor_of(const json& value) {
   std::vector<double> flat;
   std::vector<int64_t> shape;
@@ -64,16 +92,8 @@ TEST_CASE(
     "convert_mano.py: fake MANO pickles convert to rigs whose LBS matches a numpy reference") {
   const std::string python = python_with_numpy();
   REQUIRE_FALSE(python.empty());  // install python3-numpy (scripts/install-deps.sh)
-  const std::string dir =
-      (std::filesystem::temp_directory_path() / ("handscs_mano_test_" + std::to_string(::getpid())))
-          .string();
-  std::filesystem::create_directories(dir);
-  const std::string source = HANDSCS_SOURCE_DIR;
-  const std::string script = source + "/scripts/convert_mano.py";
-
-  const Run fake = run(python + " '" + source + "/tests/hand/fake_mano.py' '" + dir + "'", dir);
-  INFO(fake.output);
-  REQUIRE(fake.status == 0);
+  const std::string dir = fake_mano_dir(python, "mano_test");
+  const std::string script = std::string(HANDSCS_SOURCE_DIR) + "/scripts/convert_mano.py";
   for (const std::string hand : {"RIGHT", "LEFT"}) {
     const Run convert = run(python + " '" + script + "' '" + dir + "/MANO_" + hand + ".pkl' '" +
                                 dir + "/" + hand + ".json' --tips 3,11,19,27,35",
@@ -113,13 +133,9 @@ TEST_CASE(
 TEST_CASE("convert_mano.py: bad input is reported with the file and the key, and writes nothing") {
   const std::string python = python_with_numpy();
   REQUIRE_FALSE(python.empty());
-  const std::string dir =
-      (std::filesystem::temp_directory_path() / ("handscs_mano_bad_" + std::to_string(::getpid())))
-          .string();
-  std::filesystem::create_directories(dir);
-  const std::string source = HANDSCS_SOURCE_DIR;
-  const std::string script = python + " '" + source + "/scripts/convert_mano.py' ";
-  REQUIRE(run(python + " '" + source + "/tests/hand/fake_mano.py' '" + dir + "'", dir).status == 0);
+  const std::string dir = fake_mano_dir(python, "mano_bad");
+  const std::string script =
+      python + " '" + std::string(HANDSCS_SOURCE_DIR) + "/scripts/convert_mano.py' ";
 
   Run r = run(script + "'" + dir + "/broken_right.pkl' '" + dir + "/out.json' --tips 3,11,19,27,35",
               dir);
@@ -167,5 +183,194 @@ TEST_CASE("convert_mano.py: bad input is reported with the file and the key, and
   CHECK(r.status != 0);
   CHECK(r.output.find("cannot tell the hand from the file name") != std::string::npos);
   CHECK_FALSE(std::filesystem::exists(dir + "/out.json"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("convert_mano.py: never overwrites its input or an existing file, and a failed write "
+          "leaves no temporary") {
+  const std::string python = python_with_numpy();
+  REQUIRE_FALSE(python.empty());
+  const std::string dir = fake_mano_dir(python, "mano_output");
+  const std::string script =
+      python + " '" + std::string(HANDSCS_SOURCE_DIR) + "/scripts/convert_mano.py' ";
+  const std::string pickle = dir + "/MANO_RIGHT.pkl";
+  const std::string tips = " --tips 3,11,19,27,35";
+  const std::string pickle_bytes = read_file(pickle);
+
+  // The pickle named as the output: by its own name, through a symlink and through a hard link;
+  // --force does not change that.
+  std::filesystem::create_symlink(pickle, dir + "/link.json");
+  std::filesystem::create_hard_link(pickle, dir + "/hard.json");
+  for (const std::string& output : {pickle, dir + "/link.json", dir + "/hard.json"}) {
+    const Run r = run(script + "'" + pickle + "' '" + output + "' --force" + tips, dir);
+    CHECK(WEXITSTATUS(r.status) == 1);
+    CHECK(r.output == "convert_mano.py: " + output + ": is the input pickle " + pickle +
+                          "; name another output file\n");
+  }
+  CHECK(read_file(pickle) == pickle_bytes);
+
+  std::filesystem::create_directories(dir + "/folder");
+  Run r = run(script + "'" + pickle + "' '" + dir + "/folder' --force" + tips, dir);
+  CHECK(WEXITSTATUS(r.status) == 1);
+  CHECK(r.output == "convert_mano.py: " + dir + "/folder: is a folder; name a rig file to write\n");
+
+  std::ofstream(dir + "/old.json") << "mine";
+  r = run(script + "'" + pickle + "' '" + dir + "/old.json'" + tips, dir);
+  CHECK(WEXITSTATUS(r.status) == 1);
+  CHECK(r.output == "convert_mano.py: " + dir + "/old.json: exists; pass --force to replace it\n");
+  CHECK(read_file(dir + "/old.json") == "mine");
+  // A missing pickle is named as such, not as an output that exists.
+  r = run(script + "'" + dir + "/missing_right.pkl' '" + dir + "/old.json'" + tips, dir);
+  CHECK(WEXITSTATUS(r.status) == 1);
+  CHECK(r.output == "convert_mano.py: " + dir +
+                        "/missing_right.pkl: cannot read: No such file or directory\n");
+  r = run(script + "'" + pickle + "' '" + dir + "/old.json' --force" + tips, dir);
+  CHECK(r.status == 0);
+  CHECK(load_rig(dir + "/old.json").name == "MANO_RIGHT");
+
+  // A full disk: a file size limit of 64 blocks (at most 64 KiB) stops the ~0.4 MB rig mid-write.
+  r = run("(ulimit -f 64; " + script + "'" + pickle + "' '" + dir + "/full.json'" + tips + ")",
+          dir);
+  CHECK(WEXITSTATUS(r.status) == 1);
+  CHECK(r.output == "convert_mano.py: " + dir + "/full.json: cannot write (File too large)\n");
+  CHECK_FALSE(std::filesystem::exists(dir + "/full.json"));
+
+  // The rename failing (the script run with os.replace raising ENOSPC).
+  std::ofstream(dir + "/failing_replace.py")
+      << "import errno, os, runpy, sys\n"
+         "def no_space(*args):\n"
+         "    raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))\n"
+         "os.replace = no_space\n"
+         "sys.argv = sys.argv[1:]\n"
+         "runpy.run_path(sys.argv[0], run_name='__main__')\n";
+  r = run(python + " '" + dir + "/failing_replace.py' '" + std::string(HANDSCS_SOURCE_DIR) +
+              "/scripts/convert_mano.py' '" + pickle + "' '" + dir + "/renamed.json'" + tips,
+          dir);
+  CHECK(WEXITSTATUS(r.status) == 1);
+  CHECK(r.output ==
+        "convert_mano.py: " + dir + "/renamed.json: cannot write (No space left on device)\n");
+  CHECK_FALSE(std::filesystem::exists(dir + "/renamed.json"));
+
+  CHECK(temporaries(dir).empty());
+  CHECK(read_file(pickle) == pickle_bytes);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("convert_mano.py: a plain numpy MANO pickled by Python 3 with protocol 2 converts as the "
+          "released file does") {
+  const std::string python = python_with_numpy();
+  REQUIRE_FALSE(python.empty());
+  const std::string dir = fake_mano_dir(python, "mano_plain");
+  const std::string script =
+      python + " '" + std::string(HANDSCS_SOURCE_DIR) + "/scripts/convert_mano.py' ";
+  const std::string tips = " --tips 3,11,19,27,35";
+
+  // Its array bytes are _codecs.encode(text, 'latin1') calls (the converter once stubbed them:
+  // "not a MANO pickle (TypeError: Cannot interpret '<__main__._Inert object ...>' as a data
+  // type)").
+  Run r = run(script + "'" + dir + "/plain_right.pkl' '" + dir + "/plain.json'" + tips, dir);
+  INFO(r.output);
+  REQUIRE(r.status == 0);
+  REQUIRE(run(script + "'" + dir + "/MANO_RIGHT.pkl' '" + dir + "/released.json'" + tips, dir)
+              .status == 0);
+  const Rig plain = load_rig(dir + "/plain.json");
+  const Rig released = load_rig(dir + "/released.json");
+  CHECK(plain.handedness == released.handedness);
+  CHECK(torch::equal(plain.v_template, released.v_template));
+  CHECK(torch::equal(plain.faces, released.faces));
+  CHECK(torch::equal(plain.weights, released.weights));
+  CHECK(torch::equal(plain.j_regressor, released.j_regressor));
+  CHECK(torch::equal(plain.posedirs, released.posedirs));
+  CHECK(torch::equal(plain.shapedirs, released.shapedirs));
+  CHECK(torch::equal(plain.hands_mean, released.hands_mean));
+
+  // Only latin1 text to bytes is answered.
+  r = run(script + "'" + dir + "/codecs_right.pkl' '" + dir + "/codecs.json'" + tips, dir);
+  CHECK(WEXITSTATUS(r.status) == 1);
+  CHECK(r.output == "convert_mano.py: " + dir +
+                        "/codecs_right.pkl: the pickle calls _codecs.encode with a str and "
+                        "'utf-16': only latin1 text to bytes is supported\n");
+  CHECK_FALSE(std::filesystem::exists(dir + "/codecs.json"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("convert_mano.py: a damaged sparse J_regressor is named before anything is allocated") {
+  const std::string python = python_with_numpy();
+  REQUIRE_FALSE(python.empty());
+  const std::string dir = fake_mano_dir(python, "mano_sparse");
+  const std::string script =
+      python + " '" + std::string(HANDSCS_SOURCE_DIR) + "/scripts/convert_mano.py' ";
+  // Each once ended in a traceback: numpy's "Unable to allocate 7.28 TiB" (huge), an IndexError
+  // (index), "negative dimensions are not allowed" (negative); big allocated 12.8 GB of zeros
+  // before its pointers were found short.
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"huge", "J_regressor: expected shape [16, 40], got [1000000, 1000000]"},
+      {"big", "J_regressor: expected shape [16, 40], got [40000, 40000]"},
+      {"negative", "J_regressor: csc matrix of negative shape [-16, 40]"},
+      {"fractional", "J_regressor: csc matrix without a _shape of two integers"},
+      {"index", "J_regressor: csc matrix row index 1000000000 out of range [0, 16)"},
+      {"pointers", "J_regressor: csc matrix indptr does not rise from 0 to its 40 values"},
+      {"nested", "shapedirs.a: csc matrix of shape [100000, 1000]: more values than any MANO "
+                 "array (at most 10000000)"},
+  };
+  for (const auto& [name, message] : cases) {
+    const std::string pickle = dir + "/sparse_" + name + "_right.pkl";
+    // 8 GB of address space: far more than python and numpy start with, less than big's 12.8 GB,
+    // so an allocation before the checks fails here even where memory is overcommitted.
+    const Run r = run("(ulimit -v 8000000; " + script + "'" + pickle + "' '" + dir +
+                          "/out.json' --tips 3,11,19,27,35)",
+                      dir);
+    INFO(name);
+    CHECK(WEXITSTATUS(r.status) == 1);
+    CHECK(r.output == "convert_mano.py: " + pickle + ": " + message + "\n");
+  }
+  CHECK_FALSE(std::filesystem::exists(dir + "/out.json"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("convert_mano.py: a hand label the geometry contradicts is refused") {
+  const std::string python = python_with_numpy();
+  REQUIRE_FALSE(python.empty());
+  const std::string dir = fake_mano_dir(python, "mano_hand");
+  const std::string script =
+      python + " '" + std::string(HANDSCS_SOURCE_DIR) + "/scripts/convert_mano.py' ";
+  const std::string tips = " --tips 3,11,19,27,35";
+  const std::string left_geometry =
+      "the geometry is a left hand: its fingers (wrist to middle knuckle) x knuckle line (pinky to "
+      "index) point to -y, a left hand's palm in MANO's frame; use --hand left\n";
+
+  // Once written as a right rig holding the left hand's geometry (rc 0).
+  Run r = run(script + "'" + dir + "/MANO_LEFT.pkl' '" + dir + "/out.json' --hand right" + tips,
+              dir);
+  CHECK(WEXITSTATUS(r.status) == 1);
+  CHECK(r.output ==
+        "convert_mano.py: " + dir + "/MANO_LEFT.pkl: --hand right, but " + left_geometry);
+
+  std::filesystem::copy_file(dir + "/MANO_LEFT.pkl", dir + "/copy_RIGHT.pkl");
+  r = run(script + "'" + dir + "/copy_RIGHT.pkl' '" + dir + "/out.json'" + tips, dir);
+  CHECK(WEXITSTATUS(r.status) == 1);
+  CHECK(r.output == "convert_mano.py: " + dir + "/copy_RIGHT.pkl: the file name says right, but " +
+                        left_geometry);
+
+  r = run(script + "'" + dir + "/MANO_RIGHT.pkl' '" + dir + "/out.json' --hand left" + tips, dir);
+  CHECK(WEXITSTATUS(r.status) == 1);
+  CHECK(r.output == "convert_mano.py: " + dir +
+                        "/MANO_RIGHT.pkl: --hand left, but the geometry is a right hand: its "
+                        "fingers (wrist to middle knuckle) x knuckle line (pinky to index) point "
+                        "to +y, a right hand's back in MANO's frame; use --hand right\n");
+
+  // A hand whose back faces +z is no hand in MANO's frame: neither label can be checked.
+  r = run(script + "'" + dir + "/turned_right.pkl' '" + dir + "/out.json'" + tips, dir);
+  CHECK(WEXITSTATUS(r.status) == 1);
+  CHECK(r.output == "convert_mano.py: " + dir +
+                        "/turned_right.pkl: the rest joints form no hand in MANO's frame (their "
+                        "fingers x knuckle line is at cosine 0.14 to y; a hand's is at least 0.5 "
+                        "either way): cannot tell which hand it is\n");
+  CHECK_FALSE(std::filesystem::exists(dir + "/out.json"));
+
+  r = run(script + "'" + dir + "/copy_RIGHT.pkl' '" + dir + "/out.json' --hand left" + tips, dir);
+  INFO(r.output);
+  CHECK(r.status == 0);
+  CHECK(load_rig(dir + "/out.json").handedness == Handedness::left);
   std::filesystem::remove_all(dir);
 }
