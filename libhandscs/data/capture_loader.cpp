@@ -9,7 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "core/atomic_file.h"  // ensure_directory
+#include "core/atomic_file.h"  // ensure_directory, refuse_irregular_file
 #include "core/error.h"
 #include "data/capture_impl.h"
 #include "data/mask_refine.h"
@@ -47,6 +47,9 @@ constexpr size_t kMaxRememberedErrors = 256;
 }  // namespace
 
 cv::Mat Capture::Impl::decode(const FrameInfo& frame) const {
+  // Checked again at decode: the open's scan read each image, but a file replaced since by a named
+  // pipe would block OpenCV's read forever.
+  refuse_irregular_file(frame.image_path);
   cv::Mat bgr;
   try {
     bgr = cv::imread(frame.image_path, cv::IMREAD_COLOR);

@@ -1,6 +1,8 @@
 // Bad captures: a camera listed but absent, null MANO entries / missing / black images (skipped
 // with one summary line), monochrome cameras, bad camera lists, too many held-out poses, missing
 // files.
+#include <sys/stat.h>
+
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -113,6 +115,17 @@ TEST_CASE("capture errors: an image that is a link to itself is skipped, a loopi
   CHECK(error_of([&] { Capture::open(data_test::tiny_config(loop_root)); }) ==
         loop_root + ": capture root is not a folder (Too many levels of symbolic links)");
   std::filesystem::remove(loop_root);
+}
+
+TEST_CASE("capture errors: an image replaced by a named pipe after the open is refused, not read") {
+  const std::string root = data_test::copy_of_tiny("fifo_later");
+  Capture capture = Capture::open(data_test::tiny_config(root));
+  const FrameInfo& frame = capture.frames().front();
+  std::filesystem::remove(frame.image_path);
+  REQUIRE(mkfifo(frame.image_path.c_str(), 0644) == 0);
+  // OpenCV would open the pipe and wait for a writer forever.
+  CHECK(error_of([&] { capture.decode_image(frame); }) ==
+        frame.image_path + ": is not a regular file (a named pipe, a device or a socket); give a file");
 }
 
 TEST_CASE("capture errors: frames whose hand is outside the view are skipped") {
