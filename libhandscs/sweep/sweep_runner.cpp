@@ -137,6 +137,13 @@ std::vector<std::string> run_point(const SweepConfig& config, const SweepOptions
                   trained.exit_code, tail_of(run + "/train.log"));
     return finish("train failed (" + std::to_string(trained.exit_code) + ")");
   }
+  if (read_csv(run + "/metrics.csv").rows.empty()) {
+    // handscs-train logs every train.log_every steps: a budget below it trains without a row.
+    spdlog::error("sweep {}@{}: {}/metrics.csv has no rows: a budget of {} steps is below the run "
+                  "config's train.log_every; set train.log_every to at most the budget",
+                  point.name, budget, run, budget);
+    return finish("no step logged");
+  }
   auto last = summarise_metrics(run + "/metrics.csv");
   for (const auto& stage : kStageColumns)
     if (last.count(stage + "_median")) cells[stage] = fixed(last[stage + "_median"], 2);

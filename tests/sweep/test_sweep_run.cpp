@@ -1,5 +1,6 @@
 // handscs-bench end to end on the tiny capture: --threads reaches every run, a run that fails keeps
-// its row with the reason and the others are scored, and the sweep then exits with 3.
+// its row with the reason (a budget below train.log_every too) and the others are scored, and the
+// sweep then exits with 3.
 #include <catch2/catch.hpp>
 
 #include <sys/wait.h>
@@ -26,24 +27,30 @@ TEST_CASE("sweep run: --threads reaches the runs, a failed run is kept and the e
     "run_config": ")" + kSource + R"(/configs/tiny.json", "budgets": [10], "eval_images": 2,
     "threads": 2,
     "points": [{"name": "good", "set": ["train.log_every=5"]},
-               {"name": "bad", "set": ["train.no_such_key=1"]}]})");
+               {"name": "bad", "set": ["train.no_such_key=1"]},
+               {"name": "unlogged", "set": ["train.log_every=20"]}]})");
   const int status = std::system((kBin + "/handscs-bench --sweep " + sweep + " --out " + dir +
                                   "/out --capture " + capture + " --threads 1 > " + dir +
                                   "/bench.log 2>&1").c_str());
   REQUIRE(WIFEXITED(status));
   CHECK(WEXITSTATUS(status) == 3);
   const handscs::CsvTable results = handscs::read_csv(dir + "/out/results.csv");
-  REQUIRE(results.rows.size() == 2);
+  REQUIRE(results.rows.size() == 3);
   for (size_t r = 0; r < results.rows.size(); ++r) {
     INFO(results.at(r, "point"));
     CHECK(results.at(r, "threads") == "1");  // the sweep file says 2; --threads wins
     if (results.at(r, "point") == "good") {
       CHECK(results.at(r, "status") == "ok");
       CHECK(results.at(r, "eval_images") == "2");
-    } else {
+    } else if (results.at(r, "point") == "bad") {
       CHECK(results.at(r, "status") == "train failed (1)");
+    } else {  // 10 steps logged every 20: trained, but nothing to summarise
+      CHECK(results.at(r, "status") == "no step logged");
     }
   }
   const std::string log = handscs::read_file(dir + "/bench.log");
-  CHECK(log.find("1 of 2 runs failed") != std::string::npos);
+  CHECK(log.find("2 of 3 runs failed") != std::string::npos);
+  CHECK(log.find("sweep unlogged@10: " + dir + "/out/runs/unlogged_10/metrics.csv has no rows: a budget "
+                 "of 10 steps is below the run config's train.log_every; set train.log_every to at "
+                 "most the budget") != std::string::npos);
 }
