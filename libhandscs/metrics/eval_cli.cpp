@@ -46,7 +46,11 @@ EvalConfig resolve_eval_config(const EvalCommandLine& cli, const std::vector<std
                                const EvalConfig& base) {
   EvalConfig config = base;
   json merged = config_to_json(config);
-  apply_overrides(merged, overrides);
+  // Keys as CONFIG.md spells them in a run config (eval.background) are the same keys here.
+  std::vector<std::string> keys;
+  for (const auto& text : overrides)
+    keys.push_back(text.rfind("eval.", 0) == 0 ? text.substr(5) : text);
+  apply_overrides(merged, keys);
   // Flags are set as strings directly (a path such as "123" must not be parsed as a number).
   if (!cli.lpips_weights.empty()) merged["lpips"]["weights"] = cli.lpips_weights;
   if (!cli.lpips_net.empty()) merged["lpips"]["net"] = cli.lpips_net;

@@ -245,6 +245,11 @@ TEST_CASE("eval config resolves flags over --set overrides and rejects bad value
   cli.ssim_variant.clear();
   CHECK(metrics_test::error_of([&] { handscs::resolve_eval_config(cli, {"background=[0,0,2]"}); }) ==
         "command line: background: values must be in [0, 1]");
+  // The run config's spelling (docs/CONFIG.md: eval.background) names the same key here.
+  CHECK(metrics_test::error_of([&] { handscs::resolve_eval_config(cli, {"eval.background=[2,-1,0.5]"}); }) ==
+        "command line: background: values must be in [0, 1]");
+  CHECK(handscs::resolve_eval_config(cli, {"eval.background=[1,1,1]"}).background ==
+        std::array<double, 3>{1, 1, 1});
   handscs::EvalConfig bad;
   bad.lpips.input_range = "minus_one_one";
   CHECK(metrics_test::error_of([&] { handscs::ImageScorer{bad}; }) ==
