@@ -12,6 +12,7 @@
 #include "infer/evaluate.h"
 #include "run/avatar_state_io.h"
 #include "run/run_config.h"
+#include "run/run_config.h"
 
 namespace handscs {
 
@@ -73,6 +74,8 @@ int run_model_eval_command(const ModelEvalCommandLine& cli, const EvalCommandLin
   TrainedAvatar trained =
       open_trained_avatar(cli.checkpoint, cli.config.empty() ? overrides : no_overrides);
   if (cli.config.empty()) config = trained.config;
+  // A value stored by an older build (training checks it now) is named where it came from.
+  check_eval_background(config, cli.config.empty() ? trained.path + " (its stored config)" : cli.config);
   config.eval = resolve_eval_config(metric_flags, {}, config.eval);
   ModelEvalOptions options;
   options.out_dir = cli.out;

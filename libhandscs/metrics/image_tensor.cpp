@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/jpeg_damage.h"
+#include "core/png_damage.h"
 
 namespace handscs {
 
@@ -81,8 +82,9 @@ cv::Mat rgb_tensor_to_mat(const torch::Tensor& rgb) {
 }
 
 namespace {
-// The file decoded as stored (cv::IMREAD_UNCHANGED), after a damage check of JPEGs: a damaged
-// JPEG would decode with a grey tail and be scored as if whole. `what` names the file's role.
+// The file decoded as stored (cv::IMREAD_UNCHANGED), after a damage check of JPEGs and PNGs: a
+// damaged JPEG would decode with a grey tail and be scored as if whole, and a damaged PNG would
+// make libpng print its own error without the path. `what` names the file's role.
 cv::Mat decode_checked(const std::string& path, const std::string& what) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec))
@@ -91,6 +93,9 @@ cv::Mat decode_checked(const std::string& path, const std::string& what) {
   std::string problem;
   const std::string bytes = read_image_file(path, problem);
   if (!problem.empty()) throw Error(path + ": damaged JPEG " + what + " (" + problem + ")");
+  if (is_png_data(bytes))
+    if (const std::string damage = png_damage(bytes); !damage.empty())
+      throw Error(path + ": damaged PNG " + what + " (" + damage + ")");
   const cv::Mat encoded(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data()));
   cv::Mat image;
   try {

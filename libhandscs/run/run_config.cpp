@@ -50,17 +50,21 @@ void validate_run_config(const RunConfig& config, const std::string& source) {
               loss.consistency > 0,
           source + ": train.loss: every weight (rgb, mask, ssim, lpips, reg, consistency) is 0, "
                    "so nothing would be learnt");
+  check_eval_background(config, source);
+  require(!config.data.mask_refine.enabled ||
+              config.data.mask_refine.low < config.data.mask_refine.high,
+          source + ": data.mask_refine.low (" + std::to_string(config.data.mask_refine.low) +
+              ") must be below data.mask_refine.high (" +
+              std::to_string(config.data.mask_refine.high) + "), or every mask would be empty");
+}
+
+void check_eval_background(const RunConfig& config, const std::string& source) {
   for (double v : config.eval.background) {
     char value[32];
     std::snprintf(value, sizeof(value), "%g", v);
     require(v >= 0 && v <= 1,
             source + ": eval.background: values must be in [0, 1] (got " + value + ")");
   }
-  require(!config.data.mask_refine.enabled ||
-              config.data.mask_refine.low < config.data.mask_refine.high,
-          source + ": data.mask_refine.low (" + std::to_string(config.data.mask_refine.low) +
-              ") must be below data.mask_refine.high (" +
-              std::to_string(config.data.mask_refine.high) + "), or every mask would be empty");
 }
 
 }  // namespace handscs

@@ -40,5 +40,8 @@ std::vector<std::string> experiment_differences(const RunConfig& stored, const R
 // Cross-section checks that single fields cannot express (e.g. data.rig and model.rig must agree).
 // `source` names the config in errors.
 void validate_run_config(const RunConfig& config, const std::string& source);
+// eval.background's values in [0, 1] (part of validate_run_config; evaluation checks a stored
+// config's with this alone). `source` names the config in errors.
+void check_eval_background(const RunConfig& config, const std::string& source);
 
 }  // namespace handscs

@@ -120,10 +120,15 @@ TEST_CASE("folder eval turns each bad pair into a failure entry excluded from th
   }                                                                       // truncated JPEG
   write_png(gt + "/j.png", random_hwc(16, 20, 12));
   std::filesystem::create_symlink("j.png", pred + "/j.png");             // a link to itself
+  write_png(gt + "/k.png", random_hwc(16, 20, 13));
+  {
+    const std::string whole = handscs::read_file(gt + "/k.png");
+    std::ofstream(pred + "/k.png", std::ios::binary) << whole.substr(0, whole.size() - 12);  // no IEND
+  }                                                                       // truncated PNG
   std::ofstream(pred + "/notes.txt") << "ignored: not an image";
 
   const auto report = handscs::run_folder_eval({pred, gt, "", ""}, handscs::EvalConfig{});
-  REQUIRE(report.entries.size() == 10);
+  REQUIRE(report.entries.size() == 11);
   std::map<std::string, std::string> errors;
   for (const auto& entry : report.entries) errors[entry.name] = entry.ok ? "ok" : entry.error;
   CHECK(errors["a"] == "ok");
@@ -138,20 +143,21 @@ TEST_CASE("folder eval turns each bad pair into a failure entry excluded from th
   CHECK(errors["i"] == pred + "/i.jpg: damaged JPEG image (truncated: the image data ends without an "
                                "end-of-image marker)");
   CHECK(errors["j"] == pred + "/j.png: cannot read image (Too many levels of symbolic links)");
+  CHECK(errors["k"] == pred + "/k.png: damaged PNG image (truncated: the data ends before the IEND chunk)");
   const auto s = report.summary();
-  CHECK(s.num_entries == 10);
+  CHECK(s.num_entries == 11);
   CHECK(s.num_scored == 1);
-  CHECK(s.num_failed == 9);
+  CHECK(s.num_failed == 10);
   CHECK(*s.psnr == report.entries[0].scores.psnr);
   CHECK(*s.ssim == report.entries[0].scores.ssim);
   const auto j = handscs::eval_report_to_json(report);
-  CHECK(j["summary"]["failed"] == 9);
+  CHECK(j["summary"]["failed"] == 10);
   CHECK(j["images"].size() == 1);
-  CHECK(j["failed"].size() == 9);
+  CHECK(j["failed"].size() == 10);
   CHECK(j["failed"][0]["name"] == "b");
   CHECK(j["failed"][0]["error"] == "size mismatch: prediction 20x16, ground truth 24x16");
   const auto table = handscs::format_eval_table(report);
-  CHECK(table.find("9 of 10 images failed and are excluded from the means:") != std::string::npos);
+  CHECK(table.find("10 of 11 images failed and are excluded from the means:") != std::string::npos);
 }
 
 TEST_CASE("image checks: the range's edges, infinities and dtypes", "[eval]") {

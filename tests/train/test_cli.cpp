@@ -317,6 +317,31 @@ TEST_CASE("cli: handscs-eval refuses damaged ground truth and --set model.*") {
                         "marker): skipped") != std::string::npos);
   CHECK(log_text().find("1 damaged JPEG(s) in the capture (first: " + damaged) != std::string::npos);
   CHECK_FALSE(std::filesystem::exists(run_dir + "_eval/summary.json"));
+
+  // A background out of range stored by an older build (training refuses it now) is named with
+  // the checkpoint it came from, not blamed on the command line.
+  const std::string stored_bad = run_dir + "_background.ckpt";
+  auto checkpoint = handscs::load_checkpoint(handscs::latest_checkpoint(run_dir));
+  checkpoint.meta["config"]["eval"]["background"] = {2, -1, 0.5};
+  handscs::save_checkpoint(stored_bad, checkpoint);
+  const std::string eval_bad = kBin + "/handscs-eval --checkpoint " + stored_bad +
+                               " --threads 2 --max-images 2 --out " + run_dir + "_eval";
+  CHECK(run(eval_bad) == 1);
+  CHECK(log_text().find(stored_bad + " (its stored config): eval.background: values must be in [0, 1] "
+                        "(got 2)") != std::string::npos);
+  CHECK(run(eval_bad + " --set eval.background=[0,0,0]") == 0);  // overridden: scored
+
+  // A device where a checkpoint, LPIPS weights or a PLY belong is refused by name at once.
+  const std::string device = ": is not a regular file (a named pipe, a device or a socket); give a file";
+  CHECK(run(kBin + "/handscs-eval --checkpoint /dev/zero --out " + run_dir + "_eval") == 1);
+  CHECK(log_text().find("/dev/zero" + device) != std::string::npos);
+  CHECK(run(eval + " --lpips-weights /dev/zero") == 1);
+  CHECK(log_text().find("/dev/zero" + device) != std::string::npos);
+  const std::string camera = run_dir + "_camera.json";
+  std::ofstream(camera) << R"({"K": [[100, 0, 32], [0, 100, 32], [0, 0, 1]],
+    "R": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "t": [0, 0, 0], "width": 64, "height": 64})";
+  CHECK(run(kBin + "/handscs-render --ply /dev/zero --camera " + camera + " --out " + run_dir + "_x.png") == 1);
+  CHECK(log_text().find("/dev/zero" + device) != std::string::npos);
 }
 
 TEST_CASE("cli: user errors print their message without a stack trace, and name what is wrong") {
