@@ -69,10 +69,24 @@ std::string read_file(const std::string& path, std::uintmax_t max_bytes) {
                 std::to_string(max_bytes >> 20) + " MB such a file can be");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path + ": cannot open file");
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
+  if (ec) {  // no size known (a special file system): read as it comes
+    std::ostringstream buffer;
+    buffer << in.rdbuf();
+    if (in.bad()) throw Error(path + ": read failed");
+    return buffer.str();
+  }
+  // The whole size is allocated first, so a file the process cannot hold is named here instead of
+  // surfacing as std::bad_alloc from a buffer growing somewhere in the read.
+  std::string bytes;
+  try {
+    bytes.resize(size);
+  } catch (const std::bad_alloc&) {
+    throw Error(path + ": " + std::to_string(size >> 20) + " MB do not fit in this process's memory");
+  }
+  in.read(bytes.data(), static_cast<std::streamsize>(size));
   if (in.bad()) throw Error(path + ": read failed");
-  return buffer.str();
+  bytes.resize(static_cast<size_t>(in.gcount()));  // a file that shrank while read
+  return bytes;
 }
 
 void ensure_directory(const std::string& dir) {

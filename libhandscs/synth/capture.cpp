@@ -136,15 +136,26 @@ SynthScene make_synth_scene(const SynthConfig& config) {
     std::copy(poses[k].pose.begin(), poses[k].pose.end(), pose[k].data_ptr<double>());
     std::copy(poses[k].shape.begin(), poses[k].shape.end(), shape[k].data_ptr<double>());
   }
-  LbsOutput posed;
+  // Posed in chunks: LBS holds ~220 KB of intermediates a frame (per-vertex transforms), so posing
+  // 20,000 frames at once asked for 4.3 GB, while the posed meshes kept are ~20 KB a frame.
+  constexpr int64_t kFramesPerLbs = 512;
+  std::vector<torch::Tensor> vertex_chunks, joint_chunks;
   {
     torch::NoGradGuard no_grad;
     LbsOptions lbs_options;
     lbs_options.flat_hand_mean = true;  // absolute poses here; the files get pose - hands_mean
-    posed = lbs(scene.rig, pose, shape, torch::zeros({n, 3}, options), lbs_options);
+    for (int64_t begin = 0; begin < n; begin += kFramesPerLbs) {
+      const int64_t count = std::min(kFramesPerLbs, n - begin);
+      const LbsOutput posed = lbs(scene.rig, pose.narrow(0, begin, count), shape.narrow(0, begin, count),
+                                  torch::zeros({count, 3}, options), lbs_options);
+      vertex_chunks.push_back(posed.vertices);
+      joint_chunks.push_back(posed.joints);
+    }
   }
-  const torch::Tensor vertices = posed.vertices.contiguous();
-  const torch::Tensor joints = posed.joints.contiguous();
+  const torch::Tensor vertices = torch::cat(vertex_chunks).contiguous();
+  const torch::Tensor joints = torch::cat(joint_chunks).contiguous();
+  vertex_chunks.clear();
+  joint_chunks.clear();
   const int64_t num_vertices = vertices.size(1);
   const torch::Tensor hands_mean = scene.rig.hands_mean.to(torch::kFloat64).contiguous();
   const double* mean = hands_mean.data_ptr<double>();

@@ -1,7 +1,14 @@
-// Atomic writes replace a file whole and leave no temporary behind.
+// Atomic writes replace a file whole and leave no temporary behind; a file too large for the
+// process's memory is named by read_file.
 #include <catch2/catch.hpp>
 
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <filesystem>
+#include <fstream>
+#include <string>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -25,4 +32,43 @@ TEST_CASE("atomic_file: write, overwrite and read back") {
                     Catch::Contains("cannot write"));
   CHECK_THROWS_WITH(handscs::read_file((dir / "missing").string()),
                     Catch::Contains("missing: cannot open file"));
+}
+
+TEST_CASE("read_file: a file larger than the process may hold is named, not std::bad_alloc") {
+  const auto dir = std::filesystem::temp_directory_path() / ("handscs_read_big_" + std::to_string(getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "sparse.bin").string();
+  {
+    std::ofstream out(path, std::ios::binary);
+    out.seekp((std::streamoff{2} << 30) - 1);  // 2 GiB, sparse: no disk used
+    out.put('x');
+  }
+  // In a child whose address space is capped 512 MB above what it maps now, the 2 GiB buffer cannot
+  // be allocated; the child reports the message through its exit and a file.
+  const std::string result = (dir / "message.txt").string();
+  const pid_t child = fork();
+  REQUIRE(child >= 0);
+  if (child == 0) {
+    long pages = 0;
+    std::ifstream("/proc/self/statm") >> pages;
+    const rlim_t cap = static_cast<rlim_t>(pages) * sysconf(_SC_PAGESIZE) + (rlim_t{512} << 20);
+    const rlimit limit{cap, cap};
+    setrlimit(RLIMIT_AS, &limit);
+    std::string message = "(no error)";
+    try {
+      handscs::read_file(path, std::uintmax_t{4} << 30);
+    } catch (const std::exception& e) {
+      message = e.what();
+    }
+    std::ofstream(result) << message;
+    _exit(0);
+  }
+  int status = 0;
+  waitpid(child, &status, 0);
+  REQUIRE(WIFEXITED(status));
+  std::ifstream in(result);
+  std::string message;
+  std::getline(in, message);
+  CHECK(message == path + ": 2048 MB do not fit in this process's memory");
+  std::filesystem::remove_all(dir);
 }

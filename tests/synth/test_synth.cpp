@@ -9,6 +9,7 @@
 #include "core/atomic_file.h"
 #include "core/config.h"
 #include "core/threads.h"
+#include "hand/lbs.h"
 #include "synth/capture.h"
 #include "synth/math.h"
 #include "data/data_test_helpers.h"
@@ -117,6 +118,33 @@ TEST_CASE("synth: range of motion is smooth, anatomical and varies shape slightl
   CHECK(max_flex > 1.0);    // fingers flex far
   CHECK(max_flex < 1.6);    // but within the human range
   CHECK(frames[0].absolute.shape != frames[1].absolute.shape);
+}
+
+TEST_CASE("synth: frames posed in chunks equal each frame posed alone") {
+  // LBS runs over 512 frames at a time (its per-vertex intermediates would take gigabytes for
+  // tens of thousands of frames at once); frames on either side of a chunk boundary and the last
+  // one are posed again alone and must agree to rounding (BLAS sums a batch of 1 and of 512 in
+  // different orders: the joints differ in the last bits of a double, ~1e-17 m).
+  SynthConfig config = synth_preset("tiny");
+  config.num_frames = 1100;
+  config.num_sequences = 2;
+  const SynthScene scene = make_synth_scene(config);
+  handscs::LbsOptions options;
+  options.flat_hand_mean = true;
+  const auto f64 = torch::TensorOptions().dtype(torch::kFloat64);
+  for (int64_t k : {0, 511, 512, 1023, 1024, 1099}) {
+    const auto& frame = scene.frames[k];
+    const torch::Tensor pose = torch::tensor(std::vector<double>(frame.absolute.pose.begin(),
+                                                                 frame.absolute.pose.end()), f64).view({1, 48});
+    const torch::Tensor shape = torch::tensor(std::vector<double>(frame.absolute.shape.begin(),
+                                                                  frame.absolute.shape.end()), f64).view({1, 10});
+    torch::NoGradGuard no_grad;
+    const auto alone = handscs::lbs(scene.rig, pose, shape, torch::zeros({1, 3}, f64), options);
+    const auto joints = alone.joints[0].contiguous();
+    INFO(k);
+    for (int i = 0; i < 63; ++i)
+      CHECK(std::fabs(frame.joints[i] - (joints.data_ptr<double>()[i] + frame.trans[i % 3])) < 1e-12);
+  }
 }
 
 TEST_CASE("synth: skin detail, pose-dependent shading and a dark noisy background") {
