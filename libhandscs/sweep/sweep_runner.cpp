@@ -215,6 +215,12 @@ void run_raster_grid(const SweepConfig& config, const SweepOptions& options) {
 }  // namespace
 
 SweepOutcome run_sweep(const SweepConfig& config, const SweepOptions& options) {
+  // What every run needs is checked before the first one trains: each would fail the same way.
+  std::error_code ec;
+  if (!config.run_config.empty() && !fs::is_regular_file(config.run_config, ec))
+    throw Error(config.run_config + ": the sweep's run_config is not a file");
+  if (!options.capture.empty() && !fs::is_directory(options.capture, ec))
+    throw Error(options.capture + ": --capture is not a folder");
   ensure_directory(options.out_dir);
   ensure_directory(options.out_dir + "/logs");
   std::string capture = options.capture;

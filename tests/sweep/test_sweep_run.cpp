@@ -54,3 +54,26 @@ TEST_CASE("sweep run: --threads reaches the runs, a failed run is kept and the e
                  "of 10 steps is below the run config's train.log_every; set train.log_every to at "
                  "most the budget") != std::string::npos);
 }
+
+TEST_CASE("sweep run: a missing run config or capture is named before any run trains") {
+  const std::string dir = handscs_test::scratch_path("handscs_test_sweep_run", "refused");
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string missing_config = handscs_test::scratch_file("handscs_test_sweep_run", "missing.json", R"({
+    "run_config": "no_such_run.json", "budgets": [10], "points": [{"name": "a", "set": []}]})");
+  const std::string bench = kBin + "/handscs-bench --out " + dir + "/out --threads 1 --sweep ";
+  const auto exit_code = [&](const std::string& command) {
+    const int status = std::system((command + " > " + dir + "/bench.log 2>&1").c_str());
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  CHECK(exit_code(bench + missing_config + " --capture " + dir) == 1);
+  CHECK(handscs::read_file(dir + "/bench.log")
+            .find(fs::path(missing_config).parent_path().string() +
+                  "/no_such_run.json: the sweep's run_config is not a file") != std::string::npos);
+  const std::string good = handscs_test::scratch_file("handscs_test_sweep_run", "good.json", R"({
+    "run_config": ")" + kSource + R"(/configs/tiny.json", "budgets": [10], "points": [{"name": "a", "set": []}]})");
+  CHECK(exit_code(bench + good + " --capture /nonexistent/capture") == 1);
+  CHECK(handscs::read_file(dir + "/bench.log").find("/nonexistent/capture: --capture is not a folder") !=
+        std::string::npos);
+  CHECK_FALSE(fs::exists(dir + "/out/results.csv"));
+}

@@ -125,6 +125,14 @@ TEST_CASE("checkpoint meta: resume falls back past an edited checkpoint and keep
   handscs::Trainer again(config, dir);
   REQUIRE(again.resume());
   CHECK(again.iteration() == 4);
+
+  // A newest "checkpoint" that is a device is refused unread, and the resume falls back past it.
+  fs::remove(checkpoints + handscs::checkpoint_name(99) + ".unreadable");
+  fs::create_symlink("/dev/zero", checkpoints + handscs::checkpoint_name(98));
+  handscs::Trainer third(config, dir);
+  REQUIRE(third.resume());
+  CHECK(third.iteration() == 4);
+  CHECK(fs::is_symlink(checkpoints + handscs::checkpoint_name(98) + ".unreadable"));
   handscs::set_threads(2);
 }
 
@@ -177,5 +185,10 @@ TEST_CASE("checkpoint meta: a resume that changes the experiment's data is refus
   auto stored = four_step_config();
   CHECK(handscs::experiment_differences(stored, changed) ==
         std::vector<std::string>{"data.held_out_poses: 3 -> 4"});
+  // Another capture is another experiment too (its root named as written in each config).
+  auto elsewhere = stored;
+  elsewhere.data.root = "/another/capture";
+  CHECK(handscs::experiment_differences(stored, elsewhere) ==
+        std::vector<std::string>{"data.root: \"" + stored.data.root + "\" -> \"/another/capture\""});
   handscs::set_threads(2);
 }
