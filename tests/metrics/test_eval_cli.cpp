@@ -90,6 +90,6 @@ TEST_CASE("handscs-eval exits 2 when some images fail and 1 on bad options", "[e
   CHECK(run.output.find("--json: folder-mode option(s), not used with --checkpoint") != std::string::npos);
   run = run_eval("--checkpoint " + dir + "/run --out " + dir + "/o --max-images -1", dir);
   CHECK(run.status != 0);
-  CHECK(run.output.find("--max-images") != std::string::npos);
+  CHECK(run.output.find("--max-images: Value -1 not in range 0 to 100000000") != std::string::npos);
   CHECK_FALSE(std::filesystem::exists(dir + "/o.json"));
 }

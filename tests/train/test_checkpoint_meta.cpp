@@ -80,6 +80,8 @@ TEST_CASE("checkpoint meta: each field is checked for type and range, naming fil
         "X.ckpt: checkpoint metadata 'config' is not a run config (no train.iterations)");
   CHECK(edited([](auto& m) { m["lr_scale"] = 0; }) ==
         "X.ckpt: checkpoint metadata 'lr_scale' is 0.000000, outside (0, 1]");
+  CHECK(edited([](auto& m) { m["lr_scale"] = "nan"; }) ==
+        "X.ckpt: checkpoint metadata 'lr_scale' is \"nan\", not a finite number");
   CHECK(edited([](auto& m) { m["running_psnr"] = nullptr; }) ==
         "X.ckpt: checkpoint metadata 'running_psnr' is null, not a finite number");
   CHECK(edited([](auto& m) { m["format"] = "other"; }) ==
