@@ -137,7 +137,8 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
     frames = std::move(subset);
   }
 
-  const std::string masks_dir = (std::filesystem::path(regions_dir) / config.data.split).string();
+  const std::string masks_dir =
+      (std::filesystem::path(regions_dir) / capture.region_subfolder()).lexically_normal().string();
   if (!legend.empty()) {
     // Every mask must be there before hours of rendering start.
     int64_t missing = 0;
