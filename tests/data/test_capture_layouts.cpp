@@ -4,6 +4,7 @@
 // cached, and malformed captures are errors naming the file, the key and what is wrong.
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -247,4 +248,52 @@ TEST_CASE("capture layouts: malformed EasyMocap calibration files are errors nam
   std::filesystem::remove(extri);
   CHECK(error_of([&] { Capture::open(data_test::tiny_config(root)); }) ==
         extri + ": missing (the easymocap layout needs it beside " + intri + ")");
+}
+
+TEST_CASE("capture layouts: novel_view and sequence selection on a handscs capture") {
+  const std::string root = data_test::tiny_capture_in("handscs");
+  CaptureConfig config = data_test::tiny_config(root);
+  config.split_rule = "novel_view";
+  config.train_cameras = {"400002", "400004", "400006"};
+  config.test_cameras = {"400008"};
+  Capture capture = Capture::open(config);
+  CHECK(capture.train().size() == 3 * 12);
+  CHECK(capture.test().size() == 12);
+  for (const FrameInfo& f : capture.test()) CHECK(f.camera_id == "400008");
+  config = data_test::tiny_config(root);
+  config.sequences = {"0000_synth_rom"};
+  CHECK(Capture::open(config).frames().size() == 48);
+  config.sequences = {"grasp"};
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        "data.sequences: sequence \"grasp\" has no frames in " + root +
+            "/capture.json; it has 0000_synth_rom");
+}
+
+TEST_CASE("capture layouts: a left-hand capture reads alike in the InterHand2.6M and handscs layouts") {
+  std::map<std::string, std::string> roots;
+  for (const char* layout : {"interhand", "handscs"}) {
+    roots[layout] = data_test::fresh_dir(std::string("left_") + layout);
+    SynthConfig config = synth_preset("tiny");
+    config.hand = "left";
+    config.layout = layout;
+    write_synth_capture(make_synth_scene(config), roots[layout]);
+  }
+  CaptureConfig config = data_test::tiny_config(roots["interhand"]);
+  config.hand = "left";
+  Capture reference = Capture::open(config);
+  config.root = roots["handscs"];
+  Capture capture = Capture::open(config);
+  REQUIRE(capture.frames().size() == reference.frames().size());
+  for (size_t i = 0; i < capture.frames().size(); ++i) {
+    const FrameInfo& f = capture.frames()[i];
+    const FrameInfo& r = reference.frames()[i];
+    CHECK(f.camera.K == r.camera.K);
+    CHECK(f.camera.R == r.camera.R);
+    CHECK(f.camera.t == r.camera.t);
+    CHECK(f.pose == r.pose);
+    CHECK(f.trans == r.trans);
+    const cv::Mat image = capture.decode_image(f);
+    CHECK(cv::norm(image, reference.decode_image(r), cv::NORM_INF) == 0);
+    CHECK(cv::norm(capture.compute_mask(f, image), reference.compute_mask(r, image), cv::NORM_INF) == 0);
+  }
 }
