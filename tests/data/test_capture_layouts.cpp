@@ -297,3 +297,25 @@ TEST_CASE("capture layouts: a left-hand capture reads alike in the InterHand2.6M
     CHECK(cv::norm(capture.compute_mask(f, image), reference.compute_mask(r, image), cv::NORM_INF) == 0);
   }
 }
+
+TEST_CASE("capture layouts: without H_ and W_ an EasyMocap camera takes its first image's size") {
+  const std::string root = data_test::copy_of_tiny_in("easymocap", "no_size");
+  auto cameras = read_easymocap_cameras(root + "/intri.yml", root + "/extri.yml");
+  std::string intri = read_file(root + "/intri.yml");
+  for (const auto& [name, record] : cameras)
+    for (const std::string key : {"H_" + name + ": ", "W_" + name + ": "}) {
+      const size_t from = intri.find(key);
+      REQUIRE(from != std::string::npos);
+      intri.erase(from, intri.find('\n', from) + 1 - from);
+    }
+  data_test::write_text(root + "/intri.yml", intri);
+  for (const auto& [name, record] : read_easymocap_cameras(root + "/intri.yml", root + "/extri.yml"))
+    CHECK(record.camera.width == 0);
+  Capture capture = Capture::open(data_test::tiny_config(root));
+  Capture reference = Capture::open(data_test::tiny_config(data_test::tiny_capture_in("easymocap")));
+  REQUIRE(capture.frames().size() == reference.frames().size());
+  for (size_t i = 0; i < capture.frames().size(); ++i) {
+    CHECK(capture.frames()[i].camera.width == reference.frames()[i].camera.width);
+    CHECK(capture.frames()[i].camera.height == reference.frames()[i].camera.height);
+  }
+}
