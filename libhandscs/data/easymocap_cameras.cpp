@@ -117,11 +117,8 @@ std::map<std::string, RecordCamera> read_easymocap_cameras(const std::string& in
     Camera& camera = record.camera;
     const cv::Mat K = intri.matrix("K_" + name, 3, 3);
     for (int i = 0; i < 9; ++i) camera.K[i] = K.at<double>(i / 3, i % 3);
-    if (camera.K[1] != 0 || camera.K[3] != 0 || camera.K[6] != 0 || camera.K[7] != 0 ||
-        camera.K[8] != 1)
-      intri.fail("K_" + name, "expected [fx 0 cx; 0 fy cy; 0 0 1] (the rasterizer's pinhole has "
-                              "no skew)");
-    if (!(camera.K[0] > 0 && camera.K[4] > 0)) intri.fail("K_" + name, "focal lengths must be positive");
+    const std::string not_pinhole = pinhole_matrix_problem(camera.K);
+    if (!not_pinhole.empty()) intri.fail("K_" + name, not_pinhole);
     camera.K[2] += kOpenCvPixelOffset;  // EasyMocap calibrates with OpenCV's pixel centres
     camera.K[5] += kOpenCvPixelOffset;
     // EasyMocap's reader falls back to D_<name> when dist_<name> is absent.

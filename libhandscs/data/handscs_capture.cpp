@@ -28,11 +28,8 @@ RecordCamera read_camera(const JsonView& entry, const std::string& path) {
   record.where = path + ": " + entry.path();
   Camera& camera = record.camera;
   entry.at("K").matrix(camera.K.data(), 3, 3);
-  if (camera.K[1] != 0 || camera.K[3] != 0 || camera.K[6] != 0 || camera.K[7] != 0 ||
-      camera.K[8] != 1)
-    entry.at("K").fail("expected [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (the rasterizer's pinhole "
-                       "has no skew)");
-  if (!(camera.K[0] > 0 && camera.K[4] > 0)) entry.at("K").fail("focal lengths must be positive");
+  const std::string not_pinhole = pinhole_matrix_problem(camera.K);
+  if (!not_pinhole.empty()) entry.at("K").fail(not_pinhole);
   entry.at("R").matrix(camera.R.data(), 3, 3);
   const std::string not_rotation = rotation_problem(camera.R);
   if (!not_rotation.empty()) entry.at("R").fail(not_rotation);

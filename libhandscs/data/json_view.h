@@ -1,6 +1,6 @@
-// Checked, streaming access to the InterHand2.6M annotation JSON: every failure names the file and
-// the key path ("annotations/test/InterHand2.6M_test_camera.json: 3.campos.400026: expected array
-// of 3").
+// Checked, streaming access to JSON data files (InterHand2.6M's annotations, the project's
+// capture.json): every failure names the file and the key path
+// ("annotations/test/InterHand2.6M_test_camera.json: 3.campos.400026: expected array of 3").
 #pragma once
 
 #include <cstdint>

@@ -303,7 +303,7 @@ TEST_CASE("capture layouts: without H_ and W_ an EasyMocap camera takes its firs
   auto cameras = read_easymocap_cameras(root + "/intri.yml", root + "/extri.yml");
   std::string intri = read_file(root + "/intri.yml");
   for (const auto& [name, record] : cameras)
-    for (const std::string key : {"H_" + name + ": ", "W_" + name + ": "}) {
+    for (const std::string& key : {"H_" + name + ": ", "W_" + name + ": "}) {
       const size_t from = intri.find(key);
       REQUIRE(from != std::string::npos);
       intri.erase(from, intri.find('\n', from) + 1 - from);
