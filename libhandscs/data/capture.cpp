@@ -291,7 +291,9 @@ CameraSplit choose_cameras(const CaptureConfig& c, const CaptureRecords& records
                      "and {} test cameras", key_name(prefix, "novel_view_train_views"),
                      c.novel_view_train_views, key_name(prefix, "novel_view_test_views"),
                      c.novel_view_test_views, c.novel_view_train_views + c.novel_view_test_views,
-                     records.scope, data_cameras.size(), cams.train.size(), cams.test.size());
+                     records.layout == "interhand" ? "capture " + std::to_string(c.capture)
+                                                   : records.index_file,
+                     data_cameras.size(), cams.train.size(), cams.test.size());
     }
     if (cams.train.empty())
       for (const auto& id : data_cameras)

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <map>
 
+#include "core/atomic_file.h"
 #include "core/threads.h"
 #include "infer/evaluate.h"
 #include "infer/pose_source.h"
@@ -118,6 +119,10 @@ TEST_CASE("layouts: evaluation with regions and a render's capture poses read ev
     CHECK(summary.regions.size() == result.report.regions.size());
     CHECK_FALSE(result.report.regions.empty());  // regions/<camera>/<frame>.png were found
     CHECK((summary.psnr && std::isfinite(*summary.psnr)));
+    // The table is labelled with the capture's folder (no InterHand2.6M split and capture).
+    const std::string table = handscs::read_file(options.out_dir + "/table.md");
+    CHECK(table.find(std::filesystem::path(config.data.root).filename().string()) != std::string::npos);
+    CHECK(table.find("Capture0") == std::string::npos);
 
     const std::string poses = run + "/poses.json";
     std::ofstream(poses) << R"({"capture": {"root": ")" << config.data.root
