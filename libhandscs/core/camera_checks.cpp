@@ -26,6 +26,13 @@ std::string principal_problem(const char* name, double centre, int side, const c
 
 }  // namespace
 
+std::string pinhole_matrix_problem(const std::array<double, 9>& K) {
+  if (K[1] != 0 || K[3] != 0 || K[6] != 0 || K[7] != 0 || K[8] != 1)
+    return "expected [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (the rasterizer's pinhole has no skew)";
+  if (!(K[0] > 0 && K[4] > 0)) return "focal lengths must be positive";
+  return "";
+}
+
 std::string rotation_problem(const std::array<double, 9>& R) {
   double worst = 0;
   for (int a = 0; a < 3; ++a)

@@ -24,6 +24,10 @@ constexpr double kMaxPrincipalOffsetSides = 1.0;
 // plausible 0.04-120 (fields of view of 170 to 0.5 degrees)". Width and height must be positive.
 std::string camera_intrinsics_problem(const Camera& camera);
 
+// "" when K (row-major 3x3) has the pinhole form [fx 0 cx; 0 fy cy; 0 0 1] with positive focal
+// lengths (core/camera.h has no skew), else what is wrong.
+std::string pinhole_matrix_problem(const std::array<double, 9>& K);
+
 // Largest |R R^T - I| entry accepted for a rotation: annotation files store 6-8 digits.
 constexpr double kRotationTolerance = 1e-4;
 

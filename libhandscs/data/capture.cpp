@@ -15,10 +15,11 @@
 #include "core/error.h"
 #include "core/hash.h"
 #include "core/text.h"
-#include "data/annotation_cache.h"
 #include "data/capture_impl.h"
+#include "data/capture_layout.h"
+#include "data/handscs_capture.h"
 #include "data/image_checks.h"
-#include "data/interhand_annotations.h"
+#include "data/interhand_records.h"
 #include "data/mesh_mask.h"
 #include "data/scan_cache.h"
 #include "hand/lbs.h"
@@ -35,11 +36,10 @@ constexpr size_t kSummaryPaths = 5;
 // Poses per LBS call when posing the rig for every frame (bounded memory, few calls).
 constexpr int64_t kLbsBatch = 128;
 
-// A data.json image that passed the annotation checks, before the image checks.
+// An image that passed the annotation checks, before the image checks.
 struct Candidate {
-  const InterHandImage* image;
-  const ManoParams* mano;
-  const InterHandJoints* joints;
+  const RecordImage* image;
+  const RecordHand* hand;
   std::string path;
   Camera camera;
 };
@@ -70,11 +70,9 @@ std::string make_summary(const std::string& source, const std::vector<SkippedIma
 }
 
 void check_cameras_exist(const std::vector<std::string>& wanted, const std::set<std::string>& have,
-                         const std::string& key, const std::string& data_json, int capture) {
+                         const std::string& key, const std::string& scope) {
   for (const auto& id : wanted)
-    if (!have.count(id))
-      throw Error(key + ": camera \"" + id +
-                  "\" has no images in capture " + std::to_string(capture) + " of " + data_json);
+    if (!have.count(id)) throw Error(key + ": camera \"" + id + "\" has no images in " + scope);
 }
 
 // Poses every distinct frame: posed vertices [V * 3] float per pose.
@@ -112,27 +110,45 @@ std::vector<std::vector<float>> pose_rig(const Rig& rig,
   return out;
 }
 
+std::string file_stamp(const std::string& path) {
+  std::error_code ec;
+  const auto size = fs::file_size(path, ec);
+  const auto time = fs::last_write_time(path, ec).time_since_epoch().count();
+  return std::to_string(size) + ":" + std::to_string(time);
+}
+
+// <cache_dir>/<kind>-<hash of settings>.
+std::string cache_folder(const std::string& cache_dir, const char* kind, const std::string& settings) {
+  char name[48];
+  std::snprintf(name, sizeof(name), "%s-%016llx", kind,
+                static_cast<unsigned long long>(fnv1a64(settings)));
+  return (fs::path(cache_dir) / name).string();
+}
+
 // <cache_dir>/masks-<hash>: the hash covers every setting a mask depends on, so a changed setting
 // never reads a stale mask (version 1: mesh_raster centre sampling + mask_refine). The annotation
-// files' sizes and times stand for their content; the images are assumed unchanged.
-std::string mask_folder(const CaptureConfig& c, const CaptureLayout& layout,
+// files' sizes and times stand for their content; the images are assumed unchanged. InterHand2.6M
+// captures keep the key they had before other layouts were read (no layout name in it).
+std::string mask_folder(const CaptureConfig& c, const CaptureRecords& records,
                         const std::string& cache_dir) {
-  auto stamp = [](const std::string& path) {
-    std::error_code ec;
-    const auto size = fs::file_size(path, ec);
-    const auto time = fs::last_write_time(path, ec).time_since_epoch().count();
-    return std::to_string(size) + ":" + std::to_string(time);
-  };
   std::ostringstream settings;
-  settings << "v1|" << fs::absolute(layout.images_dir).string() << "|" << layout.mano_json << "|"
-           << stamp(layout.mano_json) << "|" << stamp(layout.camera_json) << "|" << c.rig << "|"
-           << c.hand << "|" << c.flat_hand_mean << "|" << c.mask_refine.enabled << "|"
-           << c.mask_refine.low << "|" << c.mask_refine.high << "|"
+  settings << "v1|";
+  if (records.layout != "interhand") settings << records.layout << "|";
+  settings << fs::absolute(records.images_dir).string() << "|" << records.source_files.front();
+  for (const auto& file : records.source_files) settings << "|" << file_stamp(file);
+  settings << "|" << c.rig << "|" << c.hand << "|" << c.flat_hand_mean << "|"
+           << c.mask_refine.enabled << "|" << c.mask_refine.low << "|" << c.mask_refine.high << "|"
            << c.mask_refine.largest_component;
-  char name[32];
-  std::snprintf(name, sizeof(name), "masks-%016llx",
-                static_cast<unsigned long long>(fnv1a64(settings.str())));
-  return (fs::path(cache_dir) / name).string();
+  return cache_folder(cache_dir, "masks", settings.str());
+}
+
+// <cache_dir>/undistorted-<hash>: the hash covers the images folder and the calibration files
+// (their sizes and times stand for the cameras and coefficients).
+std::string undistorted_folder(const CaptureRecords& records, const std::string& cache_dir) {
+  std::ostringstream settings;
+  settings << "v1|" << records.layout << "|" << fs::absolute(records.images_dir).string();
+  for (const auto& file : records.source_files) settings << "|" << file << "|" << file_stamp(file);
+  return cache_folder(cache_dir, "undistorted", settings.str());
 }
 
 // Train/test lists from the frames: novel_pose splits by held-out pose (each side filtered by its
@@ -223,43 +239,26 @@ PoseRanges novel_pose_ranges(const CaptureConfig& c, int num_poses, const std::s
   return r;
 }
 
-// What the annotation files hold for the selected images.
-struct CaptureAnnotations {
-  std::vector<InterHandImage> images;  // of the capture's selected sequences, in file order
-  std::map<std::string, InterHandCamera> cameras;
-  std::map<int64_t, InterHandJoints> joints;
-  std::map<int64_t, InterHandMano> mano;
-};
-
-// Step 1: the capture's annotations, streamed from the JSON on the first open and from the
-// annotation cache on later ones, filtered to the sequences. A capture or sequence the files do not
-// hold is an error listing what they do.
-CaptureAnnotations read_capture_annotations(const CaptureConfig& c, const CaptureLayout& layout,
-                                            const std::string& prefix) {
-  const AnnotationCache annotation_cache(c.annotation_cache);
-  CaptureImages capture_images = annotation_cache.images(layout.data_json, c.capture);
-  const ImageCatalogue& catalogue = capture_images.catalogue;
-  if (!catalogue.captures.count(c.capture)) {
-    std::vector<std::string> present;
-    for (int capture : catalogue.captures) present.push_back(std::to_string(capture));
-    throw Error(layout.data_json + ": no images of capture " + std::to_string(c.capture) + " (" +
-                key_name(prefix, "capture") + "); the file holds " +
-                (present.empty() ? std::string("no images") : "captures " + list_text(present)));
-  }
+// Step 1: the capture's records in its layout (data/capture_layout.h).
+CaptureRecords read_capture_records(const CaptureConfig& c, const std::string& prefix) {
+  const std::string layout =
+      detect_capture_layout(c.root, c.layout, key_name(prefix, "root"), key_name(prefix, "layout"));
+  if (layout == "interhand") return read_interhand_records(c, prefix);
+  CaptureRecords records =
+      read_handscs_capture(c.root, layout, c.flat_hand_mean, key_name(prefix, "flat_hand_mean"));
+  if (c.sequences.empty()) return records;
+  std::set<std::string> present;
+  for (const auto& image : records.images) present.insert(image.seq_name);
   for (const auto& seq : c.sequences)
-    if (!catalogue.sequences.count(seq))
-      throw Error(key_name(prefix, "sequences") + ": sequence \"" + seq +
-                  "\" has no images in capture " + std::to_string(c.capture) + " of " +
-                  layout.data_json + "; it has " +
-                  list_text({catalogue.sequences.begin(), catalogue.sequences.end()}));
-  CaptureAnnotations a;
-  const std::set<std::string> sequences(c.sequences.begin(), c.sequences.end());
-  for (auto& image : capture_images.images)
-    if (sequences.empty() || sequences.count(image.seq_name)) a.images.push_back(std::move(image));
-  a.cameras = read_interhand_cameras(layout.camera_json, c.capture);
-  a.joints = annotation_cache.joints(layout.joint_3d_json, c.capture);
-  a.mano = annotation_cache.mano(layout.mano_json, c.capture);
-  return a;
+    if (!present.count(seq))
+      throw Error(key_name(prefix, "sequences") + ": sequence \"" + seq + "\" has no frames in " +
+                  records.index_file + "; it has " + list_text({present.begin(), present.end()}));
+  const std::set<std::string> wanted(c.sequences.begin(), c.sequences.end());
+  std::vector<RecordImage> kept;
+  for (auto& image : records.images)
+    if (wanted.count(image.seq_name)) kept.push_back(std::move(image));
+  records.images = std::move(kept);
+  return records;
 }
 
 // Training and test cameras; empty = every camera.
@@ -270,22 +269,15 @@ struct CameraSplit {
   }
 };
 
-// Step 2: the cameras of each side of the split. Every camera data.json names must be in
-// camera.json, and every listed camera must have images.
-CameraSplit choose_cameras(const CaptureConfig& c, const CaptureAnnotations& a,
-                           const CaptureLayout& layout, const std::string& prefix) {
+// Step 2: the cameras of each side of the split. Every listed camera must have images.
+CameraSplit choose_cameras(const CaptureConfig& c, const CaptureRecords& records,
+                           const std::string& prefix) {
   std::set<std::string> data_cameras;
-  for (const auto& image : a.images) {
-    if (!a.cameras.count(image.camera))
-      throw Error(layout.camera_json + ": " + std::to_string(c.capture) +
-                  ".campos: missing key \"" + image.camera + "\" (camera of " + image.file_name +
-                  " in " + layout.data_json + ")");
-    data_cameras.insert(image.camera);
-  }
+  for (const auto& image : records.images) data_cameras.insert(image.camera);
   check_cameras_exist(c.train_cameras, data_cameras, key_name(prefix, "train_cameras"),
-                      layout.data_json, c.capture);
+                      records.scope);
   check_cameras_exist(c.test_cameras, data_cameras, key_name(prefix, "test_cameras"),
-                      layout.data_json, c.capture);
+                      records.scope);
   CameraSplit cams;
   cams.train.insert(c.train_cameras.begin(), c.train_cameras.end());
   cams.test.insert(c.test_cameras.begin(), c.test_cameras.end());
@@ -295,11 +287,13 @@ CameraSplit choose_cameras(const CaptureConfig& c, const CaptureAnnotations& a,
                                 cams.train, cams.test);
       if (cams.train.size() != static_cast<size_t>(c.novel_view_train_views) ||
           cams.test.size() != static_cast<size_t>(c.novel_view_test_views))
-        spdlog::warn("{} = {} and {} = {} ask for {} cameras; capture {} has {}: using {} training "
+        spdlog::warn("{} = {} and {} = {} ask for {} cameras; {} has {}: using {} training "
                      "and {} test cameras", key_name(prefix, "novel_view_train_views"),
                      c.novel_view_train_views, key_name(prefix, "novel_view_test_views"),
                      c.novel_view_test_views, c.novel_view_train_views + c.novel_view_test_views,
-                     c.capture, data_cameras.size(), cams.train.size(), cams.test.size());
+                     records.layout == "interhand" ? "capture " + std::to_string(c.capture)
+                                                   : records.index_file,
+                     data_cameras.size(), cams.train.size(), cams.test.size());
     }
     if (cams.train.empty())
       for (const auto& id : data_cameras)
@@ -316,26 +310,25 @@ CameraSplit choose_cameras(const CaptureConfig& c, const CaptureAnnotations& a,
 
 // Step 3: the images of the used cameras that have MANO parameters for the hand, joints, the
 // right hand type and a file (cheap checks; the others are added to `skipped`).
-std::vector<Candidate> annotated_candidates(const CaptureConfig& c, const CaptureAnnotations& a,
-                                            const CameraSplit& cams, const CaptureLayout& layout,
+std::vector<Candidate> annotated_candidates(const CaptureConfig& c, const CaptureRecords& records,
+                                            const CameraSplit& cams,
                                             std::vector<SkippedImage>& skipped, size_t& considered) {
   const bool right = c.hand == "right";
   const std::string other_hand = right ? "left" : "right";
   std::vector<Candidate> candidates;
-  for (const auto& image : a.images) {
+  for (const auto& image : records.images) {
     if (!cams.uses(image.camera)) continue;
     ++considered;
-    const std::string path = (fs::path(layout.images_dir) / image.file_name).string();
-    auto m = a.mano.find(image.frame_idx);
-    const ManoParams* params = nullptr;
-    if (m != a.mano.end())
-      params = right ? (m->second.right ? &*m->second.right : nullptr)
-                     : (m->second.left ? &*m->second.left : nullptr);
-    auto j = a.joints.find(image.frame_idx);
+    const std::string path = (fs::path(records.images_dir) / image.file_name).string();
+    auto m = records.frames.find(image.frame_idx);
+    const RecordHand* hand = nullptr;
+    if (m != records.frames.end())
+      hand = right ? (m->second.right ? &*m->second.right : nullptr)
+                   : (m->second.left ? &*m->second.left : nullptr);
     std::string reason;
-    if (!params) {
+    if (!hand) {
       reason = "null MANO";
-    } else if (j == a.joints.end()) {
+    } else if (!m->second.has_joint_entry) {
       reason = "no joint_3d entry";
     } else if (image.hand_type == other_hand) {
       reason = "other hand";
@@ -351,14 +344,15 @@ std::vector<Candidate> annotated_candidates(const CaptureConfig& c, const Captur
       skipped.push_back({path, reason});
       continue;
     }
-    const Camera camera =
-        camera_from_interhand(a.cameras.at(image.camera), image.width, image.height);
+    const RecordCamera& record = records.cameras.at(image.camera);
+    Camera camera = record.camera;
+    camera.width = image.width;
+    camera.height = image.height;
     const std::string implausible = camera_intrinsics_problem(camera);
     if (!implausible.empty())
-      throw Error(layout.camera_json + ": " + std::to_string(c.capture) + ": camera " + image.camera +
-                  " (with the " + std::to_string(image.width) + "x" + std::to_string(image.height) +
-                  " image size of " + path + "): " + implausible);
-    candidates.push_back({&image, params, &j->second, path, camera});
+      throw Error(record.where + " (with the " + std::to_string(image.width) + "x" +
+                  std::to_string(image.height) + " image size of " + path + "): " + implausible);
+    candidates.push_back({&image, hand, path, camera});
   }
   return candidates;
 }
@@ -456,13 +450,14 @@ ImageSelection select_usable_images(const CaptureConfig& c, const std::string& i
 }
 
 // Step 6: one usable image as a frame (units: metres; joints in MANO's 21-joint order).
-FrameInfo make_frame(const Candidate& cand, int64_t index, int pose_index, bool held_out, bool right) {
-  const InterHandImage& image = *cand.image;
+FrameInfo make_frame(const Candidate& cand, int64_t index, int pose_index, bool held_out) {
+  const RecordImage& image = *cand.image;
   FrameInfo f;
   f.index = index;
   f.image_id = image.id;
   f.image_path = cand.path;
   f.file_name = image.file_name;
+  f.mask_path = image.mask_path;
   f.camera_id = image.camera;
   f.seq_name = image.seq_name;
   f.capture = image.capture;
@@ -471,15 +466,13 @@ FrameInfo make_frame(const Candidate& cand, int64_t index, int pose_index, bool 
   f.held_out = held_out;
   f.camera = cand.camera;
   for (int k = 0; k < 4; ++k) f.bbox[k] = static_cast<float>(image.bbox[k]);
-  for (int k = 0; k < 48; ++k) f.pose[k] = static_cast<float>(cand.mano->pose[k]);
-  for (int k = 0; k < 10; ++k) f.shape[k] = static_cast<float>(cand.mano->shape[k]);
-  for (int k = 0; k < 3; ++k) f.trans[k] = static_cast<float>(cand.mano->trans[k]);
-  const int row0 = right ? 0 : 21;  // joint_3d rows: right hand 0-20, left 21-41
-  for (int ih = 0; ih < 21; ++ih) {
-    const int m = kInterHandFromMano21[ih];
-    for (int d = 0; d < 3; ++d)
-      f.joints[m * 3 + d] = static_cast<float>(cand.joints->world_mm[(row0 + ih) * 3 + d] * 1e-3);
-    f.joint_valid[m] = cand.joints->valid[row0 + ih];
+  const RecordHand& hand = *cand.hand;
+  for (int k = 0; k < 48; ++k) f.pose[k] = static_cast<float>(hand.mano.pose[k]);
+  for (int k = 0; k < 10; ++k) f.shape[k] = static_cast<float>(hand.mano.shape[k]);
+  for (int k = 0; k < 3; ++k) f.trans[k] = static_cast<float>(hand.mano.trans[k]);
+  if (hand.has_joints) {
+    for (int k = 0; k < 63; ++k) f.joints[k] = static_cast<float>(hand.joints[k]);
+    f.joint_valid = hand.joint_valid;
   }
   return f;
 }
@@ -499,20 +492,18 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   require(c.split_rule != "novel_view" || !c.test_cameras.empty() || c.train_cameras.empty(),
           key_name(config_key, "test_cameras") + ": split_rule novel_view with train_cameras needs "
           "a list of test cameras");
-  impl->layout = resolve_capture_layout(c.root, c.split, key_name(config_key, "root"));
-  const CaptureLayout& layout = impl->layout;
-
-  const CaptureAnnotations annotations = read_capture_annotations(c, layout, config_key);
-  const CameraSplit cams = choose_cameras(c, annotations, layout, config_key);
+  const CaptureRecords records = read_capture_records(c, config_key);
+  impl->layout = records.layout;
+  const CameraSplit cams = choose_cameras(c, records, config_key);
   std::vector<SkippedImage> skipped;
   size_t considered = 0;
-  std::vector<Candidate> candidates =
-      annotated_candidates(c, annotations, cams, layout, skipped, considered);
+  std::vector<Candidate> candidates = annotated_candidates(c, records, cams, skipped, considered);
   const std::map<int64_t, int> strided_pose = apply_frame_stride(c.frame_stride, candidates);
 
   // The rig posed once per kept pose (masks and in-view checks).
   std::vector<const ManoParams*> pose_params(strided_pose.size(), nullptr);
-  for (const auto& cand : candidates) pose_params[strided_pose.at(cand.image->frame_idx)] = cand.mano;
+  for (const auto& cand : candidates)
+    pose_params[strided_pose.at(cand.image->frame_idx)] = &cand.hand->mano;
   const bool right = c.hand == "right";
   const Rig rig = load_rig_source(capture_rig_source(c));
   if ((rig.handedness == Handedness::right) != right)
@@ -530,7 +521,7 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   for (size_t i = 0; i < candidates.size(); ++i)
     candidate_pose[i] = strided_pose.at(candidates[i].image->frame_idx);
   ImageSelection selection =
-      select_usable_images(c, layout.images_dir, candidates, candidate_pose, posed, impl->num_vertices,
+      select_usable_images(c, records.images_dir, candidates, candidate_pose, posed, impl->num_vertices,
                            skipped);
   std::vector<size_t>& usable = selection.usable;
   impl->monochrome_cameras = selection.monochrome;
@@ -539,14 +530,15 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
     spdlog::warn("{} grey image(s) (R = G = B) in colour cameras, used as they are (first: {})",
                  impl->grey_images.size(), impl->grey_images.front());
   impl->skipped = skipped;
-  impl->skip_summary = make_summary(layout.data_json, skipped, considered);
+  impl->skip_summary = make_summary(records.index_file, skipped, considered);
   if (!impl->skip_summary.empty()) spdlog::warn("{}", impl->skip_summary);
   if (!impl->monochrome_cameras.empty())
     spdlog::info("monochrome cameras: {} ({})", join(impl->monochrome_cameras, ", "),
                  c.drop_monochrome ? std::to_string(selection.dropped_monochrome) + " images dropped"
                                    : "kept");
   if (usable.empty())
-    throw Error(layout.data_json + ": no usable images in capture " + std::to_string(c.capture) +
+    throw Error(records.index_file + ": no usable images" +
+                (records.layout == "interhand" ? " in capture " + std::to_string(c.capture) : "") +
                 " (" + std::to_string(considered) + " considered" +
                 (impl->skip_summary.empty() ? "" : "; " + impl->skip_summary) + ")");
 
@@ -577,7 +569,7 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
     const int pose_index = pose_of.at(candidates[i].image->frame_idx);
     const bool held_out = c.split_rule == "novel_pose" && pose_index >= first_held_out;
     impl->frames.push_back(make_frame(candidates[i], static_cast<int64_t>(impl->frames.size()),
-                                      pose_index, held_out, right));
+                                      pose_index, held_out));
     kept_cameras.insert(impl->frames.back().camera_id);
   }
   impl->cameras.assign(kept_cameras.begin(), kept_cameras.end());
@@ -586,15 +578,38 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
                impl->test);
 
   if (!mask_cache_dir.empty() && c.cache.disk_masks)
-    impl->mask_folder = mask_folder(c, layout, mask_cache_dir);
-  spdlog::info("capture {} ({}): {} images, {} poses, {} cameras; train {}, test {} ({})",
-               c.capture, c.split, impl->frames.size(), impl->num_poses, impl->cameras.size(),
+    impl->mask_folder = mask_folder(c, records, mask_cache_dir);
+  // Lens distortion: each distorted camera's images are undistorted (K kept) when first loaded,
+  // and kept as PNG files beside the masks when there is a disk cache.
+  for (const auto& [name, record] : records.cameras) {
+    if (!record.distortion.any() || !kept_cameras.count(name)) continue;
+    Camera sized = record.camera;
+    for (const FrameInfo& f : impl->frames)
+      if (f.camera_id == name) {
+        sized = f.camera;
+        break;
+      }
+    impl->undistort[name] = undistort_maps(sized, record.distortion);
+  }
+  if (!impl->undistort.empty() && !mask_cache_dir.empty())
+    impl->undistorted_folder = undistorted_folder(records, mask_cache_dir);
+  if (!impl->undistort.empty())
+    spdlog::info("{} camera(s) with lens distortion: images undistorted on first load, K kept",
+                 impl->undistort.size());
+  spdlog::info("{}: {} images, {} poses, {} cameras; train {}, test {} ({})",
+               records.layout == "interhand" ? "capture " + std::to_string(c.capture) + " (" + c.split + ")"
+                                             : records.layout + " capture " + c.root,
+               impl->frames.size(), impl->num_poses, impl->cameras.size(),
                impl->train.size(), impl->test.size(), c.split_rule);
   impl->start_workers(c.cache.prefetch_threads);
   return Capture(std::move(impl));
 }
 
 const CaptureConfig& Capture::config() const { return impl_->config; }
+const std::string& Capture::layout() const { return impl_->layout; }
+std::string Capture::region_subfolder() const {
+  return impl_->layout == "interhand" ? impl_->config.split : std::string();
+}
 const std::vector<FrameInfo>& Capture::frames() const { return impl_->frames; }
 const std::vector<FrameInfo>& Capture::train() const { return impl_->train; }
 const std::vector<FrameInfo>& Capture::test() const { return impl_->test; }

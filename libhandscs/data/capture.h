@@ -36,7 +36,9 @@ struct FrameInfo {
   int64_t index = 0;       // position in Capture::frames()
   int64_t image_id = 0;    // data.json images[].id
   std::string image_path;  // path of the JPEG
-  std::string file_name;   // relative to images/{split}/ (as in data.json)
+  std::string file_name;   // relative to the images folder (InterHand2.6M: images/{split}/, as in
+                           // data.json; the other layouts: images/, "<camera>/<frame>.jpg")
+  std::string mask_path;   // mask supplied with the capture ("" = rasterised from the posed mesh)
   std::string camera_id;   // "400026"
   std::string seq_name;
   int capture = 0;
@@ -49,7 +51,8 @@ struct FrameInfo {
                                  // config.flat_hand_mean)
   std::array<float, 10> shape{};
   std::array<float, 3> trans{};    // metres
-  std::array<float, 63> joints{};  // annotated joint_3d, MANO21 order, metres, row-major [21, 3]
+  std::array<float, 63> joints{};  // annotated joints, MANO21 order, metres, row-major [21, 3]
+                                   // (zeros, joint_valid 0, when the capture has none)
   std::array<uint8_t, 21> joint_valid{};  // MANO21 order
 };
 
@@ -98,6 +101,11 @@ class Capture {
   ~Capture();
 
   const CaptureConfig& config() const;
+  // The layout read (data/capture_layout.h): "interhand", "handscs" or "easymocap".
+  const std::string& layout() const;
+  // Folder of the region masks of this capture's images under a regions folder: <split>/ for
+  // InterHand2.6M (regions/test/Capture0/...), none for the other layouts (regions/<camera>/...).
+  std::string region_subfolder() const;
   const std::vector<FrameInfo>& frames() const;  // every usable frame (train and test)
   const std::vector<FrameInfo>& train() const;   // training frames (copies with FrameInfo::index)
   const std::vector<FrameInfo>& test() const;    // held-out frames

@@ -1,5 +1,6 @@
-// Configuration of one training capture read from an InterHand2.6M-layout folder: which images
-// (split, capture, sequences, hand, cameras, stride), the train/test split rule, masks and caching.
+// Configuration of one training capture (InterHand2.6M's layout, the project's own or EasyMocap's:
+// docs/CAPTURE_FORMAT.md): which images (split, capture, sequences, hand, cameras, stride), the
+// train/test split rule, masks and caching.
 #pragma once
 
 #include <cstdint>
@@ -27,9 +28,12 @@ struct CropCacheConfig {
 };
 
 struct CaptureConfig {
-  std::string root;                        // dataset folder holding images/ and annotations/
+  std::string root;                        // dataset folder (see layout)
+  // "auto": easymocap when root holds intri.yml, handscs when it holds capture.json, else
+  // interhand (images/ and annotations/); or one of those three names.
+  std::string layout = "auto";
   std::string split = "test";              // InterHand split folder: train, test or val
-  int capture = 0;                         // Capture{c}
+  int capture = 0;                         // Capture{c} (InterHand2.6M layout only)
   std::vector<std::string> sequences;      // seq_name values to use (empty = all of the capture)
   std::string hand = "right";              // which hand's MANO parameters drive the avatar
   bool include_interacting = false;        // also use frames annotated "interacting" (both hands)
@@ -67,9 +71,13 @@ struct CaptureConfig {
 
   template <class V>
   void visit(V& v) {
-    v.field("root", root, "dataset folder with images/ and annotations/ (InterHand2.6M layout)");
+    v.field("root", root, "capture folder (docs/CAPTURE_FORMAT.md)");
+    v.choice("layout", layout, {"auto", "interhand", "handscs", "easymocap"},
+             "capture layout; auto: easymocap with intri.yml, handscs with capture.json, else "
+             "interhand");
     v.choice("split", split, {"train", "test", "val"}, "InterHand2.6M split folder");
-    v.field("capture", capture, "capture number (images/{split}/Capture{c})", 0, 1000000);
+    v.field("capture", capture, "InterHand2.6M capture number (images/{split}/Capture{c})", 0,
+            1000000);
     v.field("sequences", sequences, "sequence names to use (empty = all)");
     v.choice("hand", hand, {"right", "left"}, "hand whose MANO parameters are used");
     v.field("include_interacting", include_interacting,

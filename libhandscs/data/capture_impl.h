@@ -11,13 +11,13 @@
 #include <thread>
 
 #include "data/capture.h"
-#include "data/capture_layout.h"
+#include "data/lens_distortion.h"
 
 namespace handscs {
 
 struct Capture::Impl {
   CaptureConfig config;
-  CaptureLayout layout;
+  std::string layout;  // "interhand", "handscs" or "easymocap"
   std::vector<FrameInfo> frames, train, test;
   int num_poses = 0;
   std::vector<std::vector<float>> posed_vertices;  // [pose][V * 3]
@@ -28,6 +28,8 @@ struct Capture::Impl {
   std::vector<SkippedImage> skipped;
   std::string skip_summary;
   std::string mask_folder;  // "" = no disk cache
+  std::map<std::string, UndistortMaps> undistort;  // cameras with lens distortion, by name
+  std::string undistorted_folder;  // undistorted images' disk cache ("" = none)
 
   explicit Impl(size_t budget_bytes) : cache(budget_bytes) {}
   ~Impl() { stop_workers(); }
@@ -50,6 +52,8 @@ struct Capture::Impl {
   std::shared_ptr<const CachedCrop> produce(int64_t index, bool full) const;
   std::shared_ptr<const CachedCrop> get(int64_t index, bool full);
   cv::Mat decode(const FrameInfo& frame) const;
+  cv::Mat read_image(const std::string& path, const FrameInfo& frame) const;
+  cv::Mat undistorted(const FrameInfo& frame, const UndistortMaps& maps) const;
   cv::Mat mask_for(const FrameInfo& frame, const cv::Mat& bgr) const;
   cv::Mat compute_mask(const FrameInfo& frame, const cv::Mat& bgr) const;
 };

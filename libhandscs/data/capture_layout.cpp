@@ -8,6 +8,19 @@ namespace handscs {
 
 namespace fs = std::filesystem;
 
+std::string detect_capture_layout(const std::string& root, const std::string& setting,
+                                  const std::string& root_key, const std::string& layout_key) {
+  require(!root.empty(), root_key + ": empty (set it to the dataset folder)");
+  require(fs::is_directory(root), root + ": capture root is not a folder");
+  if (setting == "interhand" || setting == "handscs" || setting == "easymocap") return setting;
+  require(setting == "auto", layout_key + ": unknown layout \"" + setting +
+                                 "\" (known: auto, interhand, handscs, easymocap)");
+  const fs::path base(root);
+  if (fs::is_regular_file(base / kEasyMocapIntrinsicsFile)) return "easymocap";
+  if (fs::is_regular_file(base / kHandscsCaptureFile)) return "handscs";
+  return "interhand";
+}
+
 CaptureLayout resolve_capture_layout(const std::string& root, const std::string& split,
                                      const std::string& root_key) {
   require(!root.empty(), root_key + ": empty (set it to the dataset folder)");

@@ -1,10 +1,23 @@
-// Where an InterHand2.6M-layout capture keeps its files: images/{split}/ (optionally under
-// InterHand2.6M_5fps_batch1/) and annotations/{split}/InterHand2.6M_{split}_{kind}.json.
+// Which layout a capture folder has (docs/CAPTURE_FORMAT.md), and where an InterHand2.6M-layout
+// capture keeps its files: images/{split}/ (optionally under InterHand2.6M_5fps_batch1/) and
+// annotations/{split}/InterHand2.6M_{split}_{kind}.json.
 #pragma once
 
 #include <string>
 
 namespace handscs {
+
+// The file that marks the project's own layout, and the two that mark EasyMocap's (with it).
+constexpr char kHandscsCaptureFile[] = "capture.json";
+constexpr char kEasyMocapIntrinsicsFile[] = "intri.yml";
+constexpr char kEasyMocapExtrinsicsFile[] = "extri.yml";
+
+// The layout of `root`: `setting` ("interhand", "handscs", "easymocap") as given, or for "auto"
+// easymocap when root holds intri.yml, else handscs when it holds capture.json, else interhand.
+// Throws Error naming root_key for an empty or missing root, layout_key for an unknown setting.
+std::string detect_capture_layout(const std::string& root, const std::string& setting,
+                                  const std::string& root_key = "data.root",
+                                  const std::string& layout_key = "data.layout");
 
 struct CaptureLayout {
   std::string images_dir;  // folder that data.json's file_name values are relative to

@@ -31,13 +31,13 @@ void write_cache_file(const fs::path& path, const std::vector<uint8_t>& bytes) {
     std::ofstream out(temp, std::ios::binary);
     out.write(reinterpret_cast<const char*>(bytes.data()),
               static_cast<std::streamsize>(bytes.size()));
-    if (!out) throw Error(path.string() + ": cannot write mask cache file");
+    if (!out) throw Error(path.string() + ": cannot write cache file");
   }
   std::error_code ec;
   fs::rename(temp, path, ec);
   if (ec) {
     fs::remove(temp, ec);
-    throw Error(path.string() + ": cannot write mask cache file");
+    throw Error(path.string() + ": cannot write cache file");
   }
 }
 
@@ -46,22 +46,48 @@ void write_cache_file(const fs::path& path, const std::vector<uint8_t>& bytes) {
 constexpr size_t kMaxRememberedErrors = 256;
 }  // namespace
 
-cv::Mat Capture::Impl::decode(const FrameInfo& frame) const {
+cv::Mat Capture::Impl::read_image(const std::string& path, const FrameInfo& frame) const {
   // Checked again at decode: the open's scan read each image, but a file replaced since by a named
   // pipe would block OpenCV's read forever.
-  refuse_irregular_file(frame.image_path);
+  refuse_irregular_file(path);
   cv::Mat bgr;
   try {
-    bgr = cv::imread(frame.image_path, cv::IMREAD_COLOR);
+    bgr = cv::imread(path, cv::IMREAD_COLOR);
   } catch (const cv::Exception& e) {
-    throw Error(frame.image_path + ": cannot decode image (" + e.what() + ")");
+    throw Error(path + ": cannot decode image (" + e.what() + ")");
   }
-  if (bgr.empty()) throw Error(frame.image_path + ": cannot decode image");
+  if (bgr.empty()) throw Error(path + ": cannot decode image");
   if (bgr.cols != frame.camera.width || bgr.rows != frame.camera.height)
-    throw Error(frame.image_path + ": image is " + std::to_string(bgr.cols) + "x" +
-                std::to_string(bgr.rows) + " but data.json says " +
+    throw Error(path + ": image is " + std::to_string(bgr.cols) + "x" + std::to_string(bgr.rows) +
+                " but " + (layout == "interhand" ? "data.json" : "its camera") + " says " +
                 std::to_string(frame.camera.width) + "x" + std::to_string(frame.camera.height));
   return bgr;
+}
+
+cv::Mat Capture::Impl::undistorted(const FrameInfo& frame, const UndistortMaps& maps) const {
+  fs::path file;
+  if (!undistorted_folder.empty()) {
+    file = fs::path(undistorted_folder) / fs::path(frame.file_name).replace_extension(".png");
+    if (fs::is_regular_file(file)) {
+      cv::Mat stored = cv::imread(file.string(), cv::IMREAD_COLOR);
+      if (stored.cols == frame.camera.width && stored.rows == frame.camera.height) return stored;
+      // Unreadable or stale: undistort again and overwrite below.
+    }
+  }
+  cv::Mat bgr = undistort_image(read_image(frame.image_path, frame), maps);
+  if (!file.empty()) {
+    std::vector<uint8_t> png;  // lossless: a cached image equals a freshly undistorted one
+    cv::imencode(".png", bgr, png);
+    ensure_directory(file.parent_path().string());
+    write_cache_file(file, png);
+  }
+  return bgr;
+}
+
+cv::Mat Capture::Impl::decode(const FrameInfo& frame) const {
+  auto maps = undistort.find(frame.camera_id);
+  if (maps == undistort.end()) return read_image(frame.image_path, frame);
+  return undistorted(frame, maps->second);
 }
 
 cv::Mat Capture::Impl::compute_mask(const FrameInfo& frame, const cv::Mat& bgr) const {
@@ -79,6 +105,25 @@ cv::Mat Capture::Impl::compute_mask(const FrameInfo& frame, const cv::Mat& bgr) 
 }
 
 cv::Mat Capture::Impl::mask_for(const FrameInfo& frame, const cv::Mat& bgr) const {
+  if (!frame.mask_path.empty()) {
+    cv::Mat stored = cv::imread(frame.mask_path, cv::IMREAD_GRAYSCALE);
+    if (stored.empty()) throw Error(frame.mask_path + ": cannot decode mask");
+    if (stored.cols != bgr.cols || stored.rows != bgr.rows)
+      throw Error(frame.mask_path + ": mask is " + std::to_string(stored.cols) + "x" +
+                  std::to_string(stored.rows) + " but its image " + frame.image_path + " is " +
+                  std::to_string(bgr.cols) + "x" + std::to_string(bgr.rows));
+    auto maps = undistort.find(frame.camera_id);
+    if (maps != undistort.end())  // drawn on the distorted image: nearest keeps it binary
+    {
+      cv::Mat undone;
+      cv::remap(stored, undone, maps->second.map_x, maps->second.map_y, cv::INTER_NEAREST,
+                cv::BORDER_CONSTANT, cv::Scalar::all(0));
+      stored = undone;
+    }
+    cv::Mat mask;
+    cv::threshold(stored, mask, 127, 1, cv::THRESH_BINARY);
+    return mask;
+  }
   if (mask_folder.empty()) return compute_mask(frame, bgr);
   const fs::path file = fs::path(mask_folder) / fs::path(frame.file_name).replace_extension(".png");
   if (std::error_code ec; fs::is_regular_file(file, ec)) {

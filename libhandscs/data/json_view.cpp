@@ -35,6 +35,18 @@ void JsonView::require_object() const {
   if (!value_->is_object()) fail("expected object, got " + json_kind(*value_));
 }
 
+void JsonView::require_known_keys(const std::vector<std::string>& known) const {
+  require_object();
+  for (auto it = value_->begin(); it != value_->end(); ++it) {
+    bool listed = false;
+    for (const auto& k : known) listed = listed || k == it.key();
+    if (listed) continue;
+    std::string names;
+    for (const auto& k : known) names += (names.empty() ? "" : ", ") + k;
+    fail("unknown key \"" + it.key() + "\" (known: " + names + ")");
+  }
+}
+
 JsonView JsonView::at(const std::string& key) const {
   require_object();
   auto it = value_->find(key);

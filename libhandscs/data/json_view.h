@@ -1,12 +1,13 @@
-// Checked, streaming access to the InterHand2.6M annotation JSON: every failure names the file and
-// the key path ("annotations/test/InterHand2.6M_test_camera.json: 3.campos.400026: expected array
-// of 3").
+// Checked, streaming access to JSON data files (InterHand2.6M's annotations, the project's
+// capture.json): every failure names the file and the key path
+// ("annotations/test/InterHand2.6M_test_camera.json: 3.campos.400026: expected array of 3").
 #pragma once
 
 #include <cstdint>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 namespace handscs {
 
@@ -30,6 +31,9 @@ class JsonView {
   // Checks that this is an array of exactly n elements and returns n.
   size_t array(size_t n) const;
   void require_object() const;
+  // Checks that this is an object whose keys are all among `known`; throws naming the first other
+  // key and listing the known ones (a misspelt optional key would otherwise be ignored).
+  void require_known_keys(const std::vector<std::string>& known) const;
 
   double number() const;       // finite number
   int64_t integer() const;     // integer (or a number with an integral value)

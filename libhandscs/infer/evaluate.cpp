@@ -137,7 +137,8 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
     frames = std::move(subset);
   }
 
-  const std::string masks_dir = (std::filesystem::path(regions_dir) / config.data.split).string();
+  const std::string masks_dir =
+      (std::filesystem::path(regions_dir) / capture.region_subfolder()).lexically_normal().string();
   if (!legend.empty()) {
     // Every mask must be there before hours of rendering start.
     int64_t missing = 0;
@@ -156,6 +157,7 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
   result.report.mode = "model";
   result.report.inputs = {{"checkpoint", ckpt_path},
                           {"capture_root", config.data.root},
+                          {"layout", capture.layout()},
                           {"split", config.data.split},
                           {"capture", config.data.capture},
                           {"frames", options.split}};
@@ -265,9 +267,12 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
                        {"height", frames.front().camera.height}};
   write_file_atomic(options.out_dir + "/summary.json", json.dump(2) + "\n");
   write_file_atomic(options.out_dir + "/per_image.csv", eval_report_to_csv(result.report));
-  const std::string label = options.label.empty()
-                                ? config.data.split + "/Capture" + std::to_string(config.data.capture)
-                                : options.label;
+  // The table's label: InterHand2.6M's split and capture, or the other layouts' capture folder.
+  const std::filesystem::path root = std::filesystem::path(config.data.root).lexically_normal();
+  const std::string label =
+      !options.label.empty()             ? options.label
+      : capture.layout() == "interhand" ? config.data.split + "/Capture" + std::to_string(config.data.capture)
+      : (root.has_filename() ? root.filename() : root.parent_path().filename()).string();
   write_file_atomic(options.out_dir + "/table.md", paper_table(label, summary, result.fps) +
                                                       "\nColours: " + result.camera_color + ".\n");
   return result;

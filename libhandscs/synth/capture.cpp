@@ -25,6 +25,7 @@
 #include "synth/fit_error.h"
 #include "synth/gestures.h"
 #include "synth/mirror.h"
+#include "synth/own_layouts.h"
 #include "synth/regions.h"
 #include "synth/shadows.h"
 
@@ -100,6 +101,10 @@ json numbers(const double* values, int n) {
   for (int i = 0; i < n; ++i) out.push_back(values[i]);
   return out;
 }
+
+int64_t write_interhand_annotations(const SynthScene& scene,
+                                    const std::vector<std::array<double, 4>>& boxes,
+                                    const std::string& out_dir);
 
 }  // namespace
 
@@ -283,16 +288,23 @@ SynthView render_synth_frame(const SynthScene& scene, int frame, int camera) {
 SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_dir) {
   const auto start = std::chrono::steady_clock::now();
   const SynthConfig& c = scene.config;
+  const bool interhand = c.layout == "interhand";
   const fs::path root(out_dir);
-  const fs::path images_dir = root / "images" / c.split;
+  // InterHand2.6M keeps split folders; the other layouts have one capture per folder.
+  const fs::path images_dir = interhand ? root / "images" / c.split : root / "images";
   const fs::path annotations_dir = root / "annotations" / c.split;
-  const fs::path regions_dir = root / "regions" / c.split;
+  const fs::path regions_dir = interhand ? root / "regions" / c.split : root / "regions";
   const bool regions = c.effects.region_masks;
   const bool left = c.hand == "left";  // written as the mirror image of the right hand (mirror.h)
-  ensure_directory(annotations_dir.string());
+  const LensDistortion lens = synth_lens_distortion(c.layout);
+  auto file_name = [&](const SynthFrame& frame, const SynthCamera& camera) {
+    return interhand ? image_file_name(scene, frame, camera) : own_layout_image_name(frame, camera);
+  };
+  if (interhand) ensure_directory(annotations_dir.string());
+  ensure_directory(root.string());
   for (const auto& frame : scene.frames)
     for (const auto& camera : scene.cameras) {
-      const fs::path name = image_file_name(scene, frame, camera);
+      const fs::path name = file_name(frame, camera);
       ensure_directory((images_dir / name).parent_path().string());
       if (regions) ensure_directory((regions_dir / name).parent_path().string());
     }
@@ -315,17 +327,20 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
         cv::flip(view.bgr, view.bgr, 1);
         if (regions) cv::flip(view.regions, view.regions, 1);
       }
+      // The lens distorts what reaches the sensor; region masks stay in the pinhole image, which
+      // is what the reader's undistorted images show.
+      if (lens.any()) view.bgr = distort_image(view.bgr, written_camera(scene, scene.cameras[camera]), lens);
       std::vector<uint8_t> jpeg;
       cv::imencode(".jpg", view.bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, c.jpeg_quality});
       const SynthFrame& f = scene.frames[frame];
       const SynthCamera& cam = scene.cameras[camera];
-      write_file_atomic((images_dir / image_file_name(scene, f, cam)).string(),
+      write_file_atomic((images_dir / file_name(f, cam)).string(),
                         std::string(jpeg.begin(), jpeg.end()));
       sizes[i] = static_cast<int64_t>(jpeg.size());
       if (regions) {
         std::vector<uint8_t> png;
         cv::imencode(".png", view.regions, png);
-        write_file_atomic((regions_dir / region_file_name(image_file_name(scene, f, cam))).string(),
+        write_file_atomic((regions_dir / region_file_name(file_name(f, cam))).string(),
                           std::string(png.begin(), png.end()));
         sizes[i] += static_cast<int64_t>(png.size());
       }
@@ -354,8 +369,35 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
   }
   progress.finish();
   if (!first_error.empty()) throw Error("synth: " + first_error);
+  int64_t bytes = 0;
+  if (!interhand) bytes += write_own_layout_annotations(scene, out_dir);
+  else bytes += write_interhand_annotations(scene, boxes, out_dir);
+  // The resolved generator settings, beside (not inside) the capture's layout.
+  SynthConfig resolved = c;
+  write_file_atomic((root / "synth.json").string(), config_to_json(resolved).dump(2));
+  write_csv_atomic((root / "frames.csv").string(), frames_csv(scene, c.held_out_frames));
+  for (int64_t s : sizes) bytes += s;
+  SynthReport report;
+  report.images = num_images;
+  report.bytes = bytes;
+  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return report;
+}
 
-  // data.json (COCO style), camera.json, joint_3d.json, MANO_NeuralAnnot.json.
+namespace {
+
+// data.json (COCO style), camera.json, joint_3d.json and MANO_NeuralAnnot.json under
+// annotations/{split}/; returns the bytes written.
+int64_t write_interhand_annotations(const SynthScene& scene,
+                                    const std::vector<std::array<double, 4>>& boxes,
+                                    const std::string& out_dir) {
+  const SynthConfig& c = scene.config;
+  const fs::path root(out_dir);
+  const fs::path annotations_dir = root / "annotations" / c.split;
+  const bool left = c.hand == "left";
+  const int64_t num_cameras = static_cast<int64_t>(scene.cameras.size());
+  const int64_t num_images = static_cast<int64_t>(scene.frames.size()) * num_cameras;
+
   json images = json::array(), annotations = json::array();
   json joint_valid = json::array();
   for (int j = 0; j < 42; ++j)  // InterHand order: right hand's 21 joints, then the left's
@@ -438,19 +480,8 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
     write_file_atomic(prefix + kind + ".json", text);
     bytes += static_cast<int64_t>(text.size());
   }
-  // The resolved generator settings, beside (not inside) the InterHand layout.
-  SynthConfig resolved = c;
-  write_file_atomic((root / "synth.json").string(), config_to_json(resolved).dump(2));
-  write_csv_atomic((root / "frames.csv").string(), frames_csv(scene, c.held_out_frames));
-  for (int64_t s : sizes) bytes += s;
-  SynthReport report;
-  report.images = num_images;
-  report.bytes = bytes;
-  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return report;
+  return bytes;
 }
-
-namespace {
 
 // What a folder holds, for the message that refuses it ("images/, annotations/, 3 more").
 std::string folder_contents(const fs::path& dir) {

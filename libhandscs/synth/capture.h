@@ -1,7 +1,8 @@
 // The synthetic capture: the built-in hand moving through a range-of-motion sequence, seen by a
 // camera rig, rendered with the mesh rasteriser and written in exactly the InterHand2.6M layout
-// (images/{split}/Capture{c}/{seq}/cam{id}/image{frame}.jpg and the four annotation files), so the
-// real reader (data/capture.h) is what reads it back.
+// (images/{split}/Capture{c}/{seq}/cam{id}/image{frame}.jpg and the four annotation files), or in
+// the project's own or EasyMocap's (SynthConfig::layout, synth/own_layouts.h), so the real reader
+// (data/capture.h) is what reads it back.
 #pragma once
 
 #include <array>

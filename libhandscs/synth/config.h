@@ -30,6 +30,9 @@ struct SynthConfig {
   // "left": the right-hand capture mirrored through the world's x = 0 plane (synth/mirror.h), so a
   // left-hand capture is the exact mirror image of the right one with the same settings.
   std::string hand = "right";
+  // Files written (docs/CAPTURE_FORMAT.md): InterHand2.6M's, the project's own, or EasyMocap's
+  // (whose images carry a known lens distortion, synth/own_layouts.h).
+  std::string layout = "interhand";
   SynthEffects effects;
 
   template <class V>
@@ -53,6 +56,9 @@ struct SynthConfig {
     v.field("held_out_frames", held_out_frames, "frames of the held-out tail", 0, 1000000);
     v.choice("hand", hand, {"right", "left"},
              "hand in the capture (left: the right-hand capture mirrored through x = 0)");
+    v.choice("layout", layout, {"interhand", "handscs", "easymocap"},
+             "files written: InterHand2.6M's layout, the project's own, or EasyMocap's (with a "
+             "known lens distortion)");
     v.section("effects", effects, "how the ground truth differs from the rig");
   }
 };

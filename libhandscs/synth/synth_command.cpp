@@ -13,7 +13,9 @@ namespace handscs {
 
 int synth_command(int argc, char** argv) {
   CLI::App app{
-      "handscs-synth: render a synthetic InterHand2.6M-layout capture of the built-in hand.\n"
+      "handscs-synth: render a synthetic capture of the built-in hand in InterHand2.6M's layout,\n"
+      "the project's own (--layout handscs) or EasyMocap's (--layout easymocap, with a known\n"
+      "lens distortion; docs/CAPTURE_FORMAT.md).\n"
       "Easy presets (the avatar's own rig under fixed light): tiny, demo, bench, paper.\n"
       "Realistic presets (tissue, fit error, flexion creases, cast shadows, gestures, forearm,\n"
       "camera response, region masks): real_tiny, real_demo, real_bench, real_paper. Switch one\n"
@@ -21,7 +23,7 @@ int synth_command(int argc, char** argv) {
       "handscs-synth)."};
   CommonOptions common;
   add_common_options(app, common, true);
-  std::string preset = "tiny", out;
+  std::string preset = "tiny", out, layout;
   int64_t seed = 1;
   bool overwrite = false;
   app.add_option("--preset", preset,
@@ -31,6 +33,9 @@ int synth_command(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--out", out, "output folder (gets images/, annotations/, regions/, synth.json)")
       ->required();
+  app.add_option("--layout", layout,
+                 "files written: interhand (default), handscs or easymocap (same as --set layout=...)")
+      ->check(CLI::IsMember({"interhand", "handscs", "easymocap"}));
   app.add_option("--seed", seed, "seed of the motion, cameras, shape and noise")
       ->capture_default_str();
   app.add_flag("--overwrite", overwrite,
@@ -51,6 +56,7 @@ int synth_command(int argc, char** argv) {
     SynthConfig config = synth_preset(preset);
     config.seed = seed;
     config = apply_synth_overrides(config, common.overrides);
+    if (!layout.empty()) config.layout = layout;
     generate_synth_capture(config, out, overwrite);
   } catch (const std::exception& e) {
     spdlog::error("{}", error_text(e));

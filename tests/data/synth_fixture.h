@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <string>
 
@@ -41,6 +42,31 @@ inline const TinyCapture& tiny_capture() {
 inline std::string copy_of_tiny(const std::string& name) {
   const std::string dir = fresh_dir(name);
   std::filesystem::copy(tiny_capture().root, dir, std::filesystem::copy_options::recursive);
+  return dir;
+}
+
+// The tiny capture written in `layout` ("interhand", "handscs", "easymocap"), once per process.
+inline const std::string& tiny_capture_in(const std::string& layout) {
+  static std::map<std::string, std::unique_ptr<TinyCapture>> captures;
+  auto& capture = captures[layout];
+  if (!capture) {
+    capture = std::make_unique<TinyCapture>();
+    capture->root = (std::filesystem::temp_directory_path() /
+                     ("handscs_test_data_tiny_" + layout + "_" + std::to_string(::getpid())))
+                        .string();
+    std::filesystem::remove_all(capture->root);
+    handscs::SynthConfig config = handscs::synth_preset("tiny");
+    config.layout = layout;
+    capture->scene = handscs::make_synth_scene(config);
+    handscs::write_synth_capture(capture->scene, capture->root);
+  }
+  return capture->root;
+}
+
+// Copies the tiny capture in `layout` into a fresh folder `name`.
+inline std::string copy_of_tiny_in(const std::string& layout, const std::string& name) {
+  const std::string dir = fresh_dir(name);
+  std::filesystem::copy(tiny_capture_in(layout), dir, std::filesystem::copy_options::recursive);
   return dir;
 }
 

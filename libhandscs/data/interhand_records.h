@@ -1,0 +1,17 @@
+// The InterHand2.6M layout as capture records: the capture's extract of data.json, camera.json,
+// joint_3d.json and MANO_NeuralAnnot.json (through the annotation cache), filtered to the
+// configured sequences, with cameras in metres and joints in MANO21 order.
+#pragma once
+
+#include <string>
+
+#include "data/capture_config.h"
+#include "data/capture_records.h"
+
+namespace handscs {
+
+// Throws Error naming the file and key for bad annotations, and the config key (`prefix`.capture,
+// `prefix`.sequences) for a capture or sequence the files do not hold, listing what they do.
+CaptureRecords read_interhand_records(const CaptureConfig& config, const std::string& prefix);
+
+}  // namespace handscs

@@ -1,0 +1,106 @@
+#include "synth/own_layouts.h"
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "data/capture_layout.h"
+#include "data/easymocap_cameras.h"
+#include "data/handscs_capture.h"
+#include "synth/mirror.h"
+
+namespace handscs {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+json number_array(const double* values, int n) {
+  json out = json::array();
+  for (int i = 0; i < n; ++i) out.push_back(values[i]);
+  return out;
+}
+
+json matrix_rows(const double* values, int rows, int cols) {
+  json out = json::array();
+  for (int r = 0; r < rows; ++r) out.push_back(number_array(values + r * cols, cols));
+  return out;
+}
+
+}  // namespace
+
+LensDistortion synth_lens_distortion(const std::string& layout) {
+  return layout == "easymocap" ? kSynthLensDistortion : LensDistortion{};
+}
+
+std::string own_layout_image_name(const SynthFrame& frame, const SynthCamera& camera) {
+  return camera.id + "/" + frame_file_stem(frame.frame_idx) + ".jpg";
+}
+
+Camera written_camera(const SynthScene& scene, const SynthCamera& camera) {
+  if (scene.config.hand != "left") return camera.camera;
+  return camera_from_interhand(mirror_interhand_camera(camera.raw, camera.camera.width),
+                               camera.camera.width, camera.camera.height);
+}
+
+int64_t write_own_layout_annotations(const SynthScene& scene, const std::string& root) {
+  const SynthConfig& c = scene.config;
+  const bool left = c.hand == "left";
+  const bool easymocap = c.layout == "easymocap";
+  json document = {{"format", kHandscsCaptureFormat},
+                   {"version", kHandscsCaptureVersion},
+                   // As the InterHand2.6M files: poses relative to hands_mean.
+                   {"flat_hand_mean", false}};
+  std::map<std::string, RecordCamera> cameras;
+  for (const auto& cam : scene.cameras) {
+    RecordCamera record;
+    record.camera = written_camera(scene, cam);
+    record.distortion = synth_lens_distortion(c.layout);
+    cameras[cam.id] = record;
+  }
+  int64_t bytes = 0;
+  if (easymocap) {
+    const std::string intri = (fs::path(root) / kEasyMocapIntrinsicsFile).string();
+    const std::string extri = (fs::path(root) / kEasyMocapExtrinsicsFile).string();
+    write_easymocap_cameras(cameras, intri, extri);
+    bytes += static_cast<int64_t>(fs::file_size(intri) + fs::file_size(extri));
+  } else {
+    json out = json::object();
+    for (const auto& [id, record] : cameras) {
+      const Camera& camera = record.camera;
+      out[id] = {{"K", matrix_rows(camera.K.data(), 3, 3)},
+                 {"R", matrix_rows(camera.R.data(), 3, 3)},
+                 {"t", number_array(camera.t.data(), 3)},
+                 {"width", camera.width},
+                 {"height", camera.height}};
+    }
+    document["cameras"] = out;
+  }
+  json frames = json::array();
+  for (const auto& f : scene.frames) {
+    std::array<double, 63> joints{};
+    for (int j = 0; j < 21; ++j) {
+      std::array<double, 3> p = {f.joints[j * 3], f.joints[j * 3 + 1], f.joints[j * 3 + 2]};
+      if (left) p = mirror_point(p);
+      for (int d = 0; d < 3; ++d) joints[j * 3 + d] = p[d];
+    }
+    const std::array<double, 48> pose = left ? mirror_mano_pose(f.annotated) : f.annotated;
+    const std::array<double, 3> trans = left ? mirror_point(f.annotated_trans) : f.annotated_trans;
+    const json hand = {{"pose", number_array(pose.data(), 48)},
+                       {"shape", number_array(f.annotated_shape.data(), 10)},
+                       {"trans", number_array(trans.data(), 3)},
+                       {"joints", matrix_rows(joints.data(), 21, 3)}};
+    frames.push_back({{"frame", f.frame_idx},
+                      {"sequence", f.seq_name},
+                      {"hand_type", c.hand},
+                      {c.hand, hand}});
+  }
+  document["frames"] = frames;
+  const std::string text = document.dump();
+  write_file_atomic((fs::path(root) / kHandscsCaptureFile).string(), text);
+  return bytes + static_cast<int64_t>(text.size());
+}
+
+}  // namespace handscs
