@@ -8,26 +8,37 @@ namespace handscs {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+// The root must be a folder; a link loop or an unreadable parent says why, a missing folder is just
+// not a folder.
+void require_capture_root(const std::string& root, const std::string& root_key) {
+  require(!root.empty(), root_key + ": empty (set it to the dataset folder)");
+  std::error_code ec;
+  if (!fs::is_directory(root, ec))
+    throw Error(root + ": capture root is not a folder" +
+                (ec && ec != std::errc::no_such_file_or_directory ? " (" + ec.message() + ")" : ""));
+}
+
+}  // namespace
+
 std::string detect_capture_layout(const std::string& root, const std::string& setting,
                                   const std::string& root_key, const std::string& layout_key) {
-  require(!root.empty(), root_key + ": empty (set it to the dataset folder)");
-  require(fs::is_directory(root), root + ": capture root is not a folder");
+  require_capture_root(root, root_key);
   if (setting == "interhand" || setting == "handscs" || setting == "easymocap") return setting;
   require(setting == "auto", layout_key + ": unknown layout \"" + setting +
                                  "\" (known: auto, interhand, handscs, easymocap)");
   const fs::path base(root);
-  if (fs::is_regular_file(base / kEasyMocapIntrinsicsFile)) return "easymocap";
-  if (fs::is_regular_file(base / kHandscsCaptureFile)) return "handscs";
+  std::error_code ec;
+  if (fs::is_regular_file(base / kEasyMocapIntrinsicsFile, ec)) return "easymocap";
+  if (fs::is_regular_file(base / kHandscsCaptureFile, ec)) return "handscs";
   return "interhand";
 }
 
 CaptureLayout resolve_capture_layout(const std::string& root, const std::string& split,
                                      const std::string& root_key) {
-  require(!root.empty(), root_key + ": empty (set it to the dataset folder)");
+  require_capture_root(root, root_key);
   std::error_code ec;
-  if (!fs::is_directory(root, ec))  // a link loop says so; a missing folder is just not a folder
-    throw Error(root + ": capture root is not a folder" +
-                (ec && ec != std::errc::no_such_file_or_directory ? " (" + ec.message() + ")" : ""));
   // The 5 fps release unpacks its images into InterHand2.6M_5fps_batch1/; annotations are
   // downloaded separately and may sit beside it or inside it.
   const fs::path base(root);

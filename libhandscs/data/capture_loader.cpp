@@ -68,7 +68,7 @@ cv::Mat Capture::Impl::undistorted(const FrameInfo& frame, const UndistortMaps& 
   fs::path file;
   if (!undistorted_folder.empty()) {
     file = fs::path(undistorted_folder) / fs::path(frame.file_name).replace_extension(".png");
-    if (fs::is_regular_file(file)) {
+    if (std::error_code ec; fs::is_regular_file(file, ec)) {
       cv::Mat stored = cv::imread(file.string(), cv::IMREAD_COLOR);
       if (stored.cols == frame.camera.width && stored.rows == frame.camera.height) return stored;
       // Unreadable or stale: undistort again and overwrite below.

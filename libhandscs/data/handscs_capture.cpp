@@ -68,7 +68,8 @@ std::optional<RecordHand> read_hand(const JsonView& frame, const char* side) {
 // .jpg and is skipped as missing by Capture::open).
 std::string image_name(const fs::path& images_dir, const std::string& camera, const std::string& stem) {
   const std::string jpg = camera + "/" + stem + ".jpg", png = camera + "/" + stem + ".png";
-  if (!fs::exists(images_dir / jpg) && fs::exists(images_dir / png)) return png;
+  std::error_code ec;
+  if (!fs::exists(images_dir / jpg, ec) && fs::exists(images_dir / png, ec)) return png;
   return jpg;
 }
 
@@ -101,7 +102,8 @@ CaptureRecords read_handscs_capture(const std::string& root, const std::string& 
   const std::string path = (base / kHandscsCaptureFile).string();
   records.index_file = path;
   records.scope = path;
-  if (!fs::is_regular_file(path))
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec))
     throw Error(path + ": missing (the " + layout + " layout keeps its frames' MANO parameters "
                 "there; docs/CAPTURE_FORMAT.md)");
   const json document = read_json_file(path);
@@ -127,7 +129,7 @@ CaptureRecords read_handscs_capture(const std::string& root, const std::string& 
   if (easymocap) {
     const std::string intri = (base / kEasyMocapIntrinsicsFile).string();
     const std::string extri = (base / kEasyMocapExtrinsicsFile).string();
-    if (!fs::is_regular_file(extri)) throw Error(extri + ": missing (the easymocap layout needs it beside " + intri + ")");
+    if (!fs::is_regular_file(extri, ec)) throw Error(extri + ": missing (the easymocap layout needs it beside " + intri + ")");
     records.cameras = read_easymocap_cameras(intri, extri);
     records.source_files = {path, intri, extri};
   } else {
@@ -140,7 +142,7 @@ CaptureRecords read_handscs_capture(const std::string& root, const std::string& 
   }
   for (const auto& [name, camera] : records.cameras) {
     const fs::path folder = base / "images" / name;
-    if (!fs::is_directory(folder))
+    if (!fs::is_directory(folder, ec))
       throw Error(folder.string() + ": missing image folder of camera \"" + name + "\" (" +
                   (easymocap ? "names in " + (base / kEasyMocapIntrinsicsFile).string()
                              : "cameras." + name + " in " + path) +
@@ -151,7 +153,7 @@ CaptureRecords read_handscs_capture(const std::string& root, const std::string& 
   const size_t num_frames = frames.size();
   if (num_frames == 0) frames.fail("no frames");
   const fs::path masks_dir = base / "masks";
-  const bool has_masks = fs::is_directory(masks_dir);
+  const bool has_masks = fs::is_directory(masks_dir, ec);
   for (size_t k = 0; k < num_frames; ++k) {
     const JsonView entry = frames.at(k);
     entry.require_known_keys({"frame", "sequence", "hand_type", "right", "left"});
@@ -176,7 +178,7 @@ CaptureRecords read_handscs_capture(const std::string& root, const std::string& 
       image.file_name = image_name(base / "images", name, stem);
       if (has_masks) {
         const fs::path mask = masks_dir / name / (stem + ".png");
-        if (fs::is_regular_file(mask)) image.mask_path = mask.string();
+        if (fs::is_regular_file(mask, ec)) image.mask_path = mask.string();
       }
       image.width = camera.camera.width;
       image.height = camera.camera.height;
