@@ -1,7 +1,8 @@
 // Training, evaluation and rendering read every capture layout through the same reader: the tiny
 // synthetic capture written in the project's own layout trains to the InterHand2.6M capture's
 // losses exactly, EasyMocap's (lens-distorted, undistorted on load) within the resampling's bound;
-// evaluation scores region masks, and a render's POSES file selects frames, on each layout.
+// evaluation scores region masks, and a render of the held-out frames (POSES capture selection)
+// runs, on each layout.
 #include "catch_torch.h"
 
 #include <cmath>
@@ -9,9 +10,12 @@
 #include <fstream>
 #include <map>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "core/atomic_file.h"
 #include "core/threads.h"
 #include "infer/evaluate.h"
+#include "infer/avatar_render.h"
 #include "infer/pose_source.h"
 #include "synth/capture.h"
 #include "synth/config.h"
@@ -129,6 +133,18 @@ TEST_CASE("layouts: evaluation with regions and a render's capture poses read ev
                          << R"(", "held_out_poses": 3}, "frames": "test"})";
     const auto frames = handscs::read_pose_source(poses);
     REQUIRE(frames.size() == 12);
-    CHECK(frames[0].camera.has_value());
+    REQUIRE(frames[0].camera.has_value());
+    // handscs-render's path end to end: the held-out frames from their own cameras.
+    handscs::AvatarRenderOptions render;
+    render.checkpoint = run;
+    render.poses = poses;
+    render.out_dir = run + "/render";
+    const auto rendered = handscs::render_avatar(render);
+    CHECK(rendered.frames == 12);
+    CHECK(rendered.width == frames[0].camera->width);
+    CHECK(rendered.height == frames[0].camera->height);
+    const cv::Mat first = cv::imread(render.out_dir + "/frame_0000.png");
+    CHECK(first.cols == frames[0].camera->width);
+    CHECK(first.rows == frames[0].camera->height);
   }
 }
