@@ -18,6 +18,7 @@
 #include "core/csv_table.h"
 #include "core/error.h"
 #include "core/progress.h"
+#include "core/stop_signal.h"
 #include "core/threads.h"
 #include "data/mesh_mask.h"
 #include "hand/joint_order.h"
@@ -318,8 +319,12 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
   std::string first_error;
   ProgressBar progress("synth " + c.preset, num_images);
   int64_t done = 0;
+  // Ctrl-C / SIGTERM: the images not yet rendered are skipped and the unfinished capture dropped
+  // (generate_synth_capture removes its staging folder), instead of leaving it behind.
+  const StopSignal stop_signal;
 #pragma omp parallel for schedule(dynamic, 1)
   for (int64_t i = 0; i < num_images; ++i) {
+    if (StopSignal::requested()) continue;  // an OpenMP loop cannot break
     const int frame = static_cast<int>(i / num_cameras), camera = static_cast<int>(i % num_cameras);
     try {
       SynthView view = render_synth_frame(scene, frame, camera);
@@ -368,6 +373,9 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
     progress.update(++done);
   }
   progress.finish();
+  if (StopSignal::requested())
+    throw Error("synth: interrupted (SIGINT or SIGTERM) after " + std::to_string(done) + " of " +
+                std::to_string(num_images) + " images, before the capture was complete");
   if (!first_error.empty()) throw Error("synth: " + first_error);
   int64_t bytes = 0;
   if (!interhand) bytes += write_own_layout_annotations(scene, out_dir);

@@ -1,9 +1,7 @@
 #include "train/trainer.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
-#include <csignal>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -23,6 +21,7 @@
 #include "core/error.h"
 #include "core/float_vector.h"
 #include "core/progress.h"
+#include "core/stop_signal.h"
 #include "data/camera_transforms.h"
 #include "io/png.h"
 #include "metrics/comparison_panel.h"
@@ -38,9 +37,6 @@
 namespace handscs {
 
 namespace {
-
-std::atomic<bool> g_stop_requested{false};
-extern "C" void request_stop(int) { g_stop_requested = true; }
 
 using Clock = std::chrono::steady_clock;
 double ms_between(Clock::time_point a, Clock::time_point b) {
@@ -205,7 +201,7 @@ int64_t Trainer::first_entry() const {
   return config_.train.batch_size * (group_ ? group_->rank() : 0);
 }
 
-bool Trainer::stop_requested() const { return group_ ? stop_agreed_ : g_stop_requested.load(); }
+bool Trainer::stop_requested() const { return group_ ? stop_agreed_ : StopSignal::requested(); }
 
 std::vector<const FrameInfo*> Trainer::frames_for(int64_t entry_index) {
   const auto& frames = capture_->train();
@@ -532,7 +528,7 @@ bool Trainer::reduce_across_ranks(EntryOutcome& sums, bool finite, std::map<std:
   // The loss terms (a term this rank lacks adds 0 and no presence), so that metrics.csv logs the
   // mean over every rank's views, as one process with their batch would.
   std::vector<float> scalar_values = {static_cast<float>(sums.loss), static_cast<float>(sums.psnr),
-                                      finite ? 0.f : 1.f, g_stop_requested ? 1.f : 0.f};
+                                      finite ? 0.f : 1.f, StopSignal::requested() ? 1.f : 0.f};
   for (const char* name : kReducedTerms) {
     const auto it = terms.find(name);
     scalar_values.push_back(it == terms.end() ? 0.f : static_cast<float>(it->second));
@@ -999,10 +995,8 @@ void Trainer::log_step(const StepResult& r) {
 }
 
 TrainSummary Trainer::run() {
-  g_stop_requested = false;
+  const StopSignal stop_signal;  // Ctrl-C / SIGTERM: save a checkpoint and end
   stop_agreed_ = false;
-  auto previous_int = std::signal(SIGINT, request_stop);
-  auto previous_term = std::signal(SIGTERM, request_stop);
   // Every rank starts from rank 0's state: its initialisation, or the checkpoint it resumed.
   if (group_) synchronize_state(/*keep_chains=*/false);
   const bool root = is_root();
@@ -1050,8 +1044,6 @@ TrainSummary Trainer::run() {
       write_file_atomic(run_dir_ + "/camera_color.csv", camera_colors_->to_csv());
     bar->finish(status);
   }
-  std::signal(SIGINT, previous_int);
-  std::signal(SIGTERM, previous_term);
   if (interrupted && root)
     spdlog::warn("interrupted at step {}: checkpoint {} saved; continue with --resume", iteration_,
                  last_checkpoint_);

@@ -1,9 +1,15 @@
 // The synthetic capture generator: presets, determinism (seed, thread count), the range-of-motion
-// sequence, and the skin and background it renders.
+// sequence, the skin and background it renders, and an interrupted run that leaves nothing behind.
 #include <omp.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <thread>
 #include <opencv2/core.hpp>
 
 #include "core/atomic_file.h"
@@ -12,6 +18,7 @@
 #include "hand/lbs.h"
 #include "synth/capture.h"
 #include "synth/math.h"
+#include "test_support.h"
 #include "data/data_test_helpers.h"
 
 // Catch last: LibTorch pulls in glog, whose CHECK macro would otherwise replace Catch's.
@@ -223,4 +230,42 @@ TEST_CASE("synth: a folder that is not empty is refused, and replaced only by a 
   CHECK(data_test::error_of([&] { generate_synth_capture(huge, dir + "_huge"); }) ==
         "num_cameras x num_frames: 100000000 images (at most 5000000)");
   CHECK_FALSE(fs::exists(dir + "_huge"));
+}
+
+TEST_CASE("synth: SIGTERM drops the unfinished capture and leaves the folder as it was") {
+  const std::string dir = handscs_test::scratch_path("handscs_test_synth_stop", "case");
+  fs::remove_all(dir);
+  fs::create_directories(dir + "/out");
+  { std::ofstream(dir + "/out/keep.txt") << "the user's"; }  // --overwrite: replaced only when complete
+  const pid_t child = fork();
+  REQUIRE(child >= 0);
+  if (child == 0) {
+    execl("/bin/sh", "sh", "-c",
+          ("exec " + handscs_test::kBin + "/handscs-synth --preset demo --threads 1 --overwrite --out " +
+           dir + "/out > " + dir + "/synth.log 2>&1").c_str(),
+          nullptr);
+    _exit(127);
+  }
+  // Once the first image is in the staging folder (the handler is installed before any), stop it.
+  const std::string staging = dir + "/out.synth-new." + std::to_string(child);
+  bool started = false;
+  for (int i = 0; i < 3000 && !started; ++i) {  // <= 60 s
+    std::error_code ec;
+    for (const auto& entry : fs::recursive_directory_iterator(staging, ec))
+      if (entry.path().extension() == ".jpg") started = true;
+    if (!started) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  REQUIRE(started);
+  kill(child, SIGTERM);
+  int status = 0;
+  waitpid(child, &status, 0);
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 1);
+  const std::string log = handscs::read_file(dir + "/synth.log");
+  CHECK(log.find("synth: interrupted (SIGINT or SIGTERM) after ") != std::string::npos);
+  CHECK(log.find("images, before the capture was complete") != std::string::npos);
+  CHECK_FALSE(fs::exists(staging));
+  int entries = 0;
+  for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir + "/out")) ++entries;
+  CHECK(entries == 1);  // keep.txt, as it was
 }

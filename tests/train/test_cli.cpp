@@ -191,6 +191,36 @@ TEST_CASE("cli: kill -9 during checkpoint writes leaves a loadable checkpoint") 
   }
 }
 
+TEST_CASE("cli: SIGTERM stops training with a checkpoint of the step reached and exit 130") {
+  const auto run_dir = fresh_dir("cli_sigterm");
+  const pid_t pid = fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    execl("/bin/sh", "sh", "-c",
+          ("exec " + kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
+           " --threads 1 --set data.root=" + tiny_capture_dir() +
+           " train.iterations=100000 train.checkpoint_every=100000 > " + run_dir + ".log 2>&1")
+              .c_str(),
+          nullptr);
+    _exit(127);
+  }
+  // metrics.csv appears with the first logged step, after the handlers are installed.
+  for (int i = 0; i < 3000 && !std::filesystem::exists(run_dir + "/metrics.csv"); ++i)  // <= 60 s
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  kill(pid, SIGTERM);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 130);
+  const auto latest = handscs::latest_checkpoint(run_dir);
+  REQUIRE_FALSE(latest.empty());
+  const auto step = handscs::load_checkpoint(latest).meta["iteration"].get<int64_t>();
+  CHECK(step > 0);
+  CHECK(step < 100000);
+  CHECK(handscs::read_file(run_dir + ".log").find("interrupted at step " + std::to_string(step) +
+                                                  ": checkpoint " + latest + " saved") != std::string::npos);
+}
+
 TEST_CASE("cli: a run folder is never overwritten or mixed without --overwrite") {
   const auto run_dir = fresh_dir("cli_safe");
   const std::string train = kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " +
