@@ -15,6 +15,7 @@
 #include "core/error.h"
 #include "core/float_vector.h"
 #include "core/progress.h"
+#include "core/stop_signal.h"
 #include "data/mesh_mask.h"
 #include "infer/pose_source.h"
 #include "io/mp4_writer.h"
@@ -131,9 +132,16 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
   // own colours. PLYs always hold the avatar's own colours.
   int64_t transformed = 0;
   ProgressBar bar("render", count);
+  // Ctrl-C / SIGTERM: the frames written so far stay (each PNG is whole), the video is dropped
+  // (Mp4Writer removes its temporary file) and the render ends with an error saying where.
+  const StopSignal stop_signal;
   c10::InferenceMode guard;
   PoseMemo memo(avatar);
   for (int64_t k = 0; k < count; ++k) {
+    if (StopSignal::requested())
+      throw Error("render interrupted (SIGINT or SIGTERM) after " + std::to_string(k) + " of " +
+                  std::to_string(count) + " frames, kept in " + options.out_dir +
+                  (video ? "; the video was not written" : ""));
     const PoseFrame& f = poses[k % poses.size()];
     const Camera camera = cameras.empty() ? *f.camera : cameras[k % cameras.size()];
     // Posed once per pose (an orbit shows one pose from every camera); each frame's forward time

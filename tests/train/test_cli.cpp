@@ -221,6 +221,41 @@ TEST_CASE("cli: SIGTERM stops training with a checkpoint of the step reached and
                                                   ": checkpoint " + latest + " saved") != std::string::npos);
 }
 
+TEST_CASE("cli: SIGTERM stops a render, keeping the frames written and no torn video") {
+  const auto run_dir = fresh_dir("cli_render_stop");
+  REQUIRE(run(kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
+              " --threads 1 --set data.root=" + tiny_capture_dir() + " train.iterations=2") == 0);
+  const std::string poses = run_dir + "_poses.json";
+  std::ofstream(poses) << R"({"capture": {"root": ")" << tiny_capture_dir()
+                       << R"(", "held_out_poses": 3}, "frames": "test"})";
+  const std::string out = run_dir + "_render";
+  const pid_t pid = fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    execl("/bin/sh", "sh", "-c",
+          ("exec " + kBin + "/handscs-render --checkpoint " + run_dir + " --poses " + poses +
+           " --orbit 100000 --threads 1 --out " + out + " --video " + out + "/v.mp4 > " + out +
+           ".log 2>&1").c_str(),
+          nullptr);
+    _exit(127);
+  }
+  // The first frame's PNG appears after the handlers are installed.
+  for (int i = 0; i < 3000 && !std::filesystem::exists(out + "/frame_0000.png"); ++i)  // <= 60 s
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  kill(pid, SIGTERM);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 1);
+  const std::string log = handscs::read_file(out + ".log");
+  CHECK(log.find("render interrupted (SIGINT or SIGTERM) after ") != std::string::npos);
+  CHECK(log.find(" of 100000 frames, kept in " + out + "; the video was not written") !=
+        std::string::npos);
+  CHECK(std::filesystem::exists(out + "/frame_0000.png"));
+  CHECK_FALSE(std::filesystem::exists(out + "/v.mp4"));
+  CHECK_FALSE(std::filesystem::exists(out + "/v.mp4.tmp.mp4"));
+}
+
 TEST_CASE("cli: a run folder is never overwritten or mixed without --overwrite") {
   const auto run_dir = fresh_dir("cli_safe");
   const std::string train = kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " +
