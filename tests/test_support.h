@@ -1,7 +1,12 @@
 // Small helpers shared by test files that need no torch: the text of an expected error, a scratch
-// file under the system temp folder, a folder's files and bytes, the repository and program paths.
+// file under the system temp folder, a folder's files and bytes, the repository and program paths,
+// and a program started in the background to be signalled.
 #pragma once
 
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
 #include <exception>
 #include <filesystem>
 #include <fstream>
@@ -9,6 +14,7 @@
 #include <iterator>
 #include <map>
 #include <string>
+#include <thread>
 
 namespace handscs_test {
 
@@ -20,6 +26,34 @@ inline std::string error_of(const std::function<void()>& f) {
     return e.what();
   }
   return "(no error)";
+}
+
+// Starts `command` through /bin/sh in the background (exec'd: the pid is the program's own, so a
+// signal sent to it reaches the program). Returns the pid.
+inline pid_t spawn(const std::string& command) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    execl("/bin/sh", "sh", "-c", ("exec " + command).c_str(), nullptr);
+    _exit(127);
+  }
+  return pid;
+}
+
+// Polls `ready` every 20 ms for up to `seconds`; whether it came true.
+inline bool wait_until(const std::function<bool()>& ready, double seconds = 60) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (!ready()) {
+    if (std::chrono::steady_clock::now() > end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return true;
+}
+
+// Waits for `pid` to end: its exit code, or -1 when a signal ended it.
+inline int exit_code_of(pid_t pid) {
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
 // Path of `name` in <temp>/<folder>/ (the folder is created).

@@ -2,14 +2,10 @@
 // sequence, the skin and background it renders, and an interrupted run that leaves nothing behind.
 #include <omp.h>
 #include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <thread>
 #include <opencv2/core.hpp>
 
 #include "core/atomic_file.h"
@@ -237,30 +233,19 @@ TEST_CASE("synth: SIGTERM drops the unfinished capture and leaves the folder as 
   fs::remove_all(dir);
   fs::create_directories(dir + "/out");
   { std::ofstream(dir + "/out/keep.txt") << "the user's"; }  // --overwrite: replaced only when complete
-  const pid_t child = fork();
-  REQUIRE(child >= 0);
-  if (child == 0) {
-    execl("/bin/sh", "sh", "-c",
-          ("exec " + handscs_test::kBin + "/handscs-synth --preset demo --threads 1 --overwrite --out " +
-           dir + "/out > " + dir + "/synth.log 2>&1").c_str(),
-          nullptr);
-    _exit(127);
-  }
+  const pid_t child = handscs_test::spawn(handscs_test::kBin + "/handscs-synth --preset demo --threads 1 "
+                                          "--overwrite --out " + dir + "/out > " + dir + "/synth.log 2>&1");
+  REQUIRE(child > 0);
   // Once the first image is in the staging folder (the handler is installed before any), stop it.
   const std::string staging = dir + "/out.synth-new." + std::to_string(child);
-  bool started = false;
-  for (int i = 0; i < 3000 && !started; ++i) {  // <= 60 s
+  REQUIRE(handscs_test::wait_until([&] {
     std::error_code ec;
     for (const auto& entry : fs::recursive_directory_iterator(staging, ec))
-      if (entry.path().extension() == ".jpg") started = true;
-    if (!started) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  REQUIRE(started);
+      if (entry.path().extension() == ".jpg") return true;
+    return false;
+  }));
   kill(child, SIGTERM);
-  int status = 0;
-  waitpid(child, &status, 0);
-  REQUIRE(WIFEXITED(status));
-  CHECK(WEXITSTATUS(status) == 1);
+  CHECK(handscs_test::exit_code_of(child) == 1);
   const std::string log = handscs::read_file(dir + "/synth.log");
   CHECK(log.find("synth: interrupted (SIGINT or SIGTERM) after ") != std::string::npos);
   CHECK(log.find("images, before the capture was complete") != std::string::npos);

@@ -152,20 +152,14 @@ TEST_CASE("cli: kill -9 during checkpoint writes leaves a loadable checkpoint") 
                               " train.iterations=100000 train.checkpoint_every=1";
   for (int delay_ms : {120, 370, 630}) {
     const auto before = handscs::latest_checkpoint(run_dir);
-    const pid_t pid = fork();
-    REQUIRE(pid >= 0);
-    if (pid == 0) {
-      execl("/bin/sh", "sh", "-c", ("exec " + command + " > /dev/null 2>&1").c_str(), nullptr);
-      _exit(127);
-    }
+    const pid_t pid = handscs_test::spawn(command + " > /dev/null 2>&1");
+    REQUIRE(pid > 0);
     // Wait until this start has written a checkpoint of its own (it is writing one every step
     // then), then kill at an arbitrary moment.
-    for (int i = 0; i < 3000 && handscs::latest_checkpoint(run_dir) == before; ++i)  // <= 60 s
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    handscs_test::wait_until([&] { return handscs::latest_checkpoint(run_dir) != before; });
     std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
     kill(pid, SIGKILL);
-    int status = 0;
-    waitpid(pid, &status, 0);
+    handscs_test::exit_code_of(pid);
     const auto latest = handscs::latest_checkpoint(run_dir);
     REQUIRE_FALSE(latest.empty());
     CHECK(latest != before);  // this start wrote checkpoints before its kill
@@ -193,25 +187,15 @@ TEST_CASE("cli: kill -9 during checkpoint writes leaves a loadable checkpoint") 
 
 TEST_CASE("cli: SIGTERM stops training with a checkpoint of the step reached and exit 130") {
   const auto run_dir = fresh_dir("cli_sigterm");
-  const pid_t pid = fork();
-  REQUIRE(pid >= 0);
-  if (pid == 0) {
-    execl("/bin/sh", "sh", "-c",
-          ("exec " + kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
-           " --threads 1 --set data.root=" + tiny_capture_dir() +
-           " train.iterations=100000 train.checkpoint_every=100000 > " + run_dir + ".log 2>&1")
-              .c_str(),
-          nullptr);
-    _exit(127);
-  }
+  const pid_t pid = handscs_test::spawn(
+      kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
+      " --threads 1 --set data.root=" + tiny_capture_dir() +
+      " train.iterations=100000 train.checkpoint_every=100000 > " + run_dir + ".log 2>&1");
+  REQUIRE(pid > 0);
   // metrics.csv appears with the first logged step, after the handlers are installed.
-  for (int i = 0; i < 3000 && !std::filesystem::exists(run_dir + "/metrics.csv"); ++i)  // <= 60 s
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  handscs_test::wait_until([&] { return std::filesystem::exists(run_dir + "/metrics.csv"); });
   kill(pid, SIGTERM);
-  int status = 0;
-  waitpid(pid, &status, 0);
-  REQUIRE(WIFEXITED(status));
-  CHECK(WEXITSTATUS(status) == 130);
+  CHECK(handscs_test::exit_code_of(pid) == 130);
   const auto latest = handscs::latest_checkpoint(run_dir);
   REQUIRE_FALSE(latest.empty());
   const auto step = handscs::load_checkpoint(latest).meta["iteration"].get<int64_t>();
@@ -229,24 +213,14 @@ TEST_CASE("cli: SIGTERM stops a render, keeping the frames written and no torn v
   std::ofstream(poses) << R"({"capture": {"root": ")" << tiny_capture_dir()
                        << R"(", "held_out_poses": 3}, "frames": "test"})";
   const std::string out = run_dir + "_render";
-  const pid_t pid = fork();
-  REQUIRE(pid >= 0);
-  if (pid == 0) {
-    execl("/bin/sh", "sh", "-c",
-          ("exec " + kBin + "/handscs-render --checkpoint " + run_dir + " --poses " + poses +
-           " --orbit 100000 --threads 1 --out " + out + " --video " + out + "/v.mp4 > " + out +
-           ".log 2>&1").c_str(),
-          nullptr);
-    _exit(127);
-  }
+  const pid_t pid = handscs_test::spawn(kBin + "/handscs-render --checkpoint " + run_dir + " --poses " +
+                                        poses + " --orbit 100000 --threads 1 --out " + out +
+                                        " --video " + out + "/v.mp4 > " + out + ".log 2>&1");
+  REQUIRE(pid > 0);
   // The first frame's PNG appears after the handlers are installed.
-  for (int i = 0; i < 3000 && !std::filesystem::exists(out + "/frame_0000.png"); ++i)  // <= 60 s
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  handscs_test::wait_until([&] { return std::filesystem::exists(out + "/frame_0000.png"); });
   kill(pid, SIGTERM);
-  int status = 0;
-  waitpid(pid, &status, 0);
-  REQUIRE(WIFEXITED(status));
-  CHECK(WEXITSTATUS(status) == 1);
+  CHECK(handscs_test::exit_code_of(pid) == 1);
   const std::string log = handscs::read_file(out + ".log");
   CHECK(log.find("render interrupted (SIGINT or SIGTERM) after ") != std::string::npos);
   CHECK(log.find(" of 100000 frames, kept in " + out + "; the video was not written") !=
@@ -315,23 +289,16 @@ TEST_CASE("cli: a run folder is never overwritten or mixed without --overwrite")
   // --overwrite killed (-9) before the new run's first checkpoint: the old run waits set aside,
   // and the next handscs-train in the folder puts it back, every byte as it was.
   {
-    const pid_t pid = fork();
-    REQUIRE(pid >= 0);
-    if (pid == 0) {
-      execl("/bin/sh", "sh", "-c",
-            ("exec " + train + " train.iterations=100000 train.checkpoint_every=100000 " +
-             "--overwrite > /dev/null 2>&1").c_str(), nullptr);
-      _exit(127);
-    }
+    const pid_t pid = handscs_test::spawn(train + " train.iterations=100000 train.checkpoint_every=100000 "
+                                          "--overwrite > /dev/null 2>&1");
+    REQUIRE(pid > 0);
     const std::string aside = run_dir + "/.overwritten." + std::to_string(pid);
-    // Wait until the new run has set the old one aside and logged a step (<= 60 s), then kill.
-    for (int i = 0; i < 3000 && !(std::filesystem::exists(aside) &&
-                                  std::filesystem::exists(run_dir + "/metrics.csv"));
-         ++i)
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    // Wait until the new run has set the old one aside and logged a step, then kill.
+    handscs_test::wait_until([&] {
+      return std::filesystem::exists(aside) && std::filesystem::exists(run_dir + "/metrics.csv");
+    });
     kill(pid, SIGKILL);
-    int status = 0;
-    waitpid(pid, &status, 0);
+    handscs_test::exit_code_of(pid);
     REQUIRE(std::filesystem::is_directory(aside));
     CHECK(run(train + " train.iterations=2") == 1);  // no --overwrite: refused, old run back first
     CHECK(log_text().find("an interrupted --overwrite had set the earlier run aside before the new "
