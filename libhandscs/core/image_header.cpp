@@ -4,16 +4,11 @@
 
 #include "core/camera_checks.h"
 #include "core/error.h"
+#include "core/png_damage.h"
 
 namespace handscs {
 
 namespace {
-
-int64_t header_bytes_value(const std::string& b, size_t at, int bytes) {
-  int64_t v = 0;
-  for (int k = 0; k < bytes; ++k) v = (v << 8) | static_cast<unsigned char>(b[at + k]);
-  return v;
-}
 
 // SOF0-SOF15 hold the frame's size, except C4 (DHT), C8 (JPG) and CC (DAC), which share the range.
 bool states_frame_size(unsigned char marker) {
@@ -22,12 +17,17 @@ bool states_frame_size(unsigned char marker) {
 
 }  // namespace
 
+uint32_t big_endian_value(const std::string& file_bytes, size_t at, int count) {
+  uint32_t v = 0;
+  for (int k = 0; k < count; ++k) v = (v << 8) | static_cast<unsigned char>(file_bytes[at + k]);
+  return v;
+}
+
 ImageHeaderSize image_header_size(const std::string& b) {
   ImageHeaderSize size;
-  static const char kPng[] = "\x89PNG\r\n\x1a\n";
-  if (b.size() >= 24 && b.compare(0, 8, kPng, 8) == 0 && b.compare(12, 4, "IHDR") == 0) {
-    size.width = header_bytes_value(b, 16, 4);
-    size.height = header_bytes_value(b, 20, 4);
+  if (b.size() >= 24 && is_png_data(b) && b.compare(12, 4, "IHDR") == 0) {
+    size.width = big_endian_value(b, 16, 4);
+    size.height = big_endian_value(b, 20, 4);
     size.known = true;
     return size;
   }
@@ -43,11 +43,11 @@ ImageHeaderSize image_header_size(const std::string& b) {
       ++at;
       continue;
     }
-    const int64_t length = header_bytes_value(b, at + 2, 2);
+    const int64_t length = big_endian_value(b, at + 2, 2);
     if (states_frame_size(marker)) {
       if (at + 9 > b.size()) return size;
-      size.height = header_bytes_value(b, at + 5, 2);
-      size.width = header_bytes_value(b, at + 7, 2);
+      size.height = big_endian_value(b, at + 5, 2);
+      size.width = big_endian_value(b, at + 7, 2);
       size.known = true;
       return size;
     }

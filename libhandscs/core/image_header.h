@@ -3,6 +3,7 @@
 // allocate gigabytes before any check, so image reads refuse sizes over kMaxCameraPixels first.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 
@@ -15,6 +16,10 @@ struct ImageHeaderSize {
 
 // The size a PNG or JPEG header states (known = false for other data or a header cut short).
 ImageHeaderSize image_header_size(const std::string& file_bytes);
+
+// The unsigned big-endian number in `count` (1-4) bytes of `file_bytes` from `at` (PNG and JPEG
+// headers store their numbers so); the caller checks the bytes are there.
+uint32_t big_endian_value(const std::string& file_bytes, size_t at, int count);
 
 // Throws Error naming `path` when the header states more than kMaxCameraPixels pixels.
 void refuse_oversized_image_header(const std::string& file_bytes, const std::string& path);

@@ -4,6 +4,8 @@
 #include <cstdint>
 #include <cstring>
 
+#include "core/image_header.h"
+
 namespace handscs {
 
 namespace {
@@ -14,11 +16,6 @@ constexpr size_t kSignatureBytes = 8;
 constexpr size_t kChunkOverhead = 12;
 // The specification caps a chunk's length at 2^31 - 1.
 constexpr uint32_t kMaxChunkLength = 0x7fffffffu;
-
-uint32_t big_endian(const std::string& bytes, size_t at) {
-  return (uint32_t(uint8_t(bytes[at])) << 24) | (uint32_t(uint8_t(bytes[at + 1])) << 16) |
-         (uint32_t(uint8_t(bytes[at + 2])) << 8) | uint32_t(uint8_t(bytes[at + 3]));
-}
 
 // CRC-32 of the PNG specification (ISO 3309, reflected polynomial 0xEDB88320), over a chunk's
 // type and data.
@@ -51,7 +48,7 @@ std::string png_damage(const std::string& file_bytes) {
   while (true) {
     if (file_bytes.size() - at < kChunkOverhead)
       return "truncated: the data ends before the IEND chunk";
-    const uint32_t length = big_endian(file_bytes, at);
+    const uint32_t length = big_endian_value(file_bytes, at, 4);
     const std::string type = file_bytes.substr(at + 4, 4);
     if (length > kMaxChunkLength)
       return "corrupt: chunk length " + std::to_string(length) + " at byte " + std::to_string(at);
@@ -59,7 +56,7 @@ std::string png_damage(const std::string& file_bytes) {
     first = false;
     if (file_bytes.size() - at - kChunkOverhead < length)
       return "truncated: the data ends inside the " + type + " chunk at byte " + std::to_string(at);
-    const uint32_t stored = big_endian(file_bytes, at + 8 + length);
+    const uint32_t stored = big_endian_value(file_bytes, at + 8 + length, 4);
     if (crc32(file_bytes.data() + at + 4, 4 + size_t(length)) != stored)
       return "corrupt: CRC mismatch in the " + type + " chunk at byte " + std::to_string(at);
     if (type == "IEND") return "";

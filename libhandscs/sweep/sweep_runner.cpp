@@ -65,11 +65,10 @@ CsvTable load_or_start(const std::string& path, const std::vector<std::string>& 
   return table;
 }
 
-// Last data row of a run's metrics.csv by column name, plus "<stage>_median" for each step stage
-// over the rows of the second half (after start-up and, usually, densification).
-std::map<std::string, double> summarise_metrics(const std::string& path) {
-  const CsvTable metrics = read_csv(path);
-  if (metrics.rows.empty()) throw Error(path + ": no rows");
+// Last data row of a run's metrics.csv (at least one row) by column name, plus "<stage>_median"
+// for each step stage over the rows of the second half (after start-up and, usually,
+// densification).
+std::map<std::string, double> summarise_metrics(const CsvTable& metrics) {
   std::map<std::string, double> row;
   for (size_t c = 0; c < metrics.header.size(); ++c)
     row[metrics.header[c]] = number(metrics.rows.back()[c]);
@@ -137,14 +136,15 @@ std::vector<std::string> run_point(const SweepConfig& config, const SweepOptions
                   trained.exit_code, tail_of(run + "/train.log"));
     return finish("train failed (" + std::to_string(trained.exit_code) + ")");
   }
-  if (read_csv(run + "/metrics.csv").rows.empty()) {
+  const CsvTable metrics = read_csv(run + "/metrics.csv");
+  if (metrics.rows.empty()) {
     // handscs-train logs every train.log_every steps: a budget below it trains without a row.
     spdlog::error("sweep {}@{}: {}/metrics.csv has no rows: a budget of {} steps is below the run "
                   "config's train.log_every; set train.log_every to at most the budget",
                   point.name, budget, run, budget);
     return finish("no step logged");
   }
-  auto last = summarise_metrics(run + "/metrics.csv");
+  auto last = summarise_metrics(metrics);
   for (const auto& stage : kStageColumns)
     if (last.count(stage + "_median")) cells[stage] = fixed(last[stage + "_median"], 2);
   cells["loop_s"] = fixed(last["seconds"], 1);
