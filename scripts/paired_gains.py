@@ -5,15 +5,16 @@
         [--plot-gain NAME] [--title TEXT]
 
 Each SWEEP_OUT is a handscs-bench output folder (results.csv, and runs/<point>_<budget>/eval/
-summary.json for the region metrics). Points are named <row>.<cell>.s<seed> (for example
-full.p350.s10: row full, cell p350, seed 10), or <row>.s<seed> (one cell). A cell is the pair
-(cell name, budget). For every --gain NAME=ROW-BASE (e.g. scs=full-inter_pose) and cell, the gain of
-each seed present in both rows is ROW's metric minus BASE's, for PSNR, SSIM, LPIPS and the region
-PSNRs. Writes PREFIX.md (a Markdown table: mean +- sample std over the seeds, each seed's value, and
-the reading rule of docs/SCALING.md: "pays" if the PSNR gain is positive on every seed and there are
-at least 2, "costs" if negative on every seed, otherwise "no difference shown"), PREFIX.csv (one line
-per gain, cell and metric) and, with --plot-gain, PREFIX.png / .pdf: that gain's PSNR mean and
-seeds against the cell's training poses (the number in a cell name pN), one line per budget.
+summary.json, when the sweep kept its runs, for the region metrics and full-precision means). Points
+are named <row>.<cell>.s<seed> (for example full.p350.s10: row full, cell p350, seed 10), or
+<row>.s<seed> (one cell). A cell is the pair (cell name, budget). For every --gain NAME=ROW-BASE
+(e.g. scs=full-inter_pose) and cell, the gain of each seed present in both rows is ROW's metric
+minus BASE's, for PSNR, SSIM, LPIPS and the region PSNRs. Writes PREFIX.md (a Markdown table: mean
++- sample std over the seeds, each seed's value, and the reading rule of docs/SCALING.md: "pays" if
+the PSNR gain is positive on every seed and there are at least 2, "costs" if negative on every seed,
+otherwise "no difference shown"), PREFIX.csv (one line per gain, cell and metric) and, with
+--plot-gain, PREFIX.png / .pdf: that gain's PSNR mean and seeds against the cell's training poses
+(the number in a cell name pN), one line per budget.
 Rows that failed or whose PSNR is not finite are left out and counted in the table.
 """
 import argparse
@@ -57,8 +58,15 @@ def read_sweep(folder):
                                    'summary.json')
             if os.path.exists(summary):
                 with open(summary) as s:
-                    for name, region in (json.load(s).get('regions') or {}).items():
-                        values[f'psnr_{name}'] = number(region.get('psnr'))
+                    report = json.load(s)
+                # The run's own summary holds the CSV's figures at full precision: gains of a few
+                # 1e-4 (LPIPS) are read from it, not from four printed decimals.
+                for k in METRICS:
+                    full = number((report.get('summary') or {}).get(k))
+                    if full is not None:
+                        values[k] = full
+                for name, region in (report.get('regions') or {}).items():
+                    values[f'psnr_{name}'] = number(region.get('psnr'))
             results[key] = values
     return results, left_out
 
