@@ -245,6 +245,9 @@ struct TrainConfig {
   Background background = Background::black;  // black, white or random (per step) in training
   double resolution_scale = 1.0;    // train on images scaled by this factor (0.5 = half size)
   int64_t checkpoint_every = 1000;  // steps between checkpoints (and one at the end)
+  // Checkpoints kept in the run folder, newest first; 0 keeps every one (to score a run's progress,
+  // e.g. scripts/time_to_quality.sh). 2: the newest, and the one before it if the newest is damaged.
+  int64_t keep_checkpoints = 2;
   int64_t validate_every = 500;     // steps between validation renders (0 = never)
   int64_t log_every = 10;           // steps between metrics-log lines
   int64_t max_bad_steps = 5;        // consecutive NaN/Inf steps before a rollback
@@ -278,6 +281,7 @@ struct TrainConfig {
              "training background");
     v.field("resolution_scale", resolution_scale, "image scale in training", 0.05, 1.0);
     v.field("checkpoint_every", checkpoint_every, "steps between checkpoints", 1, 1e9);
+    v.field("keep_checkpoints", keep_checkpoints, "checkpoints kept, newest first (0 = all)", 0, 1e9);
     v.field("validate_every", validate_every, "steps between validation renders (0 = never)", 0, 1e9);
     v.field("log_every", log_every, "steps between metrics-log lines", 1, 1e9);
     v.field("max_bad_steps", max_bad_steps, "consecutive NaN/Inf steps before rollback", 1, 1e6);

@@ -43,7 +43,6 @@ double ms_between(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::milli>(b - a).count();
 }
 
-constexpr int kCheckpointsKept = 2;  // the newest and the one before it (if the newest is damaged)
 constexpr int kMaxRollbacks = 20;    // after this many the run is declared diverged
 constexpr int kPrefetchAhead = 4;    // frames queued for the background loader
 // A run fails when this many first training images (shuffled) all have empty hand masks: the
@@ -895,7 +894,9 @@ std::string Trainer::save_checkpoint() {
   handscs::save_checkpoint(path, make_checkpoint());
   last_checkpoint_ = path;
   const auto files = list_checkpoints(run_dir_);
-  for (size_t i = kCheckpointsKept; i < files.size(); ++i) std::filesystem::remove(files[i]);
+  const auto kept = static_cast<size_t>(config_.train.keep_checkpoints);
+  if (kept > 0)
+    for (size_t i = kept; i < files.size(); ++i) std::filesystem::remove(files[i]);
   if (first_checkpoint_hook_) std::exchange(first_checkpoint_hook_, nullptr)();
   return path;
 }

@@ -1,6 +1,6 @@
 // Training end to end on the tiny synthetic capture: the loss falls with no NaN, checkpoints resume
 // to the same loss curve, NaN steps never reach the parameters and roll back, and damaged
-// checkpoints are refused.
+// checkpoints are refused; train.keep_checkpoints decides how many checkpoints stay.
 #include "catch_torch.h"
 
 #include <algorithm>
@@ -224,5 +224,24 @@ TEST_CASE("trainer: train.loss.lpips_every takes LPIPS on the steps whose number
     INFO("step " << r.iteration);
     CHECK(r.terms.count("lpips") == (r.iteration % 3 == 0 ? 1u : 0u));
     CHECK(r.terms.count("ssim") == 1u);
+  }
+}
+
+TEST_CASE("trainer: train.keep_checkpoints keeps the newest N checkpoints, 0 keeps them all") {
+  handscs::set_threads(1);
+  for (const int64_t keep : {0, 1, 2}) {
+    INFO("keep_checkpoints " << keep);
+    auto config = tiny_run_config();
+    config.train.keep_checkpoints = keep;
+    const auto run = fresh_dir("keep" + std::to_string(keep));
+    handscs::Trainer trainer(config, run);
+    std::vector<std::string> saved;  // oldest first
+    for (int k = 0; k < 3; ++k) {
+      trainer.step();
+      saved.push_back(trainer.save_checkpoint());
+    }
+    std::vector<std::string> expected(saved.rbegin(), saved.rend());  // newest first
+    if (keep > 0) expected.resize(static_cast<size_t>(keep));
+    CHECK(handscs::list_checkpoints(run) == expected);
   }
 }

@@ -1,0 +1,120 @@
+#!/usr/bin/env bash
+# Time to quality on the largest capture (docs/SCALING.md, "Time to quality"): how long training
+# takes to come within DELTA dB of the PSNR it ends at, on one process with 2 threads and on 2
+# ranks over c10d (1 thread each, the same number of training views).
+#   single   1 process, 2 threads, STEPS steps, a checkpoint every STEPS/20
+#   ranks2   2 processes on loopback, 1 thread each, STEPS/2 steps, a checkpoint every STEPS/40
+# Every checkpoint is scored afterwards (not timed) on EVAL_IMAGES held-out images, evenly spaced.
+# The time of a checkpoint is the training loop's wall time at its step (metrics.csv "seconds",
+# rank 0; opening the capture excluded). Time to quality: the first checkpoint within DELTA dB of
+# the single run's last checkpoint (both modes are read against that one target). Train on an idle
+# machine; the scoring may share it.
+# Writes OUT/<mode>/ (the run), OUT/<mode>.csv (step, seconds, PSNR, SSIM, LPIPS per checkpoint)
+# and prints one JSON object per mode.
+# Usage: scripts/time_to_quality.sh OUT CAPTURE
+#   env: STEPS (10000), SEED (0), MODES ("single ranks2"), EVAL_IMAGES (250), DELTA (0.2),
+#        SET (more config keys, e.g. "data.held_out_poses=4"), BIN (build/bin),
+#        HANDSCS_LPIPS_WEIGHTS (default ../shared/assets/lpips/lpips_alex_v0.1.pt)
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+if [ $# -lt 2 ] || [ "$1" = "-h" ] || [ "$1" = "--help" ]; then sed -n 2,18p "$0"; exit 0; fi
+out="$1"
+capture="$2"
+bin="${BIN:-$root/build/bin}"
+steps="${STEPS:-10000}"
+seed="${SEED:-0}"
+modes="${MODES:-single ranks2}"
+eval_images="${EVAL_IMAGES:-250}"
+delta="${DELTA:-0.2}"
+lpips="${HANDSCS_LPIPS_WEIGHTS:-$root/../shared/assets/lpips/lpips_alex_v0.1.pt}"
+read -r -a extra_set <<< "${SET:-}"
+checkpoints=20  # checkpoints per run: the time to quality is resolved to 5% of the budget
+if [ ! -f "$capture/annotations/test/InterHand2.6M_test_data.json" ]; then
+  echo "time_to_quality: $capture: not an InterHand2.6M-layout capture (no annotations/test)" >&2
+  exit 2
+fi
+[ -f "$lpips" ] || { echo "time_to_quality: $lpips: no LPIPS weights" >&2; exit 2; }
+mkdir -p "$out"
+
+failed() {  # $1 the log of a program that failed: its last lines, then stop
+  echo "time_to_quality: failed; the end of $1:" >&2
+  tail -n 3 "$1" >&2
+  exit 1
+}
+
+free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'; }
+
+steps_of() {  # $1 mode: its training steps (2 ranks render 2 views a step)
+  case "$1" in
+    single) echo "$steps" ;;
+    ranks2) echo $(( steps / 2 )) ;;
+    *) echo "time_to_quality: unknown mode $1" >&2; exit 2 ;;
+  esac
+}
+
+train() {  # $1 mode, $2 run folder
+  local mode="$1" run="$2" n every
+  n=$(steps_of "$mode")
+  every=$(( n / checkpoints ))
+  local common=(--config "$root/configs/demo.json" --out "$run" --set "data.root=$capture"
+                "model.seed=$seed" "train.seed=$seed" "train.iterations=$n"
+                "train.checkpoint_every=$every" train.keep_checkpoints=0 "train.log_every=$every"
+                train.validate_every=0
+                "eval.lpips.weights=$lpips" "${extra_set[@]}")
+  if [ "$mode" = single ]; then
+    "$bin/handscs-train" "${common[@]}" --threads 2 > "$run.log" 2>&1 || failed "$run.log"
+  else
+    local port; port=$(free_port)
+    RANK=1 WORLD_SIZE=2 MASTER_PORT=$port "$bin/handscs-train" --out "$run" --threads 1 \
+      > "$run.rank1.log" 2>&1 &
+    local rank1=$!
+    RANK=0 WORLD_SIZE=2 MASTER_PORT=$port "$bin/handscs-train" "${common[@]}" --threads 1 \
+      > "$run.log" 2>&1 || failed "$run.log"
+    wait $rank1 || failed "$run.rank1.log"
+  fi
+}
+
+score() {  # $1 mode, $2 run folder: one CSV line per checkpoint
+  local mode="$1" run="$2" csv="$out/$1.csv"
+  echo "step,seconds,psnr,ssim,lpips" > "$csv.tmp"
+  for ckpt in "$run"/checkpoints/step_*.ckpt; do
+    local step; step=$(basename "$ckpt" .ckpt); step=$((10#${step#step_}))
+    local dir="$run/eval_$step"
+    [ -f "$dir/summary.json" ] || "$bin/handscs-eval" --checkpoint "$ckpt" --out "$dir" \
+      --threads 2 --max-images "$eval_images" --no-regions --lpips-weights "$lpips" \
+      > "$dir.log" 2>&1 || failed "$dir.log"
+    python3 - "$run/metrics.csv" "$step" "$dir/summary.json" >> "$csv.tmp" <<'EOF'
+import csv, json, sys
+metrics, step, summary = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+seconds = next(float(r['seconds']) for r in csv.DictReader(open(metrics)) if int(r['iteration']) == step)
+s = json.load(open(summary))['summary']
+print(f"{step},{seconds:.1f},{s['psnr']:.4f},{s['ssim']:.5f},{s['lpips']:.5f}")
+EOF
+  done
+  sort -t, -k1,1n "$csv.tmp" | uniq > "$csv" && rm "$csv.tmp"
+}
+
+for mode in $modes; do
+  run="$out/$mode"
+  n=$(steps_of "$mode")
+  if [ ! -f "$run/checkpoints/step_$(printf %08d "$n").ckpt" ]; then  # a finished run is scored again only
+    rm -rf "$run"
+    train "$mode" "$run"
+  fi
+  score "$mode" "$run"
+done
+
+[ -f "$out/single.csv" ] || { echo "time_to_quality: no single run to set the target" >&2; exit 1; }
+python3 - "$out" "$delta" $modes <<'EOF'
+import csv, json, sys
+out, delta, modes = sys.argv[1], float(sys.argv[2]), sys.argv[3:]
+rows = {m: list(csv.DictReader(open(f'{out}/{m}.csv'))) for m in modes}
+target = float(rows['single'][-1]['psnr']) - delta
+for m in modes:
+    hit = next((r for r in rows[m] if float(r['psnr']) >= target), None)
+    last = rows[m][-1]
+    print(json.dumps({'mode': m, 'final_step': int(last['step']), 'final_seconds': float(last['seconds']),
+                      'final_psnr': float(last['psnr']), 'target_psnr': round(target, 4),
+                      'step_to_target': int(hit['step']) if hit else None,
+                      'seconds_to_target': float(hit['seconds']) if hit else None}))
+EOF
