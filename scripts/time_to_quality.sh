@@ -4,7 +4,8 @@
 # ranks over c10d (1 thread each, the same number of training views).
 #   single   1 process, 2 threads, STEPS steps, a checkpoint every STEPS/20
 #   ranks2   2 processes on loopback, 1 thread each, STEPS/2 steps, a checkpoint every STEPS/40
-# Every checkpoint is scored afterwards (not timed) on EVAL_IMAGES held-out images, evenly spaced.
+# Every checkpoint is scored after all runs have trained (not timed) on EVAL_IMAGES held-out images,
+# evenly spaced; TRAIN_ONLY=1 stops after the training, and a second call scores what is there.
 # The time of a checkpoint is the training loop's wall time at its step (metrics.csv "seconds",
 # rank 0; opening the capture excluded). Time to quality: the first checkpoint within DELTA dB of
 # the single run's last checkpoint (both modes are read against that one target). Train on an idle
@@ -94,15 +95,17 @@ EOF
   sort -t, -k1,1n "$csv.tmp" | uniq > "$csv" && rm "$csv.tmp"
 }
 
+# Every run trains before any is scored, so the timed part can have the machine to itself.
 for mode in $modes; do
   run="$out/$mode"
   n=$(steps_of "$mode")
-  if [ ! -f "$run/checkpoints/step_$(printf %08d "$n").ckpt" ]; then  # a finished run is scored again only
+  if [ ! -f "$run/checkpoints/step_$(printf %08d "$n").ckpt" ]; then  # a finished run is kept
     rm -rf "$run"
     train "$mode" "$run"
   fi
-  score "$mode" "$run"
 done
+[ "${TRAIN_ONLY:-0}" = 1 ] && exit 0
+for mode in $modes; do score "$mode" "$out/$mode"; done
 
 [ -f "$out/single.csv" ] || { echo "time_to_quality: no single run to set the target" >&2; exit 1; }
 python3 - "$out" "$delta" $modes <<'EOF'
