@@ -1,13 +1,12 @@
 #include "core/atomic_file.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 
 #include "core/error.h"
 
@@ -60,21 +59,41 @@ void refuse_irregular_file(const std::string& path) {
   throw Error(path + ": is not a regular file (a named pipe, a device or a socket); give a file");
 }
 
-std::string read_file(const std::string& path, std::uintmax_t max_bytes) {
+ReadableFile::ReadableFile(const std::string& path, const std::string& kind) : path_(path) {
+  // By name first, so a device is never opened; then again on the descriptor below.
+  if (std::error_code ec; std::filesystem::is_directory(path, ec))
+    throw Error(path + ": is a folder, not a " + kind);
   refuse_irregular_file(path);
-  std::error_code ec;
-  const std::uintmax_t size = std::filesystem::file_size(path, ec);
-  if (!ec && size > max_bytes)
+  fd_ = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd_ < 0) throw Error(path + ": cannot open file");
+  struct stat st {};
+  if (::fstat(fd_, &st) != 0 || !S_ISREG(st.st_mode)) {
+    const bool folder = S_ISDIR(st.st_mode);
+    ::close(fd_);
+    throw Error(path + (folder ? ": is a folder, not a " + kind
+                               : std::string(": is not a regular file (a named pipe, a device or a "
+                                             "socket); give a file")));
+  }
+  ::fcntl(fd_, F_SETFL, ::fcntl(fd_, F_GETFL) & ~O_NONBLOCK);  // reads of a regular file block
+  size_ = static_cast<std::uintmax_t>(st.st_size);
+}
+
+ReadableFile::~ReadableFile() { ::close(fd_); }
+
+size_t ReadableFile::read_some(char* buffer, size_t n) {
+  while (true) {
+    const ssize_t got = ::read(fd_, buffer, n);
+    if (got >= 0) return static_cast<size_t>(got);
+    if (errno != EINTR) throw Error(path_ + ": read failed (" + std::strerror(errno) + ")");
+  }
+}
+
+std::string read_file(const std::string& path, std::uintmax_t max_bytes) {
+  ReadableFile file(path);
+  const std::uintmax_t size = file.size();
+  if (size > max_bytes)
     throw Error(path + ": " + std::to_string(size >> 20) + " MB, more than the " +
                 std::to_string(max_bytes >> 20) + " MB such a file can be");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open file");
-  if (ec) {  // no size known (a special file system): read as it comes
-    std::ostringstream buffer;
-    buffer << in.rdbuf();
-    if (in.bad()) throw Error(path + ": read failed");
-    return buffer.str();
-  }
   // The whole size is allocated first, so a file the process cannot hold is named here instead of
   // surfacing as std::bad_alloc from a buffer growing somewhere in the read.
   std::string bytes;
@@ -83,9 +102,22 @@ std::string read_file(const std::string& path, std::uintmax_t max_bytes) {
   } catch (const std::bad_alloc&) {
     throw Error(path + ": " + std::to_string(size >> 20) + " MB do not fit in this process's memory");
   }
-  in.read(bytes.data(), static_cast<std::streamsize>(size));
-  if (in.bad()) throw Error(path + ": read failed");
-  bytes.resize(static_cast<size_t>(in.gcount()));  // a file that shrank while read
+  size_t filled = 0;
+  while (filled < bytes.size()) {
+    const size_t got = file.read_some(bytes.data() + filled, bytes.size() - filled);
+    if (got == 0) break;  // a file that shrank while read
+    filled += got;
+  }
+  bytes.resize(filled);
+  if (size == 0) {  // no size reported (a special file system): read as it comes, within the bound
+    char chunk[1 << 16];
+    while (const size_t got = file.read_some(chunk, sizeof(chunk))) {
+      if (bytes.size() + got > max_bytes)
+        throw Error(path + ": more than the " + std::to_string(max_bytes >> 20) +
+                    " MB such a file can be");
+      bytes.append(chunk, got);
+    }
+  }
   return bytes;
 }
 

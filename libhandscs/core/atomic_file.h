@@ -16,6 +16,27 @@ void write_file_atomic(const std::string& path, const std::string& bytes);
 // /dev/zero (whose reads never end) or a socket. A missing path passes: opening it reports that.
 void refuse_irregular_file(const std::string& path);
 
+// A file opened for reading and checked on its open descriptor, so the check and the read concern
+// one file: a path swapped for a named pipe after a check by name cannot block the read. Opening
+// does not wait on a named pipe (O_NONBLOCK). Throws Error naming the path: "is a folder, not a
+// <kind>", "is not a regular file (...)" as refuse_irregular_file, or "cannot open file".
+class ReadableFile {
+ public:
+  explicit ReadableFile(const std::string& path, const std::string& kind = "file");
+  ~ReadableFile();
+  ReadableFile(const ReadableFile&) = delete;
+  ReadableFile& operator=(const ReadableFile&) = delete;
+  // The size the file system reports (0 where it reports none, as for /proc files).
+  std::uintmax_t size() const { return size_; }
+  // Reads up to n bytes into buffer; returns how many, 0 at the end. Throws Error on a failed read.
+  size_t read_some(char* buffer, size_t n);
+
+ private:
+  std::string path_;
+  int fd_ = -1;
+  std::uintmax_t size_ = 0;
+};
+
 // The bound for files this project writes itself (metrics logs, caches, summaries): they hold text
 // or tables of a capture's frames, far below 16 GB even for InterHand2.6M's 2.6 million frames.
 constexpr std::uintmax_t kOwnFileMaxBytes = std::uintmax_t{16} << 30;

@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <memory>
 #include <set>
@@ -136,16 +135,13 @@ std::string ConfigDoc::format_number(double x) {
 
 
 json parse_json_file(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw Error(path + ": is a folder, not a JSON file");
-  refuse_irregular_file(path);  // a named pipe would block the open below
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open file");
-  // Read at most kMaxJsonBytes + 1 bytes: a device such as /dev/zero must not fill the memory.
+  ReadableFile in(path, "JSON file");
+  // Read at most kMaxJsonBytes + one chunk: a file far larger than any JSON input (or one still
+  // growing) must not fill the memory.
   std::string text;
   char chunk[1 << 16];
-  while (in.read(chunk, sizeof(chunk)) || in.gcount() > 0) {
-    text.append(chunk, static_cast<size_t>(in.gcount()));
+  while (const size_t got = in.read_some(chunk, sizeof(chunk))) {
+    text.append(chunk, got);
     if (text.size() > kMaxJsonBytes)
       throw Error(path + ": larger than " + std::to_string(kMaxJsonBytes >> 20) +
                   " MB; not a config, pose or camera file");
