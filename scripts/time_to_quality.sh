@@ -10,8 +10,8 @@
 # rank 0; opening the capture excluded). Time to quality: the first checkpoint within DELTA dB of
 # the single run's last checkpoint (both modes are read against that one target). Train on an idle
 # machine; the scoring may share it.
-# Writes OUT/<mode>/ (the run), OUT/<mode>.csv (step, seconds, PSNR, SSIM, LPIPS per checkpoint)
-# and prints one JSON object per mode.
+# Writes OUT/<mode>/ (the run), OUT/<mode>.csv (step, seconds, PSNR, SSIM, LPIPS per checkpoint),
+# OUT/time_to_quality.png / .pdf (PSNR and LPIPS against wall time) and prints one JSON per mode.
 # Usage: scripts/time_to_quality.sh OUT CAPTURE
 #   env: STEPS (10000), SEED (0), MODES ("single ranks2"), EVAL_IMAGES (250), DELTA (0.2),
 #        SET (more config keys, e.g. "data.held_out_poses=4"), BIN (build/bin),
@@ -108,7 +108,7 @@ done
 for mode in $modes; do score "$mode" "$out/$mode"; done
 
 [ -f "$out/single.csv" ] || { echo "time_to_quality: no single run to set the target" >&2; exit 1; }
-python3 - "$out" "$delta" $modes <<'EOF'
+/usr/bin/python3 - "$out" "$delta" $modes <<'EOF'
 import csv, json, sys
 out, delta, modes = sys.argv[1], float(sys.argv[2]), sys.argv[3:]
 rows = {m: list(csv.DictReader(open(f'{out}/{m}.csv'))) for m in modes}
@@ -120,4 +120,24 @@ for m in modes:
                       'final_psnr': float(last['psnr']), 'target_psnr': round(target, 4),
                       'step_to_target': int(hit['step']) if hit else None,
                       'seconds_to_target': float(hit['seconds']) if hit else None}))
+try:  # the curves, when Debian's matplotlib is there (python3-matplotlib)
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+except ImportError:
+    sys.exit(0)
+fig, (ax_psnr, ax_lpips) = plt.subplots(1, 2, figsize=(10, 4))
+labels = {'single': '1 process, 2 threads', 'ranks2': '2 ranks (c10d), 1 thread each'}
+for m in modes:
+    t = [float(r['seconds']) for r in rows[m]]
+    ax_psnr.plot(t, [float(r['psnr']) for r in rows[m]], 'o-', ms=3, label=labels.get(m, m))
+    ax_lpips.plot(t, [float(r['lpips']) for r in rows[m]], 'o-', ms=3, label=labels.get(m, m))
+ax_psnr.axhline(target, color='grey', ls='--', lw=1, label=f'{delta} dB below the 1-process end')
+ax_psnr.set(xlabel='training wall time (s)', ylabel='held-out PSNR (dB)')
+ax_lpips.set(xlabel='training wall time (s)', ylabel='held-out LPIPS')
+ax_psnr.legend(fontsize=8)
+ax_lpips.legend(fontsize=8)
+fig.tight_layout()
+for ext in ('png', 'pdf'):
+    fig.savefig(f'{out}/time_to_quality.{ext}', dpi=110)
 EOF
