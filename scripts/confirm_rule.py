@@ -32,10 +32,12 @@ GENERAL_FRACTION = 0.5          # (c) gaining half as much as the full model: no
 
 
 def paired(results, row, base, cell, metric):
-    """{seed: row - base} for the seeds both rows finished in the cell."""
+    """{seed: row - base} for the seeds both rows finished in the cell with the metric (LPIPS is
+    missing from runs scored without its weights)."""
     rows = {(r, c, s): v for (r, c, _budget, s), v in results.items()}
     seeds = sorted(s for (r, c, s) in rows if r == row and c == cell and (base, cell, s) in rows)
-    return {s: rows[(row, cell, s)][metric] - rows[(base, cell, s)][metric] for s in seeds}
+    pairs = {s: (rows[(row, cell, s)].get(metric), rows[(base, cell, s)].get(metric)) for s in seeds}
+    return {s: a - b for s, (a, b) in pairs.items() if a is not None and b is not None}
 
 
 def main():
