@@ -83,7 +83,9 @@ def main():
                 cells += ['not run', '-']
                 continue
             mean = statistics.fmean(psnr.values())
-            lp = statistics.fmean(lpips.values())
+            if len(lpips) < len(psnr):
+                incomplete.append(f'LPIPS on {len(lpips)} of {len(psnr)} seeds on {label}')
+            lp = statistics.fmean(lpips.values()) if lpips else float('nan')
             gains_all += psnr.values()
             per_seed = ' / '.join(f'{g:+.3f}' for _, g in sorted(psnr.items()))
             cells += [f'{per_seed} ({mean:+.3f})', f'{lp:+.5f}']
