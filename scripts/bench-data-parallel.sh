@@ -29,8 +29,6 @@ fi
 lpips_set=()
 [ -f "$lpips" ] && lpips_set=("eval.lpips.weights=$lpips")
 
-# A port nobody listens on: the rendezvous of each 2-rank run.
-free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'; }
 # "<steps> steps in <seconds> s (<rate> views/s)" and "<mb> MB exchanged per step, <ms> ms per step"
 loop_seconds() { sed -n 's/.* steps in \([0-9.]*\) s (.*/\1/p' "$1" | tail -1; }
 comm_field() { sed -n "s/.*data parallel: \([0-9.]*\) MB exchanged per step, \([0-9.]*\) ms per step.*/\\$2/p" "$1" | tail -1; }
@@ -51,13 +49,8 @@ for seed in $seeds; do
               "$bin/handscs-train" "${common[@]}" "train.iterations=$steps" train.batch_size=2 \
                 --threads 2 > "$run.log" 2>&1 ;;
       ranks2) steps=$(( views / 2 )); batch=1; processes=2; threads=1
-              port=$(free_port)
-              RANK=1 WORLD_SIZE=2 MASTER_PORT=$port "$bin/handscs-train" --out "$run" --threads 1 \
-                > "$run.rank1.log" 2>&1 &
-              rank1=$!
-              RANK=0 WORLD_SIZE=2 MASTER_PORT=$port "$bin/handscs-train" "${common[@]}" \
-                "train.iterations=$steps" --threads 1 > "$run.log" 2>&1
-              wait $rank1 ;;
+              "$root/scripts/train_two_ranks.sh" "$bin" "$run" "${common[@]}" \
+                "train.iterations=$steps" ;;
       *) echo "bench-data-parallel: unknown mode $mode" >&2; exit 2 ;;
     esac
     seconds=$(loop_seconds "$run.log")

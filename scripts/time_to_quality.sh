@@ -43,8 +43,6 @@ failed() {  # $1 the log of a program that failed: its last lines, then stop
   exit 1
 }
 
-free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'; }
-
 steps_of() {  # $1 mode: its training steps (2 ranks render 2 views a step)
   case "$1" in
     single) echo "$steps" ;;
@@ -60,18 +58,11 @@ train() {  # $1 mode, $2 run folder
   local common=(--config "$root/configs/demo.json" --out "$run" --set "data.root=$capture"
                 "model.seed=$seed" "train.seed=$seed" "train.iterations=$n"
                 "train.checkpoint_every=$every" train.keep_checkpoints=0 "train.log_every=$every"
-                train.validate_every=0
-                "eval.lpips.weights=$lpips" "${extra_set[@]}")
+                train.validate_every=0 "eval.lpips.weights=$lpips" "${extra_set[@]}")
   if [ "$mode" = single ]; then
     "$bin/handscs-train" "${common[@]}" --threads 2 > "$run.log" 2>&1 || failed "$run.log"
   else
-    local port; port=$(free_port)
-    RANK=1 WORLD_SIZE=2 MASTER_PORT=$port "$bin/handscs-train" --out "$run" --threads 1 \
-      > "$run.rank1.log" 2>&1 &
-    local rank1=$!
-    RANK=0 WORLD_SIZE=2 MASTER_PORT=$port "$bin/handscs-train" "${common[@]}" --threads 1 \
-      > "$run.log" 2>&1 || failed "$run.log"
-    wait $rank1 || failed "$run.rank1.log"
+    "$root/scripts/train_two_ranks.sh" "$bin" "$run" "${common[@]}" || failed "$run.log"
   fi
 }
 
