@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "core/atomic_file.h"
 #include "core/camera_checks.h"
 #include "core/error.h"
 #include "core/png_damage.h"
@@ -67,6 +68,12 @@ void refuse_oversized_image_header(const std::string& file_bytes, const std::str
                 "the %.0f-megapixel limit of a camera", static_cast<long long>(size.width),
                 static_cast<long long>(size.height), pixels / 1e6, kMaxCameraPixels / 1e6);
   throw Error(path + text);
+}
+
+std::string read_image_bytes(const std::string& path) {
+  std::string bytes = read_file(path, std::uintmax_t{300} << 20);
+  refuse_oversized_image_header(bytes, path);
+  return bytes;
 }
 
 }  // namespace handscs

@@ -24,4 +24,10 @@ uint32_t big_endian_value(const std::string& file_bytes, size_t at, int count);
 // Throws Error naming `path` when the header states more than kMaxCameraPixels pixels.
 void refuse_oversized_image_header(const std::string& file_bytes, const std::string& path);
 
+// An image file's bytes, for a decoder, read through one checked descriptor (core/atomic_file.h
+// read_file). Throws Error naming the file when it is not a regular file, cannot be read, is over
+// 300 MB (an uncompressed 100-megapixel RGB image, kMaxCameraPixels, is 300 MB: no image file is
+// larger) or its PNG or JPEG header states more pixels than a camera may have.
+std::string read_image_bytes(const std::string& path);
+
 }  // namespace handscs

@@ -5,13 +5,11 @@
 #include <csetjmp>
 #include <cstdio>
 #include <cstring>
-#include <limits>
 
 // jpeglib.h needs FILE and size_t declared first (<cstdio>).
 #include <jpeglib.h>
 #include <jerror.h>
 
-#include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/image_header.h"
 #include "core/jpeg_entropy.h"
@@ -165,11 +163,7 @@ bool has_jpeg_extension(const std::string& path) {
 }
 
 std::string read_image_file(const std::string& path, std::string& jpeg_problem, JpegThumbnail* thumbnail) {
-  // An uncompressed 100-megapixel RGB image (kMaxCameraPixels) is 300 MB; no image file is larger.
-  std::string bytes = read_file(path, std::uintmax_t{300} << 20);
-  if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max()))
-    throw Error(path + ": larger than 2 GB; not an image file");
-  refuse_oversized_image_header(bytes, path);
+  std::string bytes = read_image_bytes(path);
   if (thumbnail) *thumbnail = JpegThumbnail{};
   jpeg_problem = has_jpeg_extension(path) ? jpeg_damage(bytes, thumbnail) : "";
   return bytes;

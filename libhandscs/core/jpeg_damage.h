@@ -41,8 +41,8 @@ bool has_jpeg_extension(const std::string& path);
 
 // An image file's bytes, for a decoder; `jpeg_problem` receives jpeg_damage's answer for a
 // .jpg/.jpeg ("" otherwise), `thumbnail` (optional) its 1/8-scale decode. Throws Error naming the
-// file when it cannot be read, is over 2 GB (no frame is; OpenCV's decode buffer is indexed by int)
-// or its PNG or JPEG header states more pixels than a camera may have (core/image_header.h).
+// file as read_image_bytes does (core/image_header.h): not readable, too large, or a header stating
+// more pixels than a camera may have.
 std::string read_image_file(const std::string& path, std::string& jpeg_problem, JpegThumbnail* thumbnail = nullptr);
 
 }  // namespace handscs

@@ -9,12 +9,13 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "core/atomic_file.h"  // ensure_directory, refuse_irregular_file
+#include "core/atomic_file.h"  // ensure_directory
 #include "core/error.h"
 #include "data/capture_impl.h"
 #include "data/mask_refine.h"
 #include "data/mesh_mask.h"
 #include "data/roi.h"
+#include "io/image_file.h"
 
 namespace handscs {
 
@@ -41,21 +42,25 @@ void write_cache_file(const fs::path& path, const std::vector<uint8_t>& bytes) {
   }
 }
 
+// A cached image or mask this project wrote, or an empty Mat when it cannot be read or decoded
+// (damaged, cut short, replaced by something else): the caller then makes it again and overwrites it.
+cv::Mat read_cached(const fs::path& file, int flags) {
+  try {
+    return decode_image_file(file.string(), flags);
+  } catch (const Error&) {
+    return cv::Mat();
+  }
+}
+
 // Failed prefetches remembered for load() to rethrow; beyond this many the oldest are dropped
 // (load() then simply retries and throws itself).
 constexpr size_t kMaxRememberedErrors = 256;
 }  // namespace
 
 cv::Mat Capture::Impl::read_image(const std::string& path, const FrameInfo& frame) const {
-  // Checked again at decode: the open's scan read each image, but a file replaced since by a named
-  // pipe would block OpenCV's read forever.
-  refuse_irregular_file(path);
-  cv::Mat bgr;
-  try {
-    bgr = cv::imread(path, cv::IMREAD_COLOR);
-  } catch (const cv::Exception& e) {
-    throw Error(path + ": cannot decode image (" + e.what() + ")");
-  }
+  // Read again through a checked descriptor: the open's scan read each image, but a file replaced
+  // since by a named pipe would block a decode by path forever.
+  const cv::Mat bgr = decode_image_file(path, cv::IMREAD_COLOR);
   if (bgr.empty()) throw Error(path + ": cannot decode image");
   if (bgr.cols != frame.camera.width || bgr.rows != frame.camera.height)
     throw Error(path + ": image is " + std::to_string(bgr.cols) + "x" + std::to_string(bgr.rows) +
@@ -69,7 +74,7 @@ cv::Mat Capture::Impl::undistorted(const FrameInfo& frame, const UndistortMaps& 
   if (!undistorted_folder.empty()) {
     file = fs::path(undistorted_folder) / fs::path(frame.file_name).replace_extension(".png");
     if (std::error_code ec; fs::is_regular_file(file, ec)) {
-      cv::Mat stored = cv::imread(file.string(), cv::IMREAD_COLOR);
+      cv::Mat stored = read_cached(file, cv::IMREAD_COLOR);
       if (stored.cols == frame.camera.width && stored.rows == frame.camera.height) return stored;
       // Unreadable or stale: undistort again and overwrite below.
     }
@@ -106,7 +111,7 @@ cv::Mat Capture::Impl::compute_mask(const FrameInfo& frame, const cv::Mat& bgr) 
 
 cv::Mat Capture::Impl::mask_for(const FrameInfo& frame, const cv::Mat& bgr) const {
   if (!frame.mask_path.empty()) {
-    cv::Mat stored = cv::imread(frame.mask_path, cv::IMREAD_GRAYSCALE);
+    cv::Mat stored = decode_image_file(frame.mask_path, cv::IMREAD_GRAYSCALE, "mask");
     if (stored.empty()) throw Error(frame.mask_path + ": cannot decode mask");
     if (stored.cols != bgr.cols || stored.rows != bgr.rows)
       throw Error(frame.mask_path + ": mask is " + std::to_string(stored.cols) + "x" +
@@ -127,7 +132,7 @@ cv::Mat Capture::Impl::mask_for(const FrameInfo& frame, const cv::Mat& bgr) cons
   if (mask_folder.empty()) return compute_mask(frame, bgr);
   const fs::path file = fs::path(mask_folder) / fs::path(frame.file_name).replace_extension(".png");
   if (std::error_code ec; fs::is_regular_file(file, ec)) {
-    cv::Mat stored = cv::imread(file.string(), cv::IMREAD_GRAYSCALE);
+    cv::Mat stored = read_cached(file, cv::IMREAD_GRAYSCALE);
     if (stored.cols == bgr.cols && stored.rows == bgr.rows) {
       cv::Mat mask;
       cv::threshold(stored, mask, 127, 1, cv::THRESH_BINARY);

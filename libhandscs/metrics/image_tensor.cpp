@@ -4,12 +4,12 @@
 #include <filesystem>
 
 #include <ATen/ATen.h>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
 #include "core/jpeg_damage.h"
 #include "core/png_damage.h"
+#include "io/image_file.h"
 
 namespace handscs {
 
@@ -96,13 +96,7 @@ cv::Mat decode_checked(const std::string& path, const std::string& what) {
   if (is_png_data(bytes))
     if (const std::string damage = png_damage(bytes); !damage.empty())
       throw Error(path + ": damaged PNG " + what + " (" + damage + ")");
-  const cv::Mat encoded(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data()));
-  cv::Mat image;
-  try {
-    image = cv::imdecode(encoded, cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    throw Error(path + ": cannot decode " + what + " (" + e.what() + ")");
-  }
+  const cv::Mat image = decode_image_bytes(bytes, cv::IMREAD_UNCHANGED, path, what);
   if (image.empty()) throw Error(path + ": cannot read " + what);
   return image;
 }

@@ -4,10 +4,10 @@
 #include <filesystem>
 
 #include <ATen/ATen.h>
-#include <opencv2/imgcodecs.hpp>
 
 #include "core/config.h"
 #include "core/error.h"
+#include "io/image_file.h"
 
 namespace handscs {
 
@@ -85,7 +85,7 @@ std::string region_mask_path(const std::string& regions_dir, const std::string& 
 torch::Tensor load_region_mask(const std::string& path, int64_t width, int64_t height) {
   std::error_code ec;
   require(std::filesystem::is_regular_file(path, ec), path + ": region mask not found");
-  const cv::Mat mask = cv::imread(path, cv::IMREAD_UNCHANGED);
+  const cv::Mat mask = decode_image_file(path, cv::IMREAD_UNCHANGED, "region mask");
   require(!mask.empty(), path + ": cannot read region mask");
   require(mask.depth() == CV_8U && mask.channels() == 1,
           path + ": region mask must be a single-channel 8-bit image (got " +

@@ -1,6 +1,7 @@
 // Atomic writes replace a file whole and leave no temporary behind; a file too large for the
 // process's memory is named by read_file; a path swapped for a named pipe while it is read never
 // blocks the read.
+#include "path_swap.h"
 #include "test_support.h"
 
 #include <catch2/catch.hpp>
@@ -9,10 +10,6 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
-
-#include <atomic>
-#include <csignal>
-#include <thread>
 
 #include <filesystem>
 #include <fstream>
@@ -82,50 +79,20 @@ TEST_CASE("read_file: a file larger than the process may hold is named, not std:
 }
 
 TEST_CASE("read_file: a path swapped between a file and a named pipe never blocks the read") {
-  // A second thread keeps replacing the path (rename, atomic) by a regular file or a named pipe
-  // with no writer. Each read must return the file's bytes or refuse the pipe; a check by name
-  // followed by an open by name would sooner or later open the pipe and wait forever for a writer.
+  // Each read must return the file's bytes or refuse the pipe, never wait for a writer.
   const auto dir = std::filesystem::temp_directory_path() / ("handscs_swap_" + std::to_string(getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   const std::string path = (dir / "input.json").string(), file = (dir / "file").string();
   handscs::write_file_atomic(file, "{}");
-  REQUIRE(::link(file.c_str(), path.c_str()) == 0);
-  const pid_t child = fork();
-  REQUIRE(child >= 0);
-  if (child == 0) {
-    std::atomic<bool> stop{false};
-    std::thread swapper([&] {
-      for (long k = 0; !stop; ++k) {
-        const std::string next = (dir / ("next" + std::to_string(k))).string();
-        const bool ok = k % 2 ? ::mkfifo(next.c_str(), 0600) == 0 : ::link(file.c_str(), next.c_str()) == 0;
-        if (!ok || ::rename(next.c_str(), path.c_str()) != 0) _exit(3);
-      }
-    });
-    int refused = 0, read = 0;
-    while (read + refused < 20000) {
-      try {
-        if (handscs::read_file(path) != "{}") _exit(1);
-        ++read;
-      } catch (const handscs::Error& e) {
-        if (std::string(e.what()) !=
-            path + ": is not a regular file (a named pipe, a device or a socket); give a file")
-          _exit(2);
-        ++refused;
-      }
+  const auto read = [&] {
+    try {
+      return handscs::read_file(path) == "{}" ? handscs_test::SwapRead::file : handscs_test::SwapRead::wrong;
+    } catch (const handscs::Error& e) {
+      return handscs_test::refusal_or_wrong(e.what(), path);
     }
-    stop = true;
-    swapper.join();
-    _exit(read > 0 && refused > 0 ? 0 : 4);
-  }
-  int status = 0;
-  const bool ended = handscs_test::wait_until([&] { return waitpid(child, &status, WNOHANG) == child; }, 120);
-  if (!ended) {
-    ::kill(child, SIGKILL);
-    waitpid(child, &status, 0);
-  }
-  CHECK(ended);  // no read blocked on the pipe
-  CHECK(WIFEXITED(status));
-  CHECK(WEXITSTATUS(status) == 0);  // 1: wrong bytes, 2: another error, 3: swap failed, 4: one kind only
+  };
+  // 1: wrong bytes or another error, 3: swap failed, 4: one kind only, -1: a read blocked.
+  CHECK(handscs_test::swapped_path_reads(path, file, read, 20000) == 0);
   std::filesystem::remove_all(dir);
 }
