@@ -15,6 +15,10 @@ the PSNR gain is positive on every seed and there are at least 2, "costs" if neg
 otherwise "no difference shown"), PREFIX.csv (one line per gain, cell and metric) and, with
 --plot-gain, PREFIX.png / .pdf: that gain's PSNR mean and seeds against the cell's training poses
 (the number in a cell name pN), one line per budget.
+Below the gains, how each gain's PSNR changes, paired by seed and read by the same rule: from the
+fewest to the most training poses at each budget (cells pN), from the smallest to the largest
+budget in each cell, and, for every --gain-change NAME=GAIN-BASE_GAIN, GAIN minus BASE_GAIN in each
+cell (e.g. scs_tau003-scs: what a setting changes in a gain).
 Rows that failed or whose PSNR is not finite are left out and counted in the table.
 """
 import argparse
@@ -97,6 +101,8 @@ def main():
     parser.add_argument('sweeps', nargs='+')
     parser.add_argument('--gain', action='append', required=True, help='NAME=ROW-BASE')
     parser.add_argument('--out', required=True, help='output prefix (PREFIX.md, .csv, .png)')
+    parser.add_argument('--gain-change', action='append', default=[],
+                        help='NAME=GAIN-BASE_GAIN: one gain minus another, cell by cell')
     parser.add_argument('--plot-gain', help='gain NAME to plot against training poses')
     parser.add_argument('--title', default='Paired gains')
     args = parser.parse_args()
@@ -122,6 +128,7 @@ def main():
               'region PSNRs |')
     md.append('|---|---|---|---|---|---|---|---|---|---|')
     plot = {}
+    psnr_gains = {}  # (gain name, cell, budget) -> {seed: PSNR gain}
     for name, row, base in gains:
         for cell, budget in cells:
             seeds = sorted(s for (r, c, b, s) in results if r == row and c == cell and b == budget
@@ -139,6 +146,9 @@ def main():
                     rows_csv.append([name, cell, budget, metric, len(diffs), f'{mean:.4f}',
                                      f'{std:.4f}', ' '.join(f'{d:+.4f}' for d in diffs)])
             psnr = per_metric['psnr']
+            psnr_gains[(name, cell, budget)] = {
+                s: results[(row, cell, budget, s)]['psnr'] - results[(base, cell, budget, s)]['psnr']
+                for s in seeds}
             mean, std = mean_std(psnr)
             ssim_m, ssim_s = mean_std(per_metric.get('ssim', []))
             lpips_m, lpips_s = mean_std(per_metric.get('lpips', []))
@@ -153,6 +163,16 @@ def main():
                       + f' | {regions} |')
             if name == args.plot_gain:
                 plot.setdefault(budget, []).append((cell, psnr))
+    changes = gain_changes(psnr_gains, gains, args.gain_change)
+    if changes:
+        md += ['', '## How the gains change (PSNR, paired by seed)', '',
+               '| change | seeds | PSNR (dB) | per seed | reading |', '|---|---|---|---|---|']
+        for label, diffs in changes:
+            mean, std = mean_std(diffs)
+            md.append(f'| {label} | {len(diffs)} | {mean:+.3f} +- {std:.3f} | '
+                      f'{" / ".join(f"{d:+.3f}" for d in diffs)} | {reading(diffs)} |')
+            rows_csv.append([label, '', '', 'psnr_change', len(diffs), f'{mean:.4f}', f'{std:.4f}',
+                             ' '.join(f'{d:+.4f}' for d in diffs)])
     if left_out:
         md += ['', f'Left out ({len(left_out)}): ' + ', '.join(left_out)]
     with open(args.out + '.md', 'w') as f:
@@ -164,6 +184,43 @@ def main():
     print('\n'.join(md))
     if args.plot_gain and plot:
         draw(plot, args)
+
+
+def paired(a, b):
+    """b - a for the seeds both {seed: value} maps hold, in seed order."""
+    return [b[s] - a[s] for s in sorted(a) if s in b]
+
+
+def gain_changes(psnr_gains, gains, specs):
+    """[(label, per-seed changes)]: each gain from the fewest to the most training poses per budget,
+    from the smallest to the largest budget per cell, and each --gain-change GAIN-BASE per cell."""
+    out = []
+    for name, _, _ in gains:
+        mine = {(c, b): v for (n, c, b), v in psnr_gains.items() if n == name}
+        for budget in sorted({b for _, b in mine}):
+            posed = sorted((poses_of(c), c) for c, b in mine if b == budget and poses_of(c) is not None)
+            if len(posed) > 1 and posed[0][0] != posed[-1][0]:
+                (_, few), (_, many) = posed[0], posed[-1]
+                diffs = paired(mine[(few, budget)], mine[(many, budget)])
+                if diffs:
+                    out.append((f'{name}: {many} - {few}, {budget} steps', diffs))
+        for cell in sorted({c for c, _ in mine}):
+            budgets = sorted(b for c, b in mine if c == cell)
+            if len(budgets) > 1:
+                diffs = paired(mine[(cell, budgets[0])], mine[(cell, budgets[-1])])
+                if diffs:
+                    out.append((f'{name}: {budgets[-1]} - {budgets[0]} steps, {cell}', diffs))
+    for spec in specs:
+        m = re.match(r'^([A-Za-z0-9_]+)=([A-Za-z0-9_]+)-([A-Za-z0-9_]+)$', spec)
+        if not m:
+            sys.exit(f'--gain-change {spec}: expected NAME=GAIN-BASE_GAIN')
+        label, gain, base = m.groups()
+        for (n, cell, budget), values in sorted(psnr_gains.items()):
+            if n == gain and (base, cell, budget) in psnr_gains:
+                diffs = paired(psnr_gains[(base, cell, budget)], values)
+                if diffs:
+                    out.append((f'{label} ({gain} - {base}): {cell}, {budget} steps', diffs))
+    return out
 
 
 def draw(plot, args):
