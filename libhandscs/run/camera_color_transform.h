@@ -14,7 +14,7 @@
 #include <torch/types.h>
 
 #include "run/checkpoint.h"
-#include "train/train_config.h"
+#include "run/train_config.h"
 
 namespace handscs {
 

@@ -9,7 +9,7 @@
 #include "avatar/avatar_config.h"
 #include "data/capture_config.h"
 #include "metrics/eval_config.h"
-#include "train/train_config.h"
+#include "run/train_config.h"
 
 namespace handscs {
 

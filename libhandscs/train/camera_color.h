@@ -27,7 +27,7 @@
 
 #include "run/camera_color_transform.h"
 #include "run/checkpoint.h"
-#include "train/train_config.h"
+#include "run/train_config.h"
 
 namespace handscs {
 

@@ -7,7 +7,7 @@
 
 #include <torch/types.h>
 
-#include "train/train_config.h"
+#include "run/train_config.h"
 
 namespace handscs {
 

@@ -10,7 +10,7 @@
 
 #include "avatar/gaussians.h"
 #include "train/adam.h"
-#include "train/train_config.h"
+#include "run/train_config.h"
 
 namespace handscs {
 

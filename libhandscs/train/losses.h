@@ -15,7 +15,7 @@
 
 #include "avatar/decoders.h"
 #include "metrics/lpips.h"
-#include "train/train_config.h"
+#include "run/train_config.h"
 
 namespace handscs {
 

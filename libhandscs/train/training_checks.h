@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "data/capture.h"
-#include "train/train_config.h"
+#include "run/train_config.h"
 
 namespace handscs {
 
