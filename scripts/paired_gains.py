@@ -9,7 +9,7 @@ summary.json, when the sweep kept its runs, for the region metrics and full-prec
 are named <row>.<cell>.s<seed> (for example full.p350.s10: row full, cell p350, seed 10), or
 <row>.s<seed> (one cell). A cell is the pair (cell name, budget). For every --gain NAME=ROW-BASE
 (e.g. scs=full-inter_pose) and cell, the gain of each seed present in both rows is ROW's metric
-minus BASE's, for PSNR, SSIM, LPIPS and the region PSNRs. Writes PREFIX.md (a Markdown table: mean
+minus BASE's, for PSNR, SSIM, LPIPS and the region PSNRs (each region's PSNR of its pooled MSE). Writes PREFIX.md (a Markdown table: mean
 +- sample std over the seeds, each seed's value, and the reading rule of docs/SCALING.md: "pays" if
 the PSNR gain is positive on every seed and there are at least 2, "costs" if negative on every seed,
 otherwise "no difference shown"), PREFIX.csv (one line per gain, cell and metric) and, with
@@ -19,6 +19,9 @@ Below the gains, how each gain's PSNR changes, paired by seed and read by the sa
 fewest to the most training poses at each budget (cells pN), from the smallest to the largest
 budget in each cell, and, for every --gain-change NAME=GAIN-BASE_GAIN, GAIN minus BASE_GAIN in each
 cell (e.g. scs_tau003-scs: what a setting changes in a gain).
+With --frames CAPTURE/frames.csv (handscs-synth's), each kept run's per-image PSNRs are also
+split as scripts/frame_groups.py splits them, into held-out gestures some training pose moves to
+and those none does; their gains appear beside the region PSNRs as gestures_seen / gestures_unseen.
 Rows that failed or whose PSNR is not finite are left out and counted in the table.
 """
 import argparse
@@ -29,6 +32,9 @@ import os
 import re
 import statistics
 import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import frame_groups  # noqa: E402  (scripts/frame_groups.py: the held-out gesture groups)
 
 POINT = re.compile(r'^(?P<row>[A-Za-z0-9_-]+)(?:\.(?P<cell>[A-Za-z0-9_-]+))?\.s(?P<seed>\d+)$')
 METRICS = ('psnr', 'ssim', 'lpips')
@@ -42,8 +48,9 @@ def number(text):
     return v if math.isfinite(v) else None
 
 
-def read_sweep(folder):
-    """{(row, cell, budget, seed): {metric: value}} of a sweep folder's finished rows."""
+def read_sweep(folder, gesture_groups=None):
+    """{(row, cell, budget, seed): {metric: value}} of a sweep folder's finished rows.
+    gesture_groups: frame_groups.read_frames' map, to add each run's PSNR per gesture group."""
     path = os.path.join(folder, 'results.csv')
     if not os.path.exists(path):
         sys.exit(f'{path}: no such file (not a handscs-bench output folder?)')
@@ -69,8 +76,16 @@ def read_sweep(folder):
                     full = number((report.get('summary') or {}).get(k))
                     if full is not None:
                         values[k] = full
+                # A region's PSNR of its pooled MSE: a region of a few pixels can match exactly in
+                # one image, whose PSNR is then infinite, and so is the mean of per-image PSNRs.
                 for name, region in (report.get('regions') or {}).items():
-                    values[f'psnr_{name}'] = number(region.get('psnr'))
+                    values[f'psnr_{name}'] = number(region.get('psnr_pooled_mse'))
+            per_image = os.path.join(folder, 'runs', f'{line["point"]}_{line["budget"]}', 'eval',
+                                     'per_image.csv')
+            if gesture_groups and os.path.exists(per_image):
+                scores, _ = frame_groups.score(gesture_groups, per_image)
+                for group in frame_groups.GROUPS:
+                    values[f'psnr_gestures_{group}'] = number(scores[group]['psnr'][0])
             results[key] = values
     return results, left_out
 
@@ -105,11 +120,13 @@ def main():
                         help='NAME=GAIN-BASE_GAIN: one gain minus another, cell by cell')
     parser.add_argument('--plot-gain', help='gain NAME to plot against training poses')
     parser.add_argument('--title', default='Paired gains')
+    parser.add_argument('--frames', help="handscs-synth's frames.csv: PSNR gains per gesture group too")
     args = parser.parse_args()
 
+    gesture_groups = frame_groups.read_frames(args.frames) if args.frames else None
     results, left_out = {}, []
     for folder in args.sweeps:
-        r, lo = read_sweep(folder)
+        r, lo = read_sweep(folder, gesture_groups)
         results.update(r)
         left_out += lo
     gains = []
@@ -125,7 +142,7 @@ def main():
                      key=lambda k: (k not in METRICS, METRICS.index(k) if k in METRICS else 0, k))
     rows_csv, md = [], [f'# {args.title}', '']
     md.append('| gain | cell | budget | seeds | PSNR (dB) | per seed | reading | SSIM | LPIPS | '
-              'region PSNRs |')
+              'region (and gesture group) PSNRs |')
     md.append('|---|---|---|---|---|---|---|---|---|---|')
     plot = {}
     psnr_gains = {}  # (gain name, cell, budget) -> {seed: PSNR gain}
@@ -152,8 +169,11 @@ def main():
             mean, std = mean_std(psnr)
             ssim_m, ssim_s = mean_std(per_metric.get('ssim', []))
             lpips_m, lpips_s = mean_std(per_metric.get('lpips', []))
+            # A region some runs do not score (no such pixels, or an older build) says on how many seeds.
             regions = ', '.join(f'{k[5:]} {mean_std(per_metric[k])[0]:+.3f} +- '
                                 f'{mean_std(per_metric[k])[1]:.3f}'
+                                + ('' if len(per_metric[k]) == len(psnr) else
+                                   f' ({len(per_metric[k])} of {len(psnr)} seeds)')
                                 for k in metrics if k.startswith('psnr_') and per_metric[k])
             md.append(f'| {name} ({row} - {base}) | {cell} | {budget} | {len(psnr)} | '
                       f'{mean:+.3f} +- {std:.3f} | {" / ".join(f"{d:+.3f}" for d in psnr)} | '

@@ -1,7 +1,8 @@
 // scripts/paired_gains.py, which reads the scaling study: gains paired by seed, their mean, std and
 // reading, and how a gain changes with training poses, budget and a setting, all against values
-// worked out here from the made-up PSNRs written below; a failed row is left out and counted, and a
-// run's own summary (full precision) wins over the CSV's printed figure.
+// worked out here from the made-up PSNRs written below; a failed row is left out and counted, a
+// run's own summary (full precision) wins over the CSV's printed figure, a region's gain reads its
+// pooled-MSE PSNR and --frames splits the gains by held-out gesture group.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -107,5 +108,49 @@ TEST_CASE("paired_gains.py: paired gains, their readings and changes equal the v
   CHECK(has("| scs (full - inter_pose) | p50 | 10000 | 2 | -0.035 +- 0.078 | -0.090 / +0.020 | no difference shown |"));
   CHECK(has("| scs: p350 - p50, 2000 steps | 3 | +0.270 +- 0.010 | +0.260 / +0.270 / +0.280 | pays |"));
   CHECK(has("Left out (1): full.p350.s4@2000 (failed)"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("paired_gains.py: a region's gain reads its pooled-MSE PSNR; --frames splits per-image PSNRs by gesture") {
+  const std::string dir = handscs_test::scratch_path("handscs_test_paired_groups", std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  handscs::ensure_directory(dir + "/sweep");
+  handscs::write_file_atomic(dir + "/sweep/results.csv", "point,budget,status,psnr,ssim,lpips\n" +
+                                                          line("inter_pose.p50.s1", 2000, "ok", 31) +
+                                                          line("full.p50.s1", 2000, "ok", 31.5));
+  // Held-out frames 6 and 18 move to a gesture training saw, 12 to one it never saw.
+  handscs::write_file_atomic(dir + "/frames.csv",
+                             "seq_name,frame_idx,held_out,gesture,gesture_in_training\n"
+                             "0000_synth_gestures,0,0,fist,1\n0000_synth_gestures,6,1,fist,1\n"
+                             "0000_synth_gestures,12,1,rock,0\n0000_synth_gestures,18,1,fist,1\n");
+  // Per run: its contact region's pooled-MSE PSNR (the per-image mean is infinite: one image's
+  // region matched exactly) and three images' PSNRs (frames 6, 12, 18).
+  const std::map<std::string, std::pair<double, std::vector<double>>> runs = {
+      {"inter_pose.p50.s1", {20.0, {30, 28, 32}}}, {"full.p50.s1", {20.25, {30.5, 27.5, 32.25}}}};
+  for (const auto& [point, values] : runs) {
+    const std::string eval = dir + "/sweep/runs/" + point + "_2000/eval";
+    handscs::ensure_directory(eval);
+    handscs::write_file_atomic(eval + "/summary.json", R"({"regions": {"contact": {"psnr": "inf", "psnr_pooled_mse": )" +
+                                                           number(values.first) + "}}}");
+    std::string images = "name,status,psnr,ssim,lpips\n";
+    for (int k = 0; k < 3; ++k)
+      images += "Capture0/0000_synth_gestures/cam400002/image" + std::to_string(6 * (k + 1)) + ".jpg,ok," +
+                number(values.second[k]) + ",0.9,0.05\n";
+    handscs::write_file_atomic(eval + "/per_image.csv", images);
+  }
+  const std::string command = "/usr/bin/python3 '" + handscs_test::kSource + "/scripts/paired_gains.py' '" + dir +
+                              "/sweep' --gain scs=full-inter_pose --frames '" + dir + "/frames.csv' --out '" + dir +
+                              "/gains' > '" + dir + "/log' 2>&1";
+  REQUIRE(std::system(command.c_str()) == 0);
+  const auto rows = rows_by_key(handscs::read_csv(dir + "/gains.csv"));
+  const auto mean_of = [&](const std::string& key) {
+    INFO(key);
+    REQUIRE(rows.count(key) == 1);
+    return std::stod(rows.at(key)[5]);
+  };
+  CHECK(mean_of("scs|p50|2000|psnr_contact") == Approx(0.25).margin(1e-9));
+  // seen: frames 6 and 18, (30.5 + 32.25) / 2 - (30 + 32) / 2; unseen: frame 12, 27.5 - 28
+  CHECK(mean_of("scs|p50|2000|psnr_gestures_seen") == Approx(0.375).margin(1e-9));
+  CHECK(mean_of("scs|p50|2000|psnr_gestures_unseen") == Approx(-0.5).margin(1e-9));
   std::filesystem::remove_all(dir);
 }
