@@ -2,19 +2,21 @@
 """Paired gains of a seeded study: what one row adds over another, cell by cell, seed by seed.
 
     /usr/bin/python3 scripts/paired_gains.py SWEEP_OUT... --gain NAME=ROW-BASE ... [--out PREFIX]
-        [--plot-gain NAME] [--title TEXT]
+        [--gain-change NAME=GAIN-BASE_GAIN ...] [--frames FRAMES.csv] [--plot-gain NAME ...]
+        [--title TEXT]
 
 Each SWEEP_OUT is a handscs-bench output folder (results.csv, and runs/<point>_<budget>/eval/
 summary.json, when the sweep kept its runs, for the region metrics and full-precision means). Points
 are named <row>.<cell>.s<seed> (for example full.p350.s10: row full, cell p350, seed 10), or
 <row>.s<seed> (one cell). A cell is the pair (cell name, budget). For every --gain NAME=ROW-BASE
 (e.g. scs=full-inter_pose) and cell, the gain of each seed present in both rows is ROW's metric
-minus BASE's, for PSNR, SSIM, LPIPS and the region PSNRs (each region's PSNR of its pooled MSE). Writes PREFIX.md (a Markdown table: mean
-+- sample std over the seeds, each seed's value, and the reading rule of docs/SCALING.md: "pays" if
-the PSNR gain is positive on every seed and there are at least 2, "costs" if negative on every seed,
-otherwise "no difference shown"), PREFIX.csv (one line per gain, cell and metric) and, with
---plot-gain, PREFIX.png / .pdf: that gain's PSNR mean and seeds against the cell's training poses
-(the number in a cell name pN), one line per budget.
+minus BASE's, for PSNR, SSIM, LPIPS and the region PSNRs (each region's PSNR of its pooled MSE).
+Writes PREFIX.md (a Markdown table: mean +- sample std over the seeds, each seed's value, and the
+reading rule of docs/SCALING.md: "pays" if the PSNR gain is positive on every seed and there are at
+least 2, "costs" if negative on every seed, otherwise "no difference shown"), PREFIX.csv (one line
+per gain, cell and metric) and, with --plot-gain (repeatable), PREFIX.png / .pdf: each such gain's PSNR mean and seeds against the
+cell's training poses (the number in a cell name pN), one line per gain and budget; a cell without
+pN (e.g. the novel-view cell) is drawn as a point with its std at the right.
 Below the gains, how each gain's PSNR changes, paired by seed and read by the same rule: from the
 fewest to the most training poses at each budget (cells pN), from the smallest to the largest
 budget in each cell, and, for every --gain-change NAME=GAIN-BASE_GAIN, GAIN minus BASE_GAIN in each
@@ -118,7 +120,8 @@ def main():
     parser.add_argument('--out', required=True, help='output prefix (PREFIX.md, .csv, .png)')
     parser.add_argument('--gain-change', action='append', default=[],
                         help='NAME=GAIN-BASE_GAIN: one gain minus another, cell by cell')
-    parser.add_argument('--plot-gain', help='gain NAME to plot against training poses')
+    parser.add_argument('--plot-gain', action='append', default=[],
+                        help='gain NAME to plot against training poses (repeatable)')
     parser.add_argument('--title', default='Paired gains')
     parser.add_argument('--frames', help="handscs-synth's frames.csv: PSNR gains per gesture group too")
     args = parser.parse_args()
@@ -181,8 +184,8 @@ def main():
                       + (f'{ssim_m:+.4f} +- {ssim_s:.4f}' if ssim_m is not None else '') + ' | '
                       + (f'{lpips_m:+.4f} +- {lpips_s:.4f}' if lpips_m is not None else '')
                       + f' | {regions} |')
-            if name == args.plot_gain:
-                plot.setdefault(budget, []).append((cell, psnr))
+            if name in args.plot_gain:
+                plot.setdefault((name, budget), []).append((cell, psnr))
     changes = gain_changes(psnr_gains, gains, args.gain_change)
     if changes:
         md += ['', '## How the gains change (PSNR, paired by seed)', '',
@@ -252,22 +255,22 @@ def draw(plot, args):
         print('paired_gains.py: matplotlib is missing (python3-matplotlib): no plot', file=sys.stderr)
         return
     fig, ax = plt.subplots(figsize=(6, 4))
-    for budget, cells in sorted(plot.items()):
+    for (name, budget), cells in sorted(plot.items()):
         points = sorted((poses_of(c), g, c) for c, g in cells if poses_of(c) is not None)
         others = [(c, g) for c, g in cells if poses_of(c) is None]
         if points:
             xs = [p for p, _, _ in points]
-            ax.plot(xs, [statistics.fmean(g) for _, g, _ in points], marker='o',
-                    label=f'{budget} steps')
-            for p, g, _ in points:
-                ax.scatter([p] * len(g), g, s=10, color='grey', zorder=3)
+            line, = ax.plot(xs, [statistics.fmean(g) for _, g, _ in points], marker='o',
+                            label=f'{name}, {budget} steps')
+            for p, g, _ in points:  # each seed, in its line's colour
+                ax.scatter([p] * len(g), g, s=12, color=line.get_color(), alpha=0.5, zorder=3)
         for c, g in others:
             ax.errorbar([max([p for p, _, _ in points], default=0) * 1.15 + 10],
                         [statistics.fmean(g)], yerr=[statistics.stdev(g) if len(g) > 1 else 0],
-                        fmt='s', label=f'{c}, {budget} steps')
+                        fmt='s', label=f'{name}: {c}, {budget} steps')
     ax.axhline(0, color='black', linewidth=0.8)
     ax.set_xlabel('training poses')
-    ax.set_ylabel(f'{args.plot_gain} gain, PSNR (dB)')
+    ax.set_ylabel('gain, PSNR (dB)')
     ax.set_title(args.title)
     ax.legend()
     fig.tight_layout()
