@@ -14,13 +14,14 @@ minus BASE's, for PSNR, SSIM, LPIPS and the region PSNRs (each region's PSNR of 
 Writes PREFIX.md (a Markdown table: mean +- sample std over the seeds, each seed's value, and the
 reading rule of docs/SCALING.md: "pays" if the PSNR gain is positive on every seed and there are at
 least 2, "costs" if negative on every seed, otherwise "no difference shown"), PREFIX.csv (one line
-per gain, cell and metric) and, with --plot-gain (repeatable), PREFIX.png / .pdf: each such gain's PSNR mean and seeds against the
-cell's training poses (the number in a cell name pN), one line per gain and budget; a cell without
-pN (e.g. the novel-view cell) is drawn as a point with its std at the right.
-Below the gains, how each gain's PSNR changes, paired by seed and read by the same rule: from the
-fewest to the most training poses at each budget (cells pN), from the smallest to the largest
-budget in each cell, and, for every --gain-change NAME=GAIN-BASE_GAIN, GAIN minus BASE_GAIN in each
-cell (e.g. scs_tau003-scs: what a setting changes in a gain).
+per gain, cell and metric) and, with --plot-gain (repeatable), PREFIX.png / .pdf: each such gain's
+PSNR mean and seeds against the cell's training poses (the number in a cell name pN), one line per
+gain and budget; a cell without pN (e.g. the novel-view cell) is a point with its std at the right.
+Below the gains, how each gain's PSNR changes, paired by seed and read by the same rule ("rises" /
+"falls" when it does so on every seed): from the fewest to the most training poses at each budget
+(cells pN), from the smallest to the largest budget in each cell, and, for every --gain-change
+NAME=GAIN-BASE_GAIN, GAIN minus BASE_GAIN in each cell (e.g. scs_tau003-scs: what a setting changes
+in a gain).
 With --frames CAPTURE/frames.csv (handscs-synth's), each kept run's per-image PSNRs are also
 split as scripts/frame_groups.py splits them, into held-out gestures some training pose moves to
 and those none does; their gains appear beside the region PSNRs as gestures_seen / gestures_unseen.
@@ -108,6 +109,12 @@ def reading(gains):
     return 'no difference shown'
 
 
+def change_reading(changes):
+    """The reading rule for a change of a gain: rises / falls on every seed."""
+    return {'pays': 'rises', 'costs': 'falls', 'no difference shown': 'no change shown'}.get(
+        reading(changes), reading(changes))
+
+
 def poses_of(cell):
     m = re.search(r'p(\d+)', cell)
     return int(m.group(1)) if m else None
@@ -123,7 +130,8 @@ def main():
     parser.add_argument('--plot-gain', action='append', default=[],
                         help='gain NAME to plot against training poses (repeatable)')
     parser.add_argument('--title', default='Paired gains')
-    parser.add_argument('--frames', help="handscs-synth's frames.csv: PSNR gains per gesture group too")
+    parser.add_argument('--frames',
+                        help="handscs-synth's frames.csv: PSNR gains per gesture group too")
     args = parser.parse_args()
 
     gesture_groups = frame_groups.read_frames(args.frames) if args.frames else None
@@ -193,7 +201,7 @@ def main():
         for label, diffs in changes:
             mean, std = mean_std(diffs)
             md.append(f'| {label} | {len(diffs)} | {mean:+.3f} +- {std:.3f} | '
-                      f'{" / ".join(f"{d:+.3f}" for d in diffs)} | {reading(diffs)} |')
+                      f'{" / ".join(f"{d:+.3f}" for d in diffs)} | {change_reading(diffs)} |')
             rows_csv.append([label, '', '', 'psnr_change', len(diffs), f'{mean:.4f}', f'{std:.4f}',
                              ' '.join(f'{d:+.4f}' for d in diffs)])
     if left_out:

@@ -106,7 +106,8 @@ TEST_CASE("paired_gains.py: paired gains, their readings and changes equal the v
   CHECK(has("| scs (full - inter_pose) | p50 | 2000 | 3 | -0.180 +- 0.010 | -0.190 / -0.180 / -0.170 | costs |"));
   CHECK(has("| scs (full - inter_pose) | p350 | 2000 | 3 | +0.090 +- 0.020 | +0.070 / +0.090 / +0.110 | pays |"));
   CHECK(has("| scs (full - inter_pose) | p50 | 10000 | 2 | -0.035 +- 0.078 | -0.090 / +0.020 | no difference shown |"));
-  CHECK(has("| scs: p350 - p50, 2000 steps | 3 | +0.270 +- 0.010 | +0.260 / +0.270 / +0.280 | pays |"));
+  CHECK(has("| scs: p350 - p50, 2000 steps | 3 | +0.270 +- 0.010 | +0.260 / +0.270 / +0.280 | rises |"));
+  CHECK(has("| scs: 10000 - 2000 steps, p50 | 2 | +0.150 +- 0.071 | +0.100 / +0.200 | rises |"));
   CHECK(has("Left out (1): full.p350.s4@2000 (failed)"));
   std::filesystem::remove_all(dir);
 }
