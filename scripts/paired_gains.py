@@ -17,11 +17,11 @@ least 2, "costs" if negative on every seed, otherwise "no difference shown"), PR
 per gain, cell and metric) and, with --plot-gain (repeatable), PREFIX.png / .pdf: each such gain's
 PSNR mean and seeds against the cell's training poses (the number in a cell name pN), one line per
 gain and budget; a cell without pN (e.g. the novel-view cell) is a point with its std at the right.
-Below the gains, how each gain's PSNR changes, paired by seed and read by the same rule ("rises" /
-"falls" when it does so on every seed): from the fewest to the most training poses at each budget
-(cells pN), from the smallest to the largest budget in each cell, and, for every --gain-change
-NAME=GAIN-BASE_GAIN, GAIN minus BASE_GAIN in each cell (e.g. scs_tau003-scs: what a setting changes
-in a gain).
+Then each row the gains name, per cell, as mean +- std over its seeds. Then how each gain's PSNR
+changes, paired by seed and read by the same rule ("rises" / "falls" when it does so on every
+seed): from the fewest to the most training poses at each budget (cells pN), from the smallest to
+the largest budget in each cell, and, for every --gain-change NAME=GAIN-BASE_GAIN, GAIN minus
+BASE_GAIN in each cell (e.g. scs_tau003-scs: what a setting changes in a gain).
 With --frames CAPTURE/frames.csv (handscs-synth's), each kept run's per-image PSNRs are also
 split as scripts/frame_groups.py splits them, into held-out gestures some training pose moves to
 and those none does; their gains appear beside the region PSNRs as gestures_seen / gestures_unseen.
@@ -109,6 +109,26 @@ def reading(gains):
     return 'no difference shown'
 
 
+def row_means(results, gains, cells):
+    """Markdown lines: each row the gains name, per cell, as mean +- std over its seeds."""
+    rows = []
+    for _, row, base in gains:
+        rows += [r for r in (row, base) if r not in rows]
+    md = ['', '## The rows (mean +- std over their seeds)', '',
+          '| row | cell | budget | seeds | PSNR (dB) | SSIM | LPIPS |', '|---|---|---|---|---|---|---|']
+    for row in rows:
+        for cell, budget in cells:
+            runs = [v for (r, c, b, _), v in sorted(results.items()) if (r, c, b) == (row, cell, budget)]
+            if not runs:
+                continue
+            cols = []
+            for metric, digits in (('psnr', 3), ('ssim', 4), ('lpips', 4)):
+                mean, std = mean_std([v[metric] for v in runs if v.get(metric) is not None])
+                cols.append('' if mean is None else f'{mean:.{digits}f} +- {std:.{digits}f}')
+            md.append(f'| {row} | {cell} | {budget} | {len(runs)} | ' + ' | '.join(cols) + ' |')
+    return md
+
+
 def change_reading(changes):
     """The reading rule for a change of a gain: rises / falls on every seed."""
     return {'pays': 'rises', 'costs': 'falls', 'no difference shown': 'no change shown'}.get(
@@ -194,6 +214,7 @@ def main():
                       + f' | {regions} |')
             if name in args.plot_gain:
                 plot.setdefault((name, budget), []).append((cell, psnr))
+    md += row_means(results, gains, cells)
     changes = gain_changes(psnr_gains, gains, args.gain_change)
     if changes:
         md += ['', '## How the gains change (PSNR, paired by seed)', '',
