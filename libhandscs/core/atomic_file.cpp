@@ -88,6 +88,15 @@ size_t ReadableFile::read_some(char* buffer, size_t n) {
   }
 }
 
+bool ReadableFile::append_rest(std::string& bytes, std::uintmax_t max_bytes) {
+  char chunk[1 << 16];
+  while (const size_t got = read_some(chunk, sizeof(chunk))) {
+    bytes.append(chunk, got);
+    if (bytes.size() > max_bytes) return false;
+  }
+  return true;
+}
+
 std::string read_file(const std::string& path, std::uintmax_t max_bytes) {
   ReadableFile file(path);
   const std::uintmax_t size = file.size();
@@ -109,15 +118,9 @@ std::string read_file(const std::string& path, std::uintmax_t max_bytes) {
     filled += got;
   }
   bytes.resize(filled);
-  if (size == 0) {  // no size reported (a special file system): read as it comes, within the bound
-    char chunk[1 << 16];
-    while (const size_t got = file.read_some(chunk, sizeof(chunk))) {
-      if (bytes.size() + got > max_bytes)
-        throw Error(path + ": more than the " + std::to_string(max_bytes >> 20) +
-                    " MB such a file can be");
-      bytes.append(chunk, got);
-    }
-  }
+  // No size reported (a special file system): read as it comes, within the bound.
+  if (size == 0 && !file.append_rest(bytes, max_bytes))
+    throw Error(path + ": more than the " + std::to_string(max_bytes >> 20) + " MB such a file can be");
   return bytes;
 }
 

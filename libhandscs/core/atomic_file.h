@@ -30,6 +30,10 @@ class ReadableFile {
   std::uintmax_t size() const { return size_; }
   // Reads up to n bytes into buffer; returns how many, 0 at the end. Throws Error on a failed read.
   size_t read_some(char* buffer, size_t n);
+  // Appends the rest of the file to `bytes` in 64 KiB chunks; false, having stopped, as soon as
+  // `bytes` holds more than max_bytes (a file far larger than its format allows, or one still
+  // growing, never fills the memory).
+  bool append_rest(std::string& bytes, std::uintmax_t max_bytes);
 
  private:
   std::string path_;

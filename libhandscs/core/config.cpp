@@ -136,16 +136,10 @@ std::string ConfigDoc::format_number(double x) {
 
 json parse_json_file(const std::string& path) {
   ReadableFile in(path, "JSON file");
-  // Read at most kMaxJsonBytes + one chunk: a file far larger than any JSON input (or one still
-  // growing) must not fill the memory.
   std::string text;
-  char chunk[1 << 16];
-  while (const size_t got = in.read_some(chunk, sizeof(chunk))) {
-    text.append(chunk, got);
-    if (text.size() > kMaxJsonBytes)
-      throw Error(path + ": larger than " + std::to_string(kMaxJsonBytes >> 20) +
-                  " MB; not a config, pose or camera file");
-  }
+  if (!in.append_rest(text, kMaxJsonBytes))
+    throw Error(path + ": larger than " + std::to_string(kMaxJsonBytes >> 20) +
+                " MB; not a config, pose or camera file");
   try {
     JsonKeyGuard keys(path);
     return json::parse(text, [&keys](int depth, json::parse_event_t event, json& parsed) {
