@@ -131,23 +131,29 @@ def columns_of(meta, sets):
     return names
 
 
-def score(folder, sets, k):
+def score_per_pose(folder, sets, k):
+    """(meta, column count, [(pose, k-NN accuracy, balanced accuracy, silhouette)]) of a union of
+    feature sets, standardised over the poses pooled as handscs-features does it."""
     from sklearn.metrics import silhouette_score
 
     meta, poses, labels, values, column = read_run(folder)
     names = columns_of(meta, sets)
     x_all = standardised(values, column, names)
-    knn, balanced, sil = [], [], []
+    rows = []
     for pose in meta["poses"]:
         take = poses == pose
         a, b = knn_loo_accuracy(x_all[take], labels[take], k)
-        knn.append(a)
-        balanced.append(b)
-        sil.append(float(silhouette_score(x_all[take], labels[take], metric="euclidean")))
-        print(f"{meta['label']} {sets} ({len(names)}-D) {pose}: kNN {a:.4f}, balanced {b:.4f}, "
-              f"silhouette {sil[-1]:+.4f}")
+        rows.append((pose, a, b, float(silhouette_score(x_all[take], labels[take], metric="euclidean"))))
+    return meta, len(names), rows
+
+
+def score(folder, sets, k):
+    meta, dims, rows = score_per_pose(folder, sets, k)
+    for pose, a, b, s in rows:
+        print(f"{meta['label']} {sets} ({dims}-D) {pose}: kNN {a:.4f}, balanced {b:.4f}, silhouette {s:+.4f}")
+    knn, balanced, sil = ([r[i] for r in rows] for i in (1, 2, 3))
     ddof = 1 if len(knn) > 1 else 0
-    print(f"{meta['label']} {sets} ({len(names)}-D): kNN {np.mean(knn):.4f} +- {np.std(knn, ddof=ddof):.4f}, "
+    print(f"{meta['label']} {sets} ({dims}-D): kNN {np.mean(knn):.4f} +- {np.std(knn, ddof=ddof):.4f}, "
           f"balanced {np.mean(balanced):.4f} +- {np.std(balanced, ddof=ddof):.4f}, "
           f"silhouette {np.mean(sil):+.4f} +- {np.std(sil, ddof=ddof):.4f} (mean +- sample sd over poses)")
     return 0
