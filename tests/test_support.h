@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <exception>
 #include <filesystem>
 #include <fstream>
@@ -27,6 +28,28 @@ inline std::string error_of(const std::function<void()>& f) {
   }
   return "(no error)";
 }
+
+// Sets an environment variable for one scope, then restores what it was (or unsets it).
+struct ScopedEnv {
+  ScopedEnv(std::string name, const std::string& value) : name_(std::move(name)) {
+    const char* previous = std::getenv(name_.c_str());
+    had_ = previous != nullptr;
+    if (had_) old_ = previous;
+    ::setenv(name_.c_str(), value.c_str(), 1);
+  }
+  ~ScopedEnv() {
+    if (had_)
+      ::setenv(name_.c_str(), old_.c_str(), 1);
+    else
+      ::unsetenv(name_.c_str());
+  }
+  ScopedEnv(const ScopedEnv&) = delete;
+  ScopedEnv& operator=(const ScopedEnv&) = delete;
+
+ private:
+  std::string name_, old_;
+  bool had_ = false;
+};
 
 // Starts `command` through /bin/sh in the background (exec'd: the pid is the program's own, so a
 // signal sent to it reaches the program). Returns the pid.

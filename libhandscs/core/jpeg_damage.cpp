@@ -13,6 +13,7 @@
 #include "core/error.h"
 #include "core/image_header.h"
 #include "core/jpeg_entropy.h"
+#include "core/text.h"
 
 namespace handscs {
 namespace {
@@ -155,11 +156,8 @@ std::string jpeg_damage(const std::string& file_bytes, JpegThumbnail* thumbnail)
 }
 
 bool has_jpeg_extension(const std::string& path) {
-  const auto dot = path.find_last_of('.');
-  if (dot == std::string::npos) return false;
-  std::string ext = path.substr(dot + 1);
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext == "jpg" || ext == "jpeg";
+  const std::string ext = lower_extension(path);
+  return ext == ".jpg" || ext == ".jpeg";
 }
 
 std::string read_image_file(const std::string& path, std::string& jpeg_problem, JpegThumbnail* thumbnail) {

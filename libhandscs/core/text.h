@@ -3,8 +3,10 @@
 
 #include <c10/util/ArrayRef.h>
 
+#include <cctype>
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -38,6 +40,13 @@ inline std::string number_text(double x) {
   char text[32];
   std::snprintf(text, sizeof(text), "%g", x);
   return text;
+}
+
+// A path's extension in lower case, with its dot (".JPG" -> ".jpg"; "" when it has none).
+inline std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
 }
 
 }  // namespace handscs

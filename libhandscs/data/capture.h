@@ -120,7 +120,6 @@ class Capture {
 
   // Decoded ROI crop (or full image) of a frame, from the cache or decoded now.
   FrameSample load(const FrameInfo& frame, bool full_image = false);
-  std::shared_ptr<const CachedCrop> load_crop(int64_t index, bool full_image = false);
   // Queues frames for the background loader, replacing what was still queued.
   void prefetch(const std::vector<int64_t>& indices, bool full_image = false);
 

@@ -259,10 +259,6 @@ FrameSample Capture::load(const FrameInfo& frame, bool full_image) {
   return sample;
 }
 
-std::shared_ptr<const CachedCrop> Capture::load_crop(int64_t index, bool full_image) {
-  return impl_->get(index, full_image);
-}
-
 void Capture::prefetch(const std::vector<int64_t>& indices, bool full_image) {
   {
     std::lock_guard<std::mutex> lock(impl_->mutex);

@@ -30,9 +30,6 @@ constexpr std::array<std::array<int, 3>, 5> kFingerJoints = {{
 // MANO21 index of each finger's tip (16 + Finger).
 constexpr int kTipJoint0 = 16;
 
-// MANO tip vertex ids (thumb, index, middle, ring, pinky), as InterHand2.6M's own regressor uses.
-constexpr std::array<int64_t, 5> kManoTipVertices = {745, 317, 445, 556, 673};
-
 // Names of the MANO21 joints, for logs and files.
 constexpr std::array<const char*, 21> kMano21Names = {
     "wrist",  "index1", "index2",    "index3",    "middle1",    "middle2",  "middle3",

@@ -29,15 +29,6 @@ using json = nlohmann::json;
 constexpr const char* kFormatName = "handscs-rig";
 constexpr int kFormatVersion = 1;
 
-std::string type_name(const json& value) {
-  if (value.is_null()) return "null";
-  if (value.is_boolean()) return "boolean";
-  if (value.is_number()) return "number";
-  if (value.is_string()) return "string";
-  if (value.is_array()) return "array";
-  return "object";
-}
-
 class RigReader {
  public:
   RigReader(const json& root, std::string path) : root_(root), path_(std::move(path)) {}
@@ -54,7 +45,7 @@ class RigReader {
 
   std::string string(const std::string& key) const {
     const json& value = get(key);
-    if (!value.is_string()) fail(key, "expected string, got " + type_name(value));
+    if (!value.is_string()) fail(key, "expected string, got " + json_type_name(value));
     return value.get<std::string>();
   }
 
@@ -77,7 +68,7 @@ class RigReader {
   std::vector<int64_t> integers(const std::string& key, std::vector<int64_t>& shape) const {
     const json& value = get(key);
     if (!shape.empty() && shape[0] < 0) {
-      if (!value.is_array()) fail(key, "expected array, got " + type_name(value));
+      if (!value.is_array()) fail(key, "expected array, got " + json_type_name(value));
       shape[0] = static_cast<int64_t>(value.size());
     }
     check_dense_shape(value, key, shape);
@@ -98,7 +89,7 @@ class RigReader {
   // Compares the shape seen along first elements with the expected one.
   void check_dense_shape(const json& value, const std::string& key,
                          const std::vector<int64_t>& shape) const {
-    if (!value.is_array()) fail(key, "expected array, got " + type_name(value));
+    if (!value.is_array()) fail(key, "expected array, got " + json_type_name(value));
     std::vector<int64_t> seen;
     const json* cursor = &value;
     while (cursor->is_array() && seen.size() < shape.size() + 1) {
@@ -124,13 +115,13 @@ class RigReader {
     };
     const size_t depth = index.size();
     if (depth == shape.size()) {
-      if (!value.is_number()) fail(where(), "expected number, got " + type_name(value));
+      if (!value.is_number()) fail(where(), "expected number, got " + json_type_name(value));
       if (integers && !value.is_number_integer())
         fail(where(), "expected integer, got " + value.dump());
       out[cursor++] = integers ? static_cast<double>(value.get<int64_t>()) : value.get<double>();
       return;
     }
-    if (!value.is_array()) fail(where(), "expected array, got " + type_name(value));
+    if (!value.is_array()) fail(where(), "expected array, got " + json_type_name(value));
     if (static_cast<int64_t>(value.size()) != shape[depth])
       fail(where(), "expected " + std::to_string(shape[depth]) + " entries, got " +
                         std::to_string(value.size()));
@@ -152,7 +143,7 @@ class RigReader {
     std::vector<int64_t> file_shape;
     const json& shape_value = value["shape"];
     if (!shape_value.is_array())
-      fail(key + ".shape", "expected array, got " + type_name(shape_value));
+      fail(key + ".shape", "expected array, got " + json_type_name(shape_value));
     for (const json& s : shape_value) {
       if (!s.is_number_integer()) fail(key + ".shape", "expected integers");
       file_shape.push_back(s.get<int64_t>());
@@ -160,7 +151,7 @@ class RigReader {
     if (file_shape != shape)
       fail(key, "expected shape " + shape_text(shape) + ", got " + shape_text(file_shape));
     const json& entries = value["sparse"];
-    if (!entries.is_array()) fail(key + ".sparse", "expected array, got " + type_name(entries));
+    if (!entries.is_array()) fail(key + ".sparse", "expected array, got " + json_type_name(entries));
     for (size_t e = 0; e < entries.size(); ++e) {
       const std::string where = key + ".sparse[" + std::to_string(e) + "]";
       const json& entry = entries[e];
@@ -177,7 +168,7 @@ class RigReader {
         flat = flat * shape[d] + index;
       }
       if (!entry[shape.size()].is_number())
-        fail(where, "expected number, got " + type_name(entry[shape.size()]));
+        fail(where, "expected number, got " + json_type_name(entry[shape.size()]));
       out[static_cast<size_t>(flat)] = entry[shape.size()].get<double>();
     }
   }
@@ -276,7 +267,7 @@ Rig load_rig(const std::string& path) {
     const json& v = reader.get("v_template");
     if (!v.is_array() || v.empty())
       reader.fail("v_template", "expected a non-empty array of [x, y, z], got " +
-                                    (v.is_array() ? std::string("an empty array") : type_name(v)));
+                                    (v.is_array() ? std::string("an empty array") : json_type_name(v)));
   }
   const int64_t num_vertices = static_cast<int64_t>(reader.get("v_template").size());
   rig.v_template = reader.floats("v_template", {num_vertices, 3});

@@ -1,6 +1,5 @@
 #include "infer/render_command.h"
 
-#include <algorithm>
 #include <array>
 #include <cctype>
 #include <cmath>
@@ -27,9 +26,7 @@ namespace {
 
 // The PLY mode writes PNG: another extension would hold PNG bytes under a misleading name.
 void require_png_name(const std::string& flag, const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  require(ext == ".png", flag + " " + path + ": the PLY mode writes PNG images; name the file .png");
+  require(lower_extension(path) == ".png", flag + " " + path + ": the PLY mode writes PNG images; name the file .png");
 }
 
 void run_ply_mode(const PlyMode& mode) {

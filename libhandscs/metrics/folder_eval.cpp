@@ -12,6 +12,7 @@
 #include "core/config.h"
 #include "core/error.h"
 #include "core/progress.h"
+#include "core/text.h"
 #include "metrics/image_tensor.h"
 #include "metrics/region_masks.h"
 
@@ -24,10 +25,7 @@ namespace {
 bool is_image_file(const fs::path& path) {
   static const std::set<std::string> extensions = {".png", ".jpg", ".jpeg", ".bmp", ".tif",
                                                    ".tiff", ".exr", ".webp", ".ppm", ".pgm", ".pfm"};
-  std::string ext = path.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return extensions.count(ext) > 0;
+  return extensions.count(lower_extension(path.string())) > 0;
 }
 
 }  // namespace

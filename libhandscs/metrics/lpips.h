@@ -71,8 +71,6 @@ class Lpips {
   // A copy whose weights have `dtype` (inputs must have the weights' dtype; float32 by default).
   Lpips to(torch::Dtype dtype) const;
 
-  const LpipsNetSpec& spec() const { return spec_; }
-  const std::string& input_range() const { return input_range_; }
   torch::Dtype dtype() const;
 
  private:

@@ -48,7 +48,7 @@ const LpipsNetSpec& lpips_net_spec(const std::string& name) {
   for (const auto& spec : registry())
     if (spec.name == name) return spec;
   std::string known;
-  for (const auto& spec : registry()) known += (known.empty() ? "" : ", ") + spec.name;
+  for (const auto& known_name : lpips_net_names()) known += (known.empty() ? "" : ", ") + known_name;
   throw Error("unknown LPIPS net \"" + name + "\" (known: " + known + ")");
 }
 

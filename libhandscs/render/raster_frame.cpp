@@ -46,8 +46,6 @@ RasterFrame make_raster_frame(const Camera& camera, const RasterSettings& settin
   f.cy = K[5];
   f.near_plane = camera.near_plane;
   f.far_plane = camera.far_plane;
-  f.image_width = camera.width;
-  f.image_height = camera.height;
   const double half_u = 0.5 * camera.width / f.fx, mid_u = (0.5 * camera.width - f.cx) / f.fx;
   const double half_v = 0.5 * camera.height / f.fy, mid_v = (0.5 * camera.height - f.cy) / f.fy;
   f.u_lo = mid_u - kJacobianClampScale * half_u;

@@ -21,7 +21,6 @@ struct RasterFrame {
   // EWA Jacobian clamp of x/z and y/z: 1.3x the image's half extent around the image centre, as the reference
   // rasterizers do, so Gaussians far outside the view do not get a huge, meaningless Jacobian.
   double u_lo = 0, u_hi = 0, v_lo = 0, v_hi = 0;
-  int image_width = 0, image_height = 0;
   int x0 = 0, y0 = 0;           // region origin in image pixels
   int width = 0, height = 0;    // region size (= output size)
   int tiles_x = 0, tiles_y = 0;

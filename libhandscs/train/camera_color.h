@@ -45,8 +45,6 @@ class CameraColors {
   // One transform per camera id (the training cameras), all at the identity.
   CameraColors(TrainConfig::CameraColor mode, std::vector<std::string> camera_ids);
 
-  TrainConfig::CameraColor mode() const { return mode_; }
-  const std::vector<std::string>& camera_ids() const { return camera_ids_; }
   // The learned parameters [C, width] (a leaf that requires grad; the optimiser points at it).
   torch::Tensor& parameters() { return params_; }
   const torch::Tensor& parameters() const { return params_; }

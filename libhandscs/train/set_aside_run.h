@@ -28,7 +28,6 @@ class SetAsideRun {
   void restore();
 
   bool holds_files() const { return !aside_.empty(); }
-  const std::string& aside_folder() const { return aside_; }
 
  private:
   std::string dir_, aside_, described_;

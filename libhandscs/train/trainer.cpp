@@ -621,9 +621,7 @@ StepResult Trainer::step() {
   }
 
   if (group_) {
-    const auto before = group_->stats().seconds;
     finite = reduce_across_ranks(sums, finite, result.terms, pose_updates);
-    result.times.communication_ms = (group_->stats().seconds - before) * 1000.0;
   } else {
     for (auto& group : optimizer_->groups())
       for (auto* p : group.params)

@@ -41,7 +41,6 @@ namespace handscs {
 
 struct StepTimes {
   double data_ms = 0, forward_ms = 0, losses_ms = 0, backward_ms = 0, optimizer_ms = 0;
-  double communication_ms = 0;  // the step's all-reduce (data parallel), part of optimizer_ms
 };
 
 struct StepResult {

@@ -6,8 +6,6 @@
 #include <torch/csrc/autograd/autograd.h>
 
 #include <CLI/CLI.hpp>
-#include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -19,25 +17,14 @@
 #include "hand/lbs.h"
 #include "hand/procedural_hand.h"
 
-namespace {
+#include "bench_timing.h"
 
-double now_ms() {
-  return std::chrono::duration<double, std::milli>(
-             std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
+namespace {
 
 template <class F>
 nlohmann::json time_it(F&& f, int warmup, int repeats) {
-  for (int i = 0; i < warmup; ++i) f();
-  std::vector<double> times;
-  for (int i = 0; i < repeats; ++i) {
-    const double start = now_ms();
-    f();
-    times.push_back(now_ms() - start);
-  }
-  std::sort(times.begin(), times.end());
-  return {{"median_ms", times[times.size() / 2]}, {"min_ms", times.front()}};
+  const bench::Timing t = bench::time_repeated(f, warmup, repeats);
+  return {{"median_ms", t.median_ms}, {"min_ms", t.min_ms}};
 }
 
 }  // namespace

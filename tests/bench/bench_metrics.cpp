@@ -1,9 +1,6 @@
 // handscs-bench-metrics: images per second of PSNR, SSIM and LPIPS (forward, and forward+backward
 // as training losses) on 512x334 pairs, for 1 and 2 threads. Prints one JSON object.
 // Usage: handscs-bench-metrics [--lpips-weights FILE] [--repeats N] [--threads 1,2]
-#include <algorithm>
-#include <chrono>
-#include <fstream>
 #include <functional>
 #include <iostream>
 #include <string>
@@ -24,34 +21,9 @@
 #include "metrics/psnr.h"
 #include "metrics/ssim.h"
 
+#include "bench_timing.h"
+
 namespace {
-
-// First three fields of /proc/loadavg: other processes competing for the cores skew every timing.
-std::string load_average() {
-  std::ifstream in("/proc/loadavg");
-  std::string one, five, fifteen;
-  in >> one >> five >> fifteen;
-  return one + " " + five + " " + fifteen;
-}
-
-using Clock = std::chrono::steady_clock;
-
-struct Timing {
-  double median_ms = 0;
-  double min_ms = 0;
-};
-
-Timing time_it(const std::function<void()>& f, int warmup, int repeats) {
-  for (int i = 0; i < warmup; ++i) f();
-  std::vector<double> ms;
-  for (int i = 0; i < repeats; ++i) {
-    const auto start = Clock::now();
-    f();
-    ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
-  }
-  std::sort(ms.begin(), ms.end());
-  return {ms[ms.size() / 2], ms.front()};
-}
 
 // Smooth random image [1, 3, H, W] in (0, 1).
 torch::Tensor test_image(int64_t h, int64_t w, uint64_t seed) {
@@ -103,14 +75,14 @@ int main(int argc, char** argv) {
     out["repeats"] = repeats;
     out["lpips_weights"] = weights.empty() ? "random (official alex shapes)" : weights;
     out["blas"] = handscs::blas_in_use();
-    out["load_average_start"] = load_average();
+    out["load_average_start"] = bench::load_average();
     out["results"] = nlohmann::json::array();
     for (int threads : thread_counts) {
       handscs::set_threads(threads);
       nlohmann::json row;
       row["threads"] = threads;
       auto record = [&](const std::string& name, const std::function<void()>& f, int n_repeats) {
-        const Timing t = time_it(f, warmup, n_repeats);
+        const bench::Timing t = bench::time_repeated(f, warmup, n_repeats);
         row[name] = {{"median_ms", t.median_ms}, {"min_ms", t.min_ms},
                      {"images_per_s", 1000.0 / t.median_ms}};
       };
@@ -142,7 +114,7 @@ int main(int argc, char** argv) {
       }
       out["results"].push_back(row);
     }
-    out["load_average_end"] = load_average();
+    out["load_average_end"] = bench::load_average();
     std::cout << out.dump(2) << std::endl;
     return 0;
   } catch (const std::exception& e) {

@@ -11,7 +11,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
-#include <fstream>
 #include <sstream>
 #include <thread>
 
@@ -34,13 +33,6 @@ double percentile(std::vector<double> values, double p) {
   if (values.empty()) return 0;
   std::sort(values.begin(), values.end());
   return values[std::min(values.size() - 1, static_cast<size_t>(p / 100 * values.size()))];
-}
-
-std::string load_average() {
-  std::ifstream in("/proc/loadavg");
-  std::string one, five, fifteen;
-  in >> one >> five >> fifteen;
-  return one + " " + five + " " + fifteen;
 }
 
 std::string request_body(const std::string& kind, int client, int64_t k, int width, int height) {
@@ -130,13 +122,13 @@ int main(int argc, char** argv) {
     result["width"] = width;
     result["height"] = height;
     result["threads"] = threads;
-    result["load_average_before"] = load_average();
+    result["load_average_before"] = bench::load_average();
     result["settings"] = nlohmann::json::array();
     std::stringstream list(clients_list);
     for (std::string item; std::getline(list, item, ',');)
       for (const std::string kind : {"pose", "orbit"})
         result["settings"].push_back(run_setting(port, kind, std::stoi(item), seconds, max_frames, warmup, width, height));
-    result["load_average_after"] = load_average();
+    result["load_average_after"] = bench::load_average();
     server.stop();
     serving.join();
     std::printf("%s\n", result.dump(1).c_str());

@@ -12,8 +12,10 @@
 #include "data/capture_layout.h"
 #include "data/json_view.h"
 #include "synth_fixture.h"
+#include "test_support.h"
 
 using namespace data_test;
+using handscs_test::ScopedEnv;
 namespace fs = std::filesystem;
 
 namespace {
@@ -90,25 +92,6 @@ std::string fresh_copy(const std::string& name) {
   fs::remove_all(cache_folder(handscs::resolve_capture_layout(root, "test")));
   return root;
 }
-
-// Sets an environment variable for one scope.
-struct ScopedEnv {
-  std::string name;
-  std::string old;
-  bool had;
-  ScopedEnv(const std::string& n, const std::string& value) : name(n) {
-    const char* previous = std::getenv(n.c_str());
-    had = previous != nullptr;
-    if (had) old = previous;
-    ::setenv(n.c_str(), value.c_str(), 1);
-  }
-  ~ScopedEnv() {
-    if (had)
-      ::setenv(name.c_str(), old.c_str(), 1);
-    else
-      ::unsetenv(name.c_str());
-  }
-};
 
 }  // namespace
 

@@ -3,7 +3,6 @@
 // and load_rig warns about a file whose label its geometry contradicts (naming file, label, hand).
 #include <ATen/ATen.h>
 
-#include <spdlog/sinks/ringbuffer_sink.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -17,31 +16,14 @@
 #include "hand/rig_handedness.h"
 #include "hand/rig_mirror.h"
 
+#include "captured_warnings.h"
+
 #include "catch_after_torch.h"  // last: after c10's glog (see there)
 
 using namespace handscs;
+using handscs_test::CapturedWarnings;
 
 namespace {
-
-// The messages logged at warn level or above while alive (a ring buffer on the default logger).
-struct CapturedWarnings {
-  std::shared_ptr<spdlog::sinks::ringbuffer_sink_mt> sink =
-      std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(64);
-  CapturedWarnings() {
-    sink->set_level(spdlog::level::warn);
-    spdlog::default_logger()->sinks().push_back(sink);
-  }
-  ~CapturedWarnings() {
-    auto& sinks = spdlog::default_logger()->sinks();
-    sinks.erase(std::remove(sinks.begin(), sinks.end(), sink), sinks.end());
-  }
-  std::vector<std::string> messages() const {
-    std::vector<std::string> out;
-    for (const auto& message : sink->last_raw())
-      out.emplace_back(message.payload.data(), message.payload.size());
-    return out;
-  }
-};
 
 std::string handedness_dir() {
   const auto dir = std::filesystem::temp_directory_path() /

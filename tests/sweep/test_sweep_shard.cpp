@@ -21,6 +21,7 @@ using handscs_test::error_of;
 namespace {
 
 using handscs_test::kSource;
+using handscs_test::ScopedEnv;
 // The columns of results.csv as handscs-bench writes them (sweep_runner.cpp).
 const std::string kHeader =
     "point,budget,threads,settings,status,train_wall_s,loop_s,ms_per_step,peak_rss_mb,gaussians,"
@@ -42,14 +43,6 @@ std::string shard_dir(const std::string& name, const std::vector<std::string>& r
   handscs::write_file_atomic(dir + "/results.csv", text);
   return dir;
 }
-
-struct ScopedEnv {
-  std::string name;
-  explicit ScopedEnv(const std::string& n, const std::string& value) : name(n) {
-    ::setenv(n.c_str(), value.c_str(), 1);
-  }
-  ~ScopedEnv() { ::unsetenv(name.c_str()); }
-};
 
 }  // namespace
 

@@ -5,13 +5,13 @@
 // training as the path that never builds the transforms.
 #include "catch_torch.h"
 
-#include <spdlog/sinks/ringbuffer_sink.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cmath>
 #include <map>
 
+#include "captured_warnings.h"
 #include "checkpoint_compare.h"
 #include "core/threads.h"
 #include "gained_capture.h"
@@ -21,27 +21,12 @@
 #include "train/camera_color.h"
 #include "train/trainer.h"
 
+using handscs_test::CapturedWarnings;
 using handscs_test::fresh_dir;
 using handscs_test::tiny_run_config;
 using Mode = handscs::TrainConfig::CameraColor;
 
 namespace {
-
-// Logged warnings while alive (the default logger's sinks gain a ring buffer).
-struct CapturedWarnings {
-  std::shared_ptr<spdlog::sinks::ringbuffer_sink_mt> sink =
-      std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(256);
-  CapturedWarnings() { spdlog::default_logger()->sinks().push_back(sink); }
-  ~CapturedWarnings() {
-    auto& sinks = spdlog::default_logger()->sinks();
-    sinks.erase(std::remove(sinks.begin(), sinks.end(), sink), sinks.end());
-  }
-  std::string text() const {
-    std::string out;
-    for (const auto& line : sink->last_formatted()) out += line;
-    return out;
-  }
-};
 
 // Trains `config` in `dir` to its iterations; returns the losses of every step.
 std::vector<double> train_losses(const handscs::RunConfig& config, const std::string& dir) {

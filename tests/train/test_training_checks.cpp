@@ -11,24 +11,15 @@
 
 #include "core/error.h"
 #include "metrics/ssim.h"
+#include "test_support.h"
 #include "tiny_capture.h"
 #include "train/losses.h"
 #include "train/trainer.h"
 #include "train/training_checks.h"
 
+using handscs_test::error_of;
 using handscs_test::fresh_dir;
 using handscs_test::tiny_run_config;
-
-namespace {
-std::string error_of(const std::function<void()>& action) {
-  try {
-    action();
-  } catch (const handscs::Error& e) {
-    return e.what();
-  }
-  return "";
-}
-}  // namespace
 
 TEST_CASE("training checks: the image losses' smallest side follows the losses that are on") {
   handscs::LossWeights weights;
@@ -125,9 +116,9 @@ TEST_CASE("training checks: a capture whose masks are all empty stops at step 16
     std::filesystem::create_directories(file.parent_path());
     REQUIRE(cv::imwrite(file.string(), cv::Mat::zeros(f.camera.height, f.camera.width, CV_8UC1)));
   }
-  std::string error;
+  std::string error = "(no error)";
   int steps = 0;
-  while (error.empty() && steps < 20) {
+  while (error == "(no error)" && steps < 20) {
     error = error_of([&] { trainer.step(); });
     ++steps;
   }
