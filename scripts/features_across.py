@@ -11,7 +11,7 @@ on two unions of its columns, standardised the same way (scripts/plot_features.p
   without_p  embedding+transform: the decoder input without P, whether the run trained with it or not.
 
 Usage:
-  /usr/bin/python3 scripts/features_across.py --out PREFIX [--k 10] [--pair A=B ...] GROUP=DIR[,DIR...] ...
+  /usr/bin/python3 scripts/features_across.py --out PREFIX [--pair A=B ...] GROUP=DIR[,DIR...] ...
       GROUP names a kind of avatar (e.g. "full p350"); its DIRs are that kind's runs, in seed order.
       --pair A=B (A with SCS, B without, both GROUPs with as many runs) pairs A's i-th run with B's:
       gap = A's decoder input k-NN accuracy - B's; control = B's with_p - A's decoder input;
@@ -22,6 +22,7 @@ Usage:
 """
 import argparse
 import csv
+import json
 import os
 import sys
 
@@ -37,10 +38,19 @@ UNIONS = {"with_p": "descriptor+embedding+transform", "without_p": "embedding+tr
 
 
 def run_scores(folder, k):
-    """{set: {metric: value}} of one handscs-features folder: its own summary and the two unions."""
+    """{set: {metric: value}} of one handscs-features folder: its own summary and the two unions,
+    the unions voted by the same k as the summary (features.json's knn_k) unless k says otherwise,
+    which is refused: the pairs compare a union of one run with the summary of another."""
     path = os.path.join(folder, "metrics_summary.csv")
     if not os.path.isfile(path):
         sys.exit(f"{folder}: no metrics_summary.csv (not a handscs-features output folder)")
+    with open(os.path.join(folder, "features.json")) as f:
+        run_k = json.load(f).get("knn_k")
+    if run_k is None:
+        sys.exit(f"{folder}/features.json: no knn_k (the k of its k-NN accuracies)")
+    if k is not None and k != run_k:
+        sys.exit(f"{folder}: its k-NN accuracies use k = {run_k}, not --k {k}")
+    k = run_k
     scores = {}
     with open(path, newline="") as f:
         for row in csv.DictReader(f):
@@ -116,7 +126,9 @@ def write_outputs(prefix, rows, pairs):
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", required=True, help="prefix of the CSV and Markdown files written")
-    parser.add_argument("--k", type=int, default=10, help="neighbours of the k-NN vote of the two unions")
+    parser.add_argument("--k", type=int, default=None,
+                        help="neighbours of the k-NN vote of the two unions (default, and the only value "
+                             "accepted: each folder's own, features.json's knn_k)")
     parser.add_argument("--pair", action="append", default=[], metavar="A=B",
                         help="group A (with SCS) against group B (without), run by run")
     parser.add_argument("groups", nargs="+", metavar="GROUP=DIR[,DIR...]")
