@@ -22,14 +22,13 @@ Usage:
 """
 import argparse
 import csv
-import json
 import os
 import sys
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from plot_features import score_per_pose  # noqa: E402  (one home for the scoring)
+from plot_features import read_run, score_per_pose  # noqa: E402  (one home for reading and scoring)
 
 # metrics_summary.csv columns: each set's pose mean, and the across-poses accuracy.
 SUMMARY_METRICS = {"knn": "knn_mean", "balanced": "knn_balanced_mean", "silhouette": "silhouette_mean",
@@ -44,8 +43,8 @@ def run_scores(folder, k):
     path = os.path.join(folder, "metrics_summary.csv")
     if not os.path.isfile(path):
         sys.exit(f"{folder}: no metrics_summary.csv (not a handscs-features output folder)")
-    with open(os.path.join(folder, "features.json")) as f:
-        run_k = json.load(f).get("knn_k")
+    run = read_run(folder)  # features.csv is read once for both unions
+    run_k = run[0].get("knn_k")
     if run_k is None:
         sys.exit(f"{folder}/features.json: no knn_k (the k of its k-NN accuracies)")
     if k is not None and k != run_k:
@@ -56,7 +55,7 @@ def run_scores(folder, k):
         for row in csv.DictReader(f):
             scores[row["set"]] = {m: float(row[c]) for m, c in SUMMARY_METRICS.items()}
     for name, sets in UNIONS.items():
-        _, _, rows = score_per_pose(folder, sets, k)
+        _, rows = score_per_pose(run, sets, k)
         scores[name] = {m: float(np.mean([r[i] for r in rows])) for m, i in
                         (("knn", 1), ("balanced", 2), ("silhouette", 3))}
     return scores

@@ -131,12 +131,12 @@ def columns_of(meta, sets):
     return names
 
 
-def score_per_pose(folder, sets, k):
-    """(meta, column count, [(pose, k-NN accuracy, balanced accuracy, silhouette)]) of a union of
-    feature sets, standardised over the poses pooled as handscs-features does it."""
+def score_per_pose(run, sets, k):
+    """(column count, [(pose, k-NN accuracy, balanced accuracy, silhouette)]) of a union of feature
+    sets of `run` (read_run's tuple), standardised over the poses pooled as handscs-features does it."""
     from sklearn.metrics import silhouette_score
 
-    meta, poses, labels, values, column = read_run(folder)
+    meta, poses, labels, values, column = run
     names = columns_of(meta, sets)
     x_all = standardised(values, column, names)
     rows = []
@@ -144,11 +144,13 @@ def score_per_pose(folder, sets, k):
         take = poses == pose
         a, b = knn_loo_accuracy(x_all[take], labels[take], k)
         rows.append((pose, a, b, float(silhouette_score(x_all[take], labels[take], metric="euclidean"))))
-    return meta, len(names), rows
+    return len(names), rows
 
 
 def score(folder, sets, k):
-    meta, dims, rows = score_per_pose(folder, sets, k)
+    run = read_run(folder)
+    meta = run[0]
+    dims, rows = score_per_pose(run, sets, k)
     for pose, a, b, s in rows:
         print(f"{meta['label']} {sets} ({dims}-D) {pose}: kNN {a:.4f}, balanced {b:.4f}, silhouette {s:+.4f}")
     knn, balanced, sil = ([r[i] for r in rows] for i in (1, 2, 3))
