@@ -139,7 +139,8 @@ json parse_json_file(const std::string& path) {
   std::string text;
   if (!in.append_rest(text, kMaxJsonBytes))
     throw Error(path + ": larger than " + std::to_string(kMaxJsonBytes >> 20) +
-                " MB; not a config, pose or camera file");
+                " MB, the limit of a JSON file read whole (configs, poses, cameras, rigs, "
+                "capture indexes)");
   try {
     JsonKeyGuard keys(path);
     return json::parse(text, [&keys](int depth, json::parse_event_t event, json& parsed) {

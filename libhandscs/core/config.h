@@ -213,12 +213,13 @@ std::string config_markdown(C& config) {
   return text;
 }
 
-// Largest JSON file read (configs, POSES, cameras, rigs): far above any of them (a MANO-size rig
-// is ~2 MB), far below what would strain memory.
+// Largest JSON file read whole (configs, poses, cameras, rigs, own-capture indexes): far above any
+// of them (a MANO-size rig is ~2 MB, a capture index ~1 KB a frame), far below what would strain
+// memory.
 constexpr size_t kMaxJsonBytes = size_t{256} << 20;
 
 // Parses one JSON file. Errors name the file: a folder, a file over kMaxJsonBytes, bad syntax
-// (line and column), numbers beyond a double.
+// (line and column), numbers beyond a double, a key given twice in one object.
 json parse_json_file(const std::string& path);
 
 // Reads a JSON file; a file may name a parent with "extends": "other.json" (relative to itself),

@@ -9,6 +9,7 @@
 #include "core/image_header.h"
 #include "data/capture_layout.h"
 #include "data/easymocap_cameras.h"
+#include "core/config.h"
 #include "data/json_view.h"
 
 namespace handscs {
@@ -106,7 +107,7 @@ CaptureRecords read_handscs_capture(const std::string& root, const std::string& 
   if (!fs::is_regular_file(path, ec))
     throw Error(path + ": missing (the " + layout + " layout keeps its frames' MANO parameters "
                 "there; docs/CAPTURE_FORMAT.md)");
-  const json document = read_json_file(path);
+  const json document = parse_json_file(path);
   const JsonView top(document, path, "");
   if (easymocap)
     top.require_known_keys({"format", "version", "flat_hand_mean", "frames"});

@@ -287,13 +287,4 @@ json stream_json_elements(const std::string& path,
   }
 }
 
-json read_json_file(const std::string& path) {
-  auto file = open_json(path);
-  try {
-    return json::parse(file.get());
-  } catch (const json::parse_error& e) {
-    throw_parse_error(path, e);
-  }
-}
-
 }  // namespace handscs

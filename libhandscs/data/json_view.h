@@ -77,7 +77,4 @@ nlohmann::json stream_json_elements(const std::string& path,
                                     const std::function<bool(const std::string&)>& keep_top,
                                     const std::function<void(const JsonElement&)>& visit);
 
-// Reads a whole (small) JSON file; errors as above.
-nlohmann::json read_json_file(const std::string& path);
-
 }  // namespace handscs

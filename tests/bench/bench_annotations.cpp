@@ -25,10 +25,10 @@
 #include "core/allocator.h"
 #include "core/atomic_file.h"
 #include "core/cli.h"
+#include "core/config.h"
 #include "core/logging.h"
 #include "data/capture.h"
 #include "data/capture_layout.h"
-#include "data/json_view.h"
 #include "sweep/subprocess.h"
 #include "synth/capture.h"
 #include "bench_timing.h"
@@ -176,10 +176,10 @@ SetFiles generate_set(const std::string& root, int64_t records) {
   fs::remove_all(root);
   handscs::write_synth_capture(handscs::make_synth_scene(handscs::synth_preset("tiny")), root);
   const handscs::CaptureLayout layout = handscs::resolve_capture_layout(root, "test");
-  const json tiny_data = handscs::read_json_file(layout.data_json);
-  const json tiny_cameras = handscs::read_json_file(layout.camera_json);
-  const json tiny_joints = handscs::read_json_file(layout.joint_3d_json);
-  const json tiny_mano = handscs::read_json_file(layout.mano_json);
+  const json tiny_data = handscs::parse_json_file(layout.data_json);
+  const json tiny_cameras = handscs::parse_json_file(layout.camera_json);
+  const json tiny_joints = handscs::parse_json_file(layout.joint_3d_json);
+  const json tiny_mano = handscs::parse_json_file(layout.mano_json);
   int max_capture = 0;
   for (const auto& image : tiny_data.at("images")) max_capture = std::max(max_capture, image.at("capture").get<int>());
 

@@ -8,9 +8,9 @@
 #include <filesystem>
 
 #include "core/atomic_file.h"
+#include "core/config.h"
 #include "data/annotation_cache.h"
 #include "data/capture_layout.h"
-#include "data/json_view.h"
 #include "synth_fixture.h"
 #include "test_support.h"
 
@@ -162,7 +162,7 @@ TEST_CASE("annotation cache: a changed annotation file is read again") {
   const handscs::AnnotationCache cache("auto");
   const size_t before = cache.images(layout.data_json, 0).images.size();
   // Drop the first image record (and keep its annotation: the reader ignores unmatched ones).
-  nlohmann::json data = handscs::read_json_file(layout.data_json);
+  nlohmann::json data = handscs::parse_json_file(layout.data_json);
   data["images"].erase(data["images"].begin());
   handscs::write_file_atomic(layout.data_json, data.dump());
   CHECK(cache.images(layout.data_json, 0).images.size() == before - 1);

@@ -8,7 +8,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "data/json_view.h"
+#include "core/config.h"
 #include "data_test_helpers.h"
 #include "synth_fixture.h"
 
@@ -26,7 +26,7 @@ std::string annotation(const std::string& root, const std::string& kind) {
 }
 
 void rewrite(const std::string& path, const std::function<void(json&)>& edit) {
-  json value = read_json_file(path);
+  json value = parse_json_file(path);
   edit(value);
   data_test::write_text(path, value.dump());
 }

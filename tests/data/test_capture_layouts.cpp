@@ -10,10 +10,10 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/atomic_file.h"
+#include "core/config.h"
 #include "data/capture_layout.h"
 #include "data/easymocap_cameras.h"
 #include "data/handscs_capture.h"
-#include "data/json_view.h"
 #include "data/lens_distortion.h"
 #include "data_test_helpers.h"
 #include "synth/own_layouts.h"
@@ -179,7 +179,7 @@ TEST_CASE("capture layouts: masks supplied with a handscs capture replace the me
 TEST_CASE("capture layouts: malformed handscs captures are errors naming the file and key") {
   const std::string root = data_test::copy_of_tiny_in("handscs", "bad_handscs");
   const std::string file = root + "/capture.json";
-  const json original = read_json_file(file);
+  const json original = parse_json_file(file);
   auto error_with = [&](const std::function<void(json&)>& edit) {
     json value = original;
     edit(value);
@@ -208,6 +208,12 @@ TEST_CASE("capture layouts: malformed handscs captures are errors naming the fil
                "is false (set it, and model.flat_hand_mean, to match)");
   CHECK(error_with([](json& c) { c["cameras"]["400004"]["R"][0][0] = 2.0; })
             .rfind(file + ": cameras.400004.R: ", 0) == 0);
+  // A key given twice would otherwise be read as its last value, without a word.
+  std::string twice = original.dump();
+  twice.insert(1, R"("version": 7, )");
+  data_test::write_text(file, twice);
+  CHECK(error_of([&] { Capture::open(data_test::tiny_config(root)); }) ==
+        file + ": version: key given twice (remove one; JSON readers would keep the last)");
   data_test::write_text(file, original.dump());
   std::filesystem::remove_all(root + "/images/400006");
   CHECK(error_of([&] { Capture::open(data_test::tiny_config(root)); }) ==

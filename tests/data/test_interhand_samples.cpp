@@ -6,10 +6,10 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "core/config.h"
 #include "data/capture.h"
 #include "data/image_checks.h"
 #include "data/interhand_annotations.h"
-#include "data/json_view.h"
 #include "data_test_helpers.h"
 
 // Catch last: LibTorch pulls in glog, whose CHECK macro would otherwise replace Catch's.
@@ -132,7 +132,7 @@ TEST_CASE("interhand samples: the official schema goes through Capture::open") {
   // MANO file with a null entry makes the frame skipped, and the capture has nothing left.
   namespace fs = std::filesystem;
   const std::string root = data_test::fresh_dir("real_layout");
-  nlohmann::json data = read_json_file(kData);
+  nlohmann::json data = parse_json_file(kData);
   nlohmann::json images = nlohmann::json::array(), annotations = nlohmann::json::array();
   for (size_t i = 0; i < data["images"].size(); ++i) {
     nlohmann::json image = data["images"][i];
