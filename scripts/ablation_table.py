@@ -4,7 +4,9 @@
 Points are named <row>.s<seed>; this groups the sweep's results.csv by row and writes, next to it:
   ablation.md   mean +- sample std (n seeds) of PSNR / SSIM / LPIPS per row, the paper's numbers
                 (HandSCS Tables 3 and 4, test/Capture0) beside the rows they correspond to, and the
-                region metrics (crease / contact / shadow) when the runs' eval/summary.json has them;
+                region PSNRs (crease / contact / shadow: each region's PSNR of its pooled MSE) when the
+                runs' eval/summary.json has them; a cell that only some seeds have a finite value for
+                says "(k of n seeds)";
   ablation.csv  the same numbers, one line per row;
   ablation.png / ablation.pdf  each row's mean with its spread (error bar = std, dots = seeds).
 Usage: /usr/bin/python3 scripts/ablation_table.py SWEEP_OUT [--title TEXT]
@@ -66,10 +68,14 @@ def mean_std(values):
     return m, math.sqrt(var), len(values)
 
 
-def fmt(m, s, digits):
+def fmt(stats, digits, seeds):
+    """mean_std's (mean, std, count) as "mean ± std", with "(k of n seeds)" after it when only k of
+    the row's n seeds have a finite value."""
+    m, s, count = stats
     if m is None:
         return ""
-    return f"{m:.{digits}f}" + (f" ± {s:.{digits}f}" if s is not None else "")
+    text = f"{m:.{digits}f}" + (f" ± {s:.{digits}f}" if s is not None else "")
+    return text + (f" ({count} of {seeds} seeds)" if count < seeds else "")
 
 
 def read_rows(out):
@@ -96,8 +102,11 @@ def read_rows(out):
                     regions = json.load(s).get("regions") or {}
                 for name, values in regions.items():
                     for k in METRICS:
-                        if isinstance(values, dict) and values.get(k) is not None:
-                            entry[f"{name}_{k}"] = float(values[k])
+                        # A region's PSNR of its pooled MSE: its mean of per-image PSNRs is infinite
+                        # when the region matches exactly in one image (docs/METRICS.md).
+                        key = "psnr_pooled_mse" if k == "psnr" else k
+                        if isinstance(values, dict) and values.get(key) is not None:
+                            entry[f"{name}_{k}"] = float(values[key])
             groups[row].append(entry)
     return order, groups
 
@@ -118,11 +127,11 @@ def main():
         entries = groups[row]
         stats = {k: mean_std([e.get(k) for e in entries]) for k in METRICS}
         paper = PAPER.get(row)
-        cells = [LABELS.get(row, row), str(len(entries)), fmt(*stats["psnr"][:2], 2),
-                 fmt(*stats["ssim"][:2], 4), fmt(*stats["lpips"][:2], 4),
-                 f"{paper[0]:.2f} / {paper[1]:.3f} / {paper[2]:.4f}" if paper else ""]
+        n = len(entries)
+        cells = [LABELS.get(row, row), str(n), fmt(stats["psnr"], 2, n), fmt(stats["ssim"], 4, n),
+                 fmt(stats["lpips"], 4, n), f"{paper[0]:.2f} / {paper[1]:.3f} / {paper[2]:.4f}" if paper else ""]
         for r in region_names:
-            cells.append(fmt(*mean_std([e.get(f"{r}_psnr") for e in entries])[:2], 2))
+            cells.append(fmt(mean_std([e.get(f"{r}_psnr") for e in entries]), 2, n))
         lines.append("| " + " | ".join(cells) + " |")
         csv_rows.append([row, len(entries)] + [x for k in METRICS for x in stats[k][:2]])
     with open(os.path.join(args.out, "ablation.md"), "w") as f:

@@ -28,13 +28,6 @@
 namespace handscs {
 
 namespace {
-std::string format_or_null(const std::optional<double>& value, int digits) {
-  if (!value) return "n/a";
-  char buffer[32];
-  std::snprintf(buffer, sizeof(buffer), "%.*f", digits, *value);
-  return buffer;
-}
-
 // Prediction | ground truth | error heat map (metrics/comparison_panel.h), titled with the image,
 // its camera and its scores.
 cv::Mat side_by_side(const torch::Tensor& pred, const torch::Tensor& gt, const FrameInfo& frame,
@@ -42,7 +35,7 @@ cv::Mat side_by_side(const torch::Tensor& pred, const torch::Tensor& gt, const F
   char text[160];
   std::snprintf(text, sizeof(text), "%s  camera %s  PSNR %.2f dB  SSIM %.4f%s",
                 frame.file_name.c_str(), frame.camera_id.c_str(), scores.psnr, scores.ssim,
-                scores.lpips ? ("  LPIPS " + format_or_null(scores.lpips, 4)).c_str() : "");
+                scores.lpips ? ("  LPIPS " + score_text(scores.lpips, 4)).c_str() : "");
   return comparison_panel(pred, gt, text);
 }
 
@@ -61,14 +54,14 @@ void refuse_damaged_images(const Capture& capture) {
 std::string paper_table(const std::string& label, const EvalSummary& s, double fps) {
   std::string header = "| Method | " + label + " PSNR ↑ | SSIM ↑ | LPIPS ↓ |";
   std::string rule = "|---|---|---|---|";
-  std::string row = "| HandSCS (this run) | " + format_or_null(s.psnr, 2) + " | " +
-                    format_or_null(s.ssim, 3) + " | " + format_or_null(s.lpips, 4) + " |";
+  std::string row = "| HandSCS (this run) | " + score_text(s.psnr, 2) + " | " +
+                    score_text(s.ssim, 3) + " | " + score_text(s.lpips, 4) + " |";
   std::string notes;
   for (const auto& region : s.regions) {
     header += " " + region.name + " PSNR ↑ | SSIM ↑ | LPIPS ↓ |";
     rule += "---|---|---|";
-    row += " " + format_or_null(region.psnr, 2) + " | " + format_or_null(region.ssim, 3) + " | " +
-           format_or_null(region.lpips, 4) + " |";
+    row += " " + score_text(region.psnr_pooled, 2) + " | " + score_text(region.ssim, 3) + " | " +
+           score_text(region.lpips, 4) + " |";
     char share[32];
     std::snprintf(share, sizeof(share), "%.2f%%", 100 * region.pixel_fraction);
     notes += std::string(notes.empty() ? "" : "; ") + region.name + " in " +
@@ -79,7 +72,9 @@ std::string paper_table(const std::string& label, const EvalSummary& s, double f
   std::snprintf(fps_text, sizeof(fps_text), "%.1f", fps);
   std::string t = header + " FPS (CPU) |\n" + rule + "---|\n" + row + " " + fps_text + " |\n";
   if (!notes.empty())
-    t += "\nRegion columns: means over the images where the region has pixels (" + notes + ").\n";
+    t += "\nRegion columns: over the images where the region has pixels, the PSNR of their pooled MSE "
+         "(one exact match makes a mean of per-image PSNRs infinite) and the SSIM and LPIPS means (" +
+         notes + ").\n";
   return t;
 }
 

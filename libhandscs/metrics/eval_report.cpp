@@ -39,12 +39,6 @@ std::string pad_left(const std::string& text, size_t width) {
   return text.size() >= width ? text : std::string(width - text.size(), ' ') + text;
 }
 
-std::string table_number(const std::optional<double>& x, const char* pattern) {
-  if (!x) return "-";
-  if (!std::isfinite(*x)) return "inf";
-  return format(pattern, *x);
-}
-
 RegionSummary summarize_region(const EvalReport& report, size_t r) {
   RegionSummary s;
   s.name = report.regions.at(r).name;
@@ -219,27 +213,28 @@ std::string format_eval_table(const EvalReport& report) {
                      pad_left("LPIPS", 9) + "\n";
   for (const auto& entry : report.entries) {
     if (!entry.ok) continue;
-    text += pad_right(entry.name, name_width) + pad_left(table_number(entry.scores.psnr, "%.3f"), 9) +
-            pad_left(table_number(entry.scores.ssim, "%.5f"), 9) +
-            pad_left(table_number(entry.scores.lpips, "%.5f"), 9) + "\n";
+    text += pad_right(entry.name, name_width) + pad_left(score_text(entry.scores.psnr, 3), 9) +
+            pad_left(score_text(entry.scores.ssim, 5), 9) +
+            pad_left(score_text(entry.scores.lpips, 5), 9) + "\n";
   }
   text += pad_right("mean (" + std::to_string(s.num_scored) + ")", name_width) +
-          pad_left(table_number(s.psnr, "%.3f"), 9) + pad_left(table_number(s.ssim, "%.5f"), 9) +
-          pad_left(table_number(s.lpips, "%.5f"), 9) + "\n";
-  text += "PSNR of the pooled MSE: " + table_number(s.psnr_pooled, "%.3f") + " dB\n";
+          pad_left(score_text(s.psnr, 3), 9) + pad_left(score_text(s.ssim, 5), 9) +
+          pad_left(score_text(s.lpips, 5), 9) + "\n";
+  text += "PSNR of the pooled MSE: " + score_text(s.psnr_pooled, 3) + " dB\n";
   if (!s.regions.empty()) {
     size_t region_width = 8;
     for (const auto& region : s.regions) region_width = std::max(region_width, region.name.size() + 2);
-    text += "\nregions (means over the images where the region has pixels):\n";
+    text += "\nregions (over the images where the region has pixels: PSNR of their pooled MSE, SSIM and "
+            "LPIPS means):\n";
     text += pad_right("region", region_width) + pad_left("images", 10) + pad_left("area", 9) +
             pad_left("PSNR", 9) + pad_left("SSIM", 9) + pad_left("LPIPS", 9) + "\n";
     for (const auto& region : s.regions)
       text += pad_right(region.name, region_width) +
               pad_left(std::to_string(region.images) + "/" + std::to_string(s.num_scored), 10) +
               pad_left(format("%.2f%%", 100 * region.pixel_fraction), 9) +
-              pad_left(table_number(region.psnr, "%.3f"), 9) +
-              pad_left(table_number(region.ssim, "%.5f"), 9) +
-              pad_left(table_number(region.lpips, "%.5f"), 9) + "\n";
+              pad_left(score_text(region.psnr_pooled, 3), 9) +
+              pad_left(score_text(region.ssim, 5), 9) +
+              pad_left(score_text(region.lpips, 5), 9) + "\n";
   }
   const auto& config = report.config;
   if (config.contains("ssim") && config.contains("lpips"))
@@ -266,6 +261,15 @@ void write_eval_outputs(const EvalReport& report, const std::string& json_path,
   };
   if (!json_path.empty()) write(json_path, eval_report_to_json(report).dump(2) + "\n");
   if (!csv_path.empty()) write(csv_path, eval_report_to_csv(report));
+}
+
+std::string score_text(const std::optional<double>& score, int digits) {
+  if (!score) return "n/a";
+  if (std::isnan(*score)) return "nan";
+  if (std::isinf(*score)) return *score > 0 ? "inf" : "-inf";
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.*f", digits, *score);
+  return text;
 }
 
 }  // namespace handscs

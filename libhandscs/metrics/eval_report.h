@@ -31,8 +31,9 @@ struct RegionSummary {
   int64_t images = 0;                // scored images where the region has pixels
   int64_t ssim_images = 0;           // of those, images with a region SSIM (see RegionScores)
   double pixel_fraction = 0;         // mean over every scored image of the region's pixel share
-  std::optional<double> psnr;        // mean of per-image region PSNR
-  std::optional<double> psnr_pooled; // PSNR of the mean region MSE
+  std::optional<double> psnr;        // mean of per-image region PSNR (infinite when one image
+                                     // matches exactly in the region, as small regions do)
+  std::optional<double> psnr_pooled; // PSNR of the mean region MSE: what the tables print
   std::optional<double> mse;         // mean region MSE
   std::optional<double> ssim;        // mean region SSIM
   std::optional<double> lpips;       // mean region LPIPS (empty when skipped)
@@ -73,9 +74,13 @@ nlohmann::json eval_report_to_json(const EvalReport& report);
 // <region>_fraction per region,]width,height,error (empty cells for null and for empty regions).
 std::string eval_report_to_csv(const EvalReport& report);
 
-// Human-readable table: per-image rows, the mean row, the region means, the failures and the
-// LPIPS note.
+// Human-readable table: per-image rows, the mean row, the regions (PSNR of their pooled MSE, SSIM
+// and LPIPS means), the failures and the LPIPS note.
 std::string format_eval_table(const EvalReport& report);
+
+// A score as the tables print it: `digits` decimals, "inf" for an infinite PSNR (an exact match),
+// "n/a" where there is none (LPIPS skipped, a region empty in every image), "nan" never hidden.
+std::string score_text(const std::optional<double>& score, int digits);
 
 // Writes the JSON (and the CSV when csv_path is not empty) atomically, creating parent folders.
 void write_eval_outputs(const EvalReport& report, const std::string& json_path,

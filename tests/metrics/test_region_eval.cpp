@@ -5,6 +5,8 @@
 
 #include <sys/wait.h>
 
+#include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -216,12 +218,45 @@ TEST_CASE("folder eval scores regions, and empty regions stay out of the means",
   CHECK(csv.find("nan") == std::string::npos);
 
   const auto table = handscs::format_eval_table(report);
-  CHECK(table.find("regions (means over the images where the region has pixels):") != std::string::npos);
+  CHECK(table.find("regions (over the images where the region has pixels: PSNR of their pooled MSE, SSIM and "
+                   "LPIPS means):") != std::string::npos);
   const auto crease_cells = table_cells(table, "crease");
   REQUIRE(crease_cells.size() == 6);
   CHECK(crease_cells[1] == "1/2");
   CHECK(crease_cells[2] == "6.25%");
-  CHECK(table_cells(table, "shadow") == std::vector<std::string>{"shadow", "0/2", "0.00%", "-", "-", "-"});
+  CHECK(table_cells(table, "shadow") == std::vector<std::string>{"shadow", "0/2", "0.00%", "n/a", "n/a", "n/a"});
+}
+
+TEST_CASE("folder eval: a region that matches exactly in one image has a finite table PSNR", "[regions][eval]") {
+  // a's crease rows are copied from its ground truth: its region PSNR is infinite, and so is the
+  // mean over images; the PSNR of the pooled MSE (what the tables print) is 10 log10(1 / mean MSE).
+  const auto f = make_region_folders("region_folder_exact");
+  cv::Mat gt = cv::imread(f.gt + "/a.png", cv::IMREAD_UNCHANGED), pred = cv::imread(f.pred + "/a.png", cv::IMREAD_UNCHANGED);
+  gt.rowRange(2, 10).copyTo(pred.rowRange(2, 10));
+  REQUIRE(cv::imwrite(f.pred + "/a.png", pred));
+  cv::Mat bits_b(64, 80, CV_8UC1, cv::Scalar(2));
+  bits_b.rowRange(30, 40).setTo(3);  // b gets crease pixels too, with the prediction's noise
+  REQUIRE(cv::imwrite(f.regions + "/b.png", bits_b));
+  const auto report = handscs::run_folder_eval({f.pred, f.gt, "", f.regions}, handscs::EvalConfig{});
+  REQUIRE(report.entries.size() == 2);
+  REQUIRE(report.entries[0].ok);
+  REQUIRE(report.entries[1].ok);
+  CHECK(*report.entries[0].scores.regions[0].mse == 0.0);
+  const double mse_b = *report.entries[1].scores.regions[0].mse;
+  REQUIRE(mse_b > 0);
+  const auto crease = report.summary().regions[0];
+  CHECK(crease.images == 2);
+  CHECK(std::isinf(*crease.psnr));
+  const double pooled = 10 * std::log10(1 / ((0 + mse_b) / 2));
+  CHECK_THAT(*crease.psnr_pooled, WithinAbs(pooled, 1e-9));
+  char expected[32];
+  std::snprintf(expected, sizeof(expected), "%.3f", pooled);
+  CHECK(table_cells(handscs::format_eval_table(report), "crease").at(3) == expected);
+  CHECK(handscs::eval_report_to_json(report)["regions"]["crease"]["psnr"] == "inf");
+  CHECK(handscs::score_text(crease.psnr, 2) == "inf");
+  CHECK(handscs::score_text(std::nullopt, 2) == "n/a");
+  CHECK(handscs::score_text(std::nan(""), 2) == "nan");
+  CHECK(handscs::score_text(31.0049, 2) == "31.00");
 }
 
 TEST_CASE("folder eval: a missing or bad region mask fails that image, naming the file", "[regions][eval]") {
