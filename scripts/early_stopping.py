@@ -2,27 +2,28 @@
 """Early stopping on a validation split of the training poses, for the runs a sweep kept.
 
     /usr/bin/python3 scripts/early_stopping.py SWEEP_OUT... --out OUT [--lpips-weights W]
-        [--bin build/bin] [--threads 1] [--set KEY=VALUE ...]
+        [--bin build/bin] [--threads 1] [--set KEY=VALUE] [--set KEY=VALUE] ...
 
 Each SWEEP_OUT is a handscs-bench output folder (results.csv, runs/<point>_<budget>/) whose runs
 trained on the novel-pose split with data.validation_poses > 0 (the last N training poses held out
 as validation, the capture's test poses unopened) and kept every checkpoint
-(train.keep_checkpoints=0). Point names are <row>.<cell>.s<seed>, as scripts/paired_gains.py reads
-them. For every such run:
+(train.keep_checkpoints=0) up to the budget; other runs are named and left out. Point names are
+<row>.<cell>.s<seed>, as scripts/paired_gains.py reads them. For every such run:
   1. each checkpoint is scored on the validation poses (handscs-eval: PSNR and SSIM of every
      validation image, no LPIPS, no regions) into RUN/early_stopping/validation_<step>/; a second
-     call scores only what is missing;
+     call scores again only what is missing or was scored by another command or checkpoint file;
   2. the checkpoint of the highest validation PSNR is chosen, the earliest of equal ones; a
      checkpoint whose PSNR is not finite is never chosen;
   3. the chosen checkpoint and the last one are scored on the capture's held-out test poses
-     (data.validation_poses=0: every test image, LPIPS with --lpips-weights, the capture's region
-     masks) into OUT/runs/<row>_es.<cell>.s<seed>_<budget>/eval/ and
+     (data.validation_poses=0: every test image, LPIPS with --lpips-weights or the run's weights,
+     the capture's region masks) into OUT/runs/<row>_es.<cell>.s<seed>_<budget>/eval/ and
      OUT/runs/<row>_end.<cell>.s<seed>_<budget>/eval/.
 Writes OUT/results.csv (point, budget, status, step, validation_psnr, eval_images, psnr, ssim, lpips;
 rows <row>_es and <row>_end, which scripts/paired_gains.py reads like a sweep's), OUT/validation.csv
 (point, budget, step, psnr, ssim of every checkpoint) and, with Debian's python3-matplotlib,
 OUT/validation.png / .pdf: validation PSNR against step, one line per run, its choice marked.
---set passes config keys to every handscs-eval call (e.g. data.root=DIR when the capture moved).
+--set passes a config key to every handscs-eval call (repeatable; e.g. data.root=DIR when the
+capture moved).
 """
 import argparse
 import csv
@@ -41,41 +42,65 @@ RESULT_COLUMNS = ('point', 'budget', 'status', 'step', 'validation_psnr', 'eval_
                   'lpips')
 
 
-def kept_summary(out, checkpoint):
-    """The figures of an earlier score of `checkpoint` in `out`, None when there is none (or it
-    scored another checkpoint)."""
-    path = os.path.join(out, 'summary.json')
-    if not os.path.exists(path):
+def read_json(path):
+    """A JSON file's content; a file that is not JSON stops the script, naming it."""
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except (OSError, ValueError) as e:
+        sys.exit(f'early_stopping: {path}: cannot read ({e})')
+
+
+def stamp(path):
+    """Size and modification time of a file: a retrained checkpoint at the same path differs."""
+    info = os.stat(path)
+    return [info.st_size, info.st_mtime_ns]
+
+
+def eval_key(command, checkpoint):
+    """What decides a score: the handscs-eval command without its output folder, and the checkpoint's
+    stamp. An earlier score is reused only when its key is this one."""
+    at = command.index('--out')
+    return {'command': command[:at] + command[at + 2:], 'checkpoint': stamp(checkpoint)}
+
+
+def kept_summary(out, key):
+    """The figures of an earlier score in `out` made with `key`, else None."""
+    summary, kept = os.path.join(out, 'summary.json'), out + '.key.json'
+    if not (os.path.exists(summary) and os.path.exists(kept)) or read_json(kept) != key:
         return None
-    with open(path) as f:
-        report = json.load(f)
-    scored = (report.get('inputs') or {}).get('checkpoint')
-    return report.get('summary') if scored and os.path.abspath(scored) == checkpoint else None
+    return read_json(summary).get('summary')
 
 
-def run_eval(args, checkpoint, out, options, sets):
-    """Scores one checkpoint with handscs-eval into `out` (an earlier score of the same checkpoint
-    there is kept): the summary's figures. `options` are more handscs-eval options, `sets` config
-    keys beside --set's."""
+def run_eval(args, checkpoint, out, options, sets, copy_from=None):
+    """Scores one checkpoint with handscs-eval into `out`, or copies the score in `copy_from` when it
+    was made with the same key (one checkpoint chosen twice is scored once), or keeps an earlier
+    score in `out` made with it: the summary's figures. `options` are more handscs-eval options,
+    `sets` config keys after --set's."""
     checkpoint = os.path.abspath(checkpoint)
-    kept = kept_summary(out, checkpoint)
-    if kept is not None:
-        return kept
-    os.makedirs(os.path.dirname(out), exist_ok=True)
     command = [os.path.join(args.bin, 'handscs-eval'), '--checkpoint', checkpoint, '--out', out,
                '--threads', str(args.threads), '--log-level', 'warn'] + options
     if args.set or sets:
         command += ['--set'] + list(args.set) + sets
-    log = out + '.log'
-    with open(log, 'w') as f:
-        done = subprocess.run(command, stdout=f, stderr=subprocess.STDOUT)
-    summary = kept_summary(out, checkpoint)
-    if done.returncode != 0 or summary is None:
-        with open(log) as f:
-            tail = f.read().splitlines()[-3:]
-        sys.exit(f'early_stopping: handscs-eval failed on {checkpoint}; the end of {log}:\n' +
-                 '\n'.join(tail))
-    return summary
+    key = eval_key(command, checkpoint)
+    kept = kept_summary(out, key)
+    if kept is not None:
+        return kept
+    if copy_from is not None and kept_summary(copy_from, key) is not None:
+        shutil.copytree(copy_from, out, dirs_exist_ok=True)
+    else:
+        os.makedirs(os.path.dirname(out), exist_ok=True)
+        log = out + '.log'
+        with open(log, 'w') as f:
+            done = subprocess.run(command, stdout=f, stderr=subprocess.STDOUT)
+        if done.returncode != 0 or not os.path.exists(os.path.join(out, 'summary.json')):
+            with open(log) as f:
+                tail = f.read().splitlines()[-3:]
+            sys.exit(f'early_stopping: handscs-eval failed on {checkpoint}; the end of {log}:\n' +
+                     '\n'.join(tail))
+    with open(out + '.key.json', 'w') as f:
+        json.dump(key, f)
+    return read_json(os.path.join(out, 'summary.json')).get('summary')
 
 
 def checkpoints_of(run):
@@ -89,11 +114,20 @@ def checkpoints_of(run):
     return sorted(found)
 
 
-def validation_poses_of(run):
-    """data.validation_poses of the config a run trained with (0 when it has none)."""
-    with open(os.path.join(run, 'config.json')) as f:
-        config = json.load(f)
-    return int((config.get('data') or {}).get('validation_poses', 0))
+def unusable(run, budget):
+    """Why a kept run cannot stop early ('' when it can): no validation poses, not every checkpoint
+    kept, or no checkpoint at its budget."""
+    config = read_json(os.path.join(run, 'config.json'))
+    if int((config.get('data') or {}).get('validation_poses', 0)) <= 0:
+        return 'trained without data.validation_poses'
+    kept = int((config.get('train') or {}).get('keep_checkpoints', 0))
+    if kept != 0:
+        return f'kept only its newest {kept} checkpoints (train.keep_checkpoints; early stopping needs 0, all)'
+    checkpoints = checkpoints_of(run)
+    if not checkpoints or checkpoints[-1][0] != budget:
+        last = checkpoints[-1][0] if checkpoints else 'none'
+        return f'its last checkpoint is step {last}, not its budget {budget}'
+    return ''
 
 
 def choose(scores):
@@ -107,20 +141,27 @@ def choose(scores):
 
 
 def runs_of(sweeps):
-    """[(sweep, point, budget, run folder)] of the sweeps' finished, kept runs."""
+    """[(point, budget, run folder)] of the sweeps' finished runs; a finished run whose folder the
+    sweep did not keep is named and left out."""
     runs = []
     for sweep in sweeps:
         path = os.path.join(sweep, 'results.csv')
         if not os.path.exists(path):
-            sys.exit(f'{path}: no such file (not a handscs-bench output folder?)')
+            sys.exit(f'early_stopping: {path}: no such file (not a handscs-bench output folder?)')
         with open(path, newline='') as f:
             for line in csv.DictReader(f):
                 point, budget = line.get('point', ''), line.get('budget', '')
-                if not POINT.match(point):
-                    sys.exit(f'{path}: point "{point}" is not named <row>[.<cell>].s<seed>')
+                if not POINT.match(point) or not budget.isdigit():
+                    sys.exit(f'early_stopping: {path}: point "{point}" at budget "{budget}" is not '
+                             '<row>[.<cell>].s<seed> at a whole number of steps')
+                if line.get('status') != 'ok':
+                    continue
                 run = os.path.join(sweep, 'runs', f'{point}_{budget}')
-                if line.get('status') == 'ok' and os.path.isdir(run):
-                    runs.append((sweep, point, int(budget), run))
+                if os.path.isdir(run):
+                    runs.append((point, int(budget), run))
+                else:
+                    print(f'early_stopping: {run}: not kept (handscs-bench without --keep-runs?); left out',
+                          file=sys.stderr)
     return runs
 
 
@@ -159,7 +200,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('sweeps', nargs='+')
     parser.add_argument('--out', required=True)
-    parser.add_argument('--lpips-weights', help='LPIPS weight file for the test scores (without it LPIPS is empty)')
+    parser.add_argument('--lpips-weights', help="LPIPS weight file for the test scores (without it, the run's own)")
     parser.add_argument('--bin', default=os.path.join(os.path.dirname(os.path.abspath(__file__)), '..',
                                                      'build', 'bin'), help='folder of handscs-eval')
     parser.add_argument('--threads', type=int, default=1, help='threads of each handscs-eval')
@@ -172,15 +213,14 @@ def main():
         sys.exit(f'early_stopping: {args.lpips_weights}: no such file (--lpips-weights)')
 
     runs = []
-    for sweep, point, budget, run in runs_of(args.sweeps):
-        if validation_poses_of(run) <= 0:
-            print(f'early_stopping: {run}: trained without data.validation_poses; left out', file=sys.stderr)
-        elif not checkpoints_of(run):
-            print(f'early_stopping: {run}: no checkpoints; left out', file=sys.stderr)
+    for point, budget, run in runs_of(args.sweeps):
+        why = unusable(run, budget)
+        if why:
+            print(f'early_stopping: {run}: {why}; left out', file=sys.stderr)
         else:
             runs.append((point, budget, run))
     if not runs:
-        sys.exit('early_stopping: no kept run trained with validation poses and checkpoints')
+        sys.exit('early_stopping: no kept run trained with validation poses and every checkpoint')
 
     os.makedirs(args.out, exist_ok=True)
     test_options = ['--lpips-weights', args.lpips_weights] if args.lpips_weights else []
@@ -190,17 +230,18 @@ def main():
         scores = []
         for step, checkpoint in checkpoints:
             print(f'early_stopping: {point}@{budget}: validation, step {step}', file=sys.stderr)
+            # PSNR chooses: no LPIPS (an empty weight file overrides the run's) and no regions.
             s = run_eval(args, checkpoint, os.path.join(run, 'early_stopping', f'validation_{step}'),
-                         ['--no-regions'], [])
+                         ['--no-regions'], ['eval.lpips.weights='])
             scores.append((step, number(s.get('psnr'))))
             validation.append([point, budget, step, figure(number(s.get('psnr')), 4),
                                figure(number(s.get('ssim')), 5)])
         best = choose(scores)
         curves.append((point, scores, best))
-        last_step, last = checkpoints[-1]
+        last_step = checkpoints[-1][0]
         picks = [('_es', best[0] if best else None, best[1] if best else None),
                  ('_end', last_step, dict(scores)[last_step])]
-        tested = {}  # step: (checkpoint, its test folder), so one checkpoint chosen twice is scored once
+        tested = {}  # step: its test folder, so one checkpoint chosen twice is scored once
         for suffix, step, validation_psnr in picks:
             name = renamed(point, suffix)
             row = {'point': name, 'budget': budget, 'step': '' if step is None else step,
@@ -209,11 +250,10 @@ def main():
                 row['status'] = 'no_finite_validation'
             else:
                 target = os.path.join(args.out, 'runs', f'{name}_{budget}', 'eval')
-                if step in tested and kept_summary(target, tested[step][0]) is None:
-                    shutil.copytree(tested[step][1], target, dirs_exist_ok=True)  # the same checkpoint
                 print(f'early_stopping: {name}@{budget}: test, step {step}', file=sys.stderr)
-                s = run_eval(args, dict(checkpoints)[step], target, test_options, ['data.validation_poses=0'])
-                tested[step] = (os.path.abspath(dict(checkpoints)[step]), target)
+                s = run_eval(args, dict(checkpoints)[step], target, test_options, ['data.validation_poses=0'],
+                             copy_from=tested.get(step))
+                tested[step] = target
                 row.update({'status': 'ok', 'eval_images': figure(number(s.get('scored')), 0),
                             'psnr': figure(number(s.get('psnr')), 4), 'ssim': figure(number(s.get('ssim')), 5),
                             'lpips': figure(number(s.get('lpips')), 5)})

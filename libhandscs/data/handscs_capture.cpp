@@ -5,11 +5,11 @@
 #include <fstream>
 
 #include "core/camera_checks.h"
+#include "core/config.h"
 #include "core/error.h"
 #include "core/image_header.h"
 #include "data/capture_layout.h"
 #include "data/easymocap_cameras.h"
-#include "core/config.h"
 #include "data/json_view.h"
 
 namespace handscs {

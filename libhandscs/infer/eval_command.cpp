@@ -12,7 +12,6 @@
 #include "infer/evaluate.h"
 #include "run/avatar_state_io.h"
 #include "run/run_config.h"
-#include "run/run_config.h"
 
 namespace handscs {
 

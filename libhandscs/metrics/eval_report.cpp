@@ -15,7 +15,10 @@ namespace {
 
 using nlohmann::json;
 
-json number(double x) { return std::isfinite(x) ? json(x) : json(x > 0 ? "inf" : "-inf"); }
+// Non-finite numbers as text (JSON has none): "inf" (the PSNR of an exact match), "-inf", "nan".
+std::string non_finite_text(double x) { return std::isnan(x) ? "nan" : (x > 0 ? "inf" : "-inf"); }
+
+json number(double x) { return std::isfinite(x) ? json(x) : json(non_finite_text(x)); }
 
 json optional_number(const std::optional<double>& x) { return x ? number(*x) : json(nullptr); }
 
@@ -27,7 +30,7 @@ std::string format(const char* pattern, double x) {
 
 std::string csv_number(const std::optional<double>& x) {
   if (!x) return "";
-  if (!std::isfinite(*x)) return *x > 0 ? "inf" : "-inf";
+  if (!std::isfinite(*x)) return non_finite_text(*x);
   return format("%.10g", *x);
 }
 
@@ -265,8 +268,7 @@ void write_eval_outputs(const EvalReport& report, const std::string& json_path,
 
 std::string score_text(const std::optional<double>& score, int digits) {
   if (!score) return "n/a";
-  if (std::isnan(*score)) return "nan";
-  if (std::isinf(*score)) return *score > 0 ? "inf" : "-inf";
+  if (!std::isfinite(*score)) return non_finite_text(*score);
   char text[64];
   std::snprintf(text, sizeof(text), "%.*f", digits, *score);
   return text;

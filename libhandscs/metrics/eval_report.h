@@ -67,7 +67,8 @@ struct EvalReport {
 //  "failed"}, plus with regions "regions": {name: {"bit", "description", "images", "ssim_images",
 //  "pixel_fraction", "psnr", "psnr_pooled_mse", "mse", "ssim", "lpips"}} and each image's
 //  "regions": {name: {"pixels", "fraction", "psnr", "ssim", "lpips", "mse"}} (null scores where the
-//  region is empty). Non-finite numbers (PSNR of identical images) are written as the string "inf".
+//  region is empty). Non-finite numbers are strings: "inf" (the PSNR of identical images), "-inf",
+//  "nan".
 nlohmann::json eval_report_to_json(const EvalReport& report);
 
 // One row per entry: name,status,psnr,ssim,lpips,mse,[<region>_psnr,<region>_ssim,<region>_lpips,

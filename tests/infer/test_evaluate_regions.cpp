@@ -112,6 +112,9 @@ TEST_CASE("evaluate: region masks of the capture are scored and reported", "[reg
   // A region's PSNR column is the PSNR of its pooled MSE (finite even where one image matches).
   CHECK(table.find(" | " + handscs::score_text(box.psnr_pooled, 2) + " | " + handscs::score_text(box.ssim, 3) +
                    " | ") != std::string::npos);
+  if (handscs::score_text(box.psnr, 2) != handscs::score_text(box.psnr_pooled, 2))  // not the mean
+    CHECK(table.find(" | " + handscs::score_text(box.psnr, 2) + " | " + handscs::score_text(box.ssim, 3) + " | ") ==
+          std::string::npos);
   CHECK(table.find("none in 0 of 12 images, 0.00% of the pixels") != std::string::npos);
 
   // --no-regions.
