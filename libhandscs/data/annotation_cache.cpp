@@ -1,7 +1,6 @@
 #include "data/annotation_cache.h"
 
 #include <spdlog/spdlog.h>
-#include <sys/stat.h>
 
 #include <algorithm>
 #include <cstring>
@@ -13,6 +12,7 @@
 #include "core/atomic_file.h"
 #include "core/byte_stream.h"
 #include "core/error.h"
+#include "core/file_stamp.h"
 #include "core/hash.h"
 #include "data/cache_files.h"
 
@@ -33,28 +33,24 @@ constexpr size_t kEdgeBytes = size_t{64} << 10;
 // What identifies one version of a source file.
 struct SourceStamp {
   std::string name;  // file name only: a dataset folder that is moved keeps its caches
-  uint64_t size = 0;
-  int64_t mtime_ns = 0;
+  FileStamp file;
   uint64_t edges_hash = 0;
   bool operator==(const SourceStamp& o) const {
-    return name == o.name && size == o.size && mtime_ns == o.mtime_ns && edges_hash == o.edges_hash;
+    return name == o.name && file == o.file && edges_hash == o.edges_hash;
   }
 };
 
 SourceStamp stamp_of(const std::string& source) {
-  struct stat info {};
-  if (::stat(source.c_str(), &info) != 0) throw Error(source + ": cannot open file");
   SourceStamp stamp;
+  if (!read_file_stamp(source, stamp.file)) throw Error(source + ": cannot open file");
   stamp.name = fs::path(source).filename().string();
-  stamp.size = static_cast<uint64_t>(info.st_size);
-  stamp.mtime_ns = static_cast<int64_t>(info.st_mtim.tv_sec) * 1000000000 + info.st_mtim.tv_nsec;
   std::ifstream file(source, std::ios::binary);
   if (!file) throw Error(source + ": cannot open file");
   std::string edges(2 * kEdgeBytes, '\0');
   file.read(&edges[0], static_cast<std::streamsize>(kEdgeBytes));
   size_t got = static_cast<size_t>(file.gcount());
-  if (stamp.size > kEdgeBytes) {
-    const uint64_t tail = std::min<uint64_t>(kEdgeBytes, stamp.size - kEdgeBytes);
+  if (stamp.file.size > kEdgeBytes) {
+    const uint64_t tail = std::min<uint64_t>(kEdgeBytes, stamp.file.size - kEdgeBytes);
     file.clear();
     file.seekg(-static_cast<std::streamoff>(tail), std::ios::end);
     file.read(&edges[got], static_cast<std::streamsize>(tail));
@@ -70,8 +66,8 @@ void write_header(ByteWriter& out, const char* kind, int capture, const SourceSt
   out.put_string(kind);
   out.put<int32_t>(capture);
   out.put_string(stamp.name);
-  out.put(stamp.size);
-  out.put(stamp.mtime_ns);
+  out.put(stamp.file.size);
+  out.put(stamp.file.mtime_ns);
   out.put(stamp.edges_hash);
 }
 
@@ -89,8 +85,8 @@ void check_header(ByteReader& in, const char* kind, int capture, const SourceSta
   if (in.get<int32_t>() != capture) throw CacheRejected{"holds another capture", true};
   SourceStamp cached;
   cached.name = in.get_string();
-  cached.size = in.get<uint64_t>();
-  cached.mtime_ns = in.get<int64_t>();
+  cached.file.size = in.get<uint64_t>();
+  cached.file.mtime_ns = in.get<int64_t>();
   cached.edges_hash = in.get<uint64_t>();
   if (!(cached == stamp)) throw CacheRejected{stamp.name + " changed since it was cached", false};
 }

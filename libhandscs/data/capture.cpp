@@ -13,6 +13,7 @@
 
 #include "core/camera_checks.h"
 #include "core/error.h"
+#include "core/file_stamp.h"
 #include "core/hash.h"
 #include "core/text.h"
 #include "data/capture_impl.h"
@@ -110,11 +111,11 @@ std::vector<std::vector<float>> pose_rig(const Rig& rig,
   return out;
 }
 
+// "size:mtime" of a file, for a cache folder's key ("0:0" when it cannot be stat'ed).
 std::string file_stamp(const std::string& path) {
-  std::error_code ec;
-  const auto size = fs::file_size(path, ec);
-  const auto time = fs::last_write_time(path, ec).time_since_epoch().count();
-  return std::to_string(size) + ":" + std::to_string(time);
+  FileStamp stamp;
+  read_file_stamp(path, stamp);
+  return std::to_string(stamp.size) + ":" + std::to_string(stamp.mtime_ns);
 }
 
 // <cache_dir>/<kind>-<hash of settings>.

@@ -2,7 +2,6 @@
 
 #include <opencv2/core/version.hpp>
 #include <spdlog/spdlog.h>
-#include <sys/stat.h>
 
 #include <algorithm>
 #include <cstring>
@@ -12,6 +11,7 @@
 #include "core/atomic_file.h"
 #include "core/byte_stream.h"
 #include "core/error.h"
+#include "core/file_stamp.h"
 #include "core/text.h"
 #include "data/cache_files.h"
 
@@ -27,12 +27,6 @@ constexpr char kMagic[] = "HANDSCS-SCAN-CACHE";
 // Bump whenever the encoding below changes: files of another format are rewritten, never read.
 constexpr uint32_t kFormatVersion = 1;
 
-// What identifies one version of an image file.
-struct FileStamp {
-  uint64_t size = 0;
-  int64_t mtime_ns = 0;
-  bool operator==(const FileStamp& o) const { return size == o.size && mtime_ns == o.mtime_ns; }
-};
 
 struct Entry {
   FileStamp stamp;
@@ -40,14 +34,6 @@ struct Entry {
 };
 
 using Entries = std::unordered_map<std::string, Entry>;  // relative path -> entry
-
-bool stamp_of(const std::string& path, FileStamp& stamp) {
-  struct stat info {};
-  if (::stat(path.c_str(), &info) != 0) return false;
-  stamp.size = static_cast<uint64_t>(info.st_size);
-  stamp.mtime_ns = static_cast<int64_t>(info.st_mtim.tv_sec) * 1000000000 + info.st_mtim.tv_nsec;
-  return true;
-}
 
 // The path as stored: relative to the images folder (both normalised: "./x" and "x" are one key)
 // when it lies inside it.
@@ -190,13 +176,13 @@ std::vector<ImageScan> scan_images(const std::vector<std::string>& paths,
   const int64_t n = static_cast<int64_t>(paths.size());
   std::vector<ImageScan> scans(paths.size());
   std::vector<std::string> keys(paths.size());
-  std::vector<detail::FileStamp> stamps(paths.size());
+  std::vector<FileStamp> stamps(paths.size());
   // 0: read from the cache; 1: scanned, to be stored; 2: scanned, not stored.
   std::vector<uint8_t> state(paths.size(), 0);
 #pragma omp parallel for schedule(dynamic, 4)
   for (int64_t i = 0; i < n; ++i) {  // nothing here throws but allocation
     keys[i] = detail::key_of(paths[i], root);
-    const bool stat_ok = detail::stamp_of(paths[i], stamps[i]);
+    const bool stat_ok = read_file_stamp(paths[i], stamps[i]);
     const auto found = stat_ok ? entries.find(keys[i]) : entries.end();
     if (found != entries.end() && found->second.stamp == stamps[i]) {
       scans[i] = found->second.scan;
