@@ -22,8 +22,8 @@ changes, paired by seed and read by the same rule ("rises" / "falls" when it doe
 seed): from the fewest to the most training poses at each budget (cells pN), from the smallest to
 the largest budget in each cell, and, for every --gain-change NAME=GAIN-BASE_GAIN, GAIN minus
 BASE_GAIN in each cell (e.g. scs_tau003-scs: what a setting changes in a gain).
-With --frames CAPTURE/frames.csv (handscs-synth's), each kept run's per-image PSNRs are also
-split as scripts/frame_groups.py splits them, into held-out gestures some training pose moves to
+With --frames CAPTURE/frames.csv (handscs-synth's), each kept novel-pose run's per-image PSNRs are
+also split as scripts/frame_groups.py splits them, into held-out gestures some training pose moves to
 and those none does; their gains appear beside the region PSNRs as gestures_seen / gestures_unseen.
 Rows that failed or whose PSNR is not finite are left out and counted in the table.
 """
@@ -49,6 +49,17 @@ def number(text):
     except (TypeError, ValueError):
         return None
     return v if math.isfinite(v) else None
+
+
+def novel_pose(folder, line):
+    """Whether a kept run held out poses (its config.json's data.split_rule; a run folder without one
+    is taken as novel-pose). Gesture groups split held-out poses: a novel-view run's test images show
+    the training poses."""
+    config = os.path.join(folder, 'runs', f'{line["point"]}_{line["budget"]}', 'config.json')
+    if not os.path.exists(config):
+        return True
+    with open(config) as f:
+        return (json.load(f).get('data') or {}).get('split_rule', 'novel_pose') == 'novel_pose'
 
 
 def read_sweep(folder, gesture_groups=None):
@@ -85,7 +96,7 @@ def read_sweep(folder, gesture_groups=None):
                     values[f'psnr_{name}'] = number(region.get('psnr_pooled_mse'))
             per_image = os.path.join(folder, 'runs', f'{line["point"]}_{line["budget"]}', 'eval',
                                      'per_image.csv')
-            if gesture_groups and os.path.exists(per_image):
+            if gesture_groups and os.path.exists(per_image) and novel_pose(folder, line):
                 scores, _ = frame_groups.score(gesture_groups, per_image)
                 for group in frame_groups.GROUPS:
                     values[f'psnr_gestures_{group}'] = number(scores[group]['psnr'][0])
