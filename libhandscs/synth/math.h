@@ -1,32 +1,25 @@
-// Small double-precision 3-vector and rotation helpers for the synthetic capture generator
-// (R(axis, angle) by Rodrigues' formula; axis-angle from a rotation matrix).
+// Double-precision rotation helpers for the synthetic capture generator (R(axis, angle) by
+// Rodrigues' formula; axis-angle from a rotation matrix), beside core/vec3.h's vector helpers, which
+// it brings into handscs::synth.
 #pragma once
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 
+#include "core/vec3.h"
+
 namespace handscs::synth {
 
-using Vec3 = std::array<double, 3>;
+using handscs::cross;
+using handscs::dot;
+using handscs::norm;
+using handscs::normalized;
+using handscs::operator+;
+using handscs::operator-;
+using handscs::operator*;
+using handscs::Vec3;
 using Mat3 = std::array<double, 9>;  // row-major
-
-inline Vec3 operator+(const Vec3& a, const Vec3& b) {
-  return {a[0] + b[0], a[1] + b[1], a[2] + b[2]};
-}
-inline Vec3 operator-(const Vec3& a, const Vec3& b) {
-  return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
-}
-inline Vec3 operator*(const Vec3& a, double s) { return {a[0] * s, a[1] * s, a[2] * s}; }
-inline double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-inline Vec3 cross(const Vec3& a, const Vec3& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-inline double norm(const Vec3& a) { return std::sqrt(dot(a, a)); }
-inline Vec3 normalized(const Vec3& a) {
-  const double n = norm(a);
-  return n > 0 ? a * (1.0 / n) : Vec3{0, 0, 0};
-}
 
 inline Mat3 identity3() { return {1, 0, 0, 0, 1, 0, 0, 0, 1}; }
 

@@ -4,13 +4,11 @@
 #include <cmath>
 
 #include "core/error.h"
-#include "synth/math.h"
+#include "core/vec3.h"
 
 namespace handscs {
 
 namespace {
-
-using synth::Vec3;
 
 // Vertical field of view of every view (rad): 30 degrees.
 constexpr double kViewFieldOfView = 30.0 * M_PI / 180.0;
@@ -72,7 +70,6 @@ double fitting_distance(double extent, int width, int height) {
 }
 
 Camera orbit_view_camera(const HandFrame& hand, const OrbitView& view) {
-  using synth::cross, synth::dot, synth::normalized, synth::operator+, synth::operator-, synth::operator*;
   const Vec3 up = normalized(hand.up);
   const Vec3 front = normalized(hand.front - up * dot(hand.front, up));
   const Vec3 side_axis = cross(up, front);
