@@ -58,10 +58,21 @@ def stamp(path):
 
 
 def eval_key(command, checkpoint):
-    """What decides a score: the handscs-eval command without its output folder, and the checkpoint's
-    stamp. An earlier score is reused only when its key is this one."""
+    """What decides a score: the handscs-eval command without its output folder, and the stamps of
+    the program and the checkpoint. An earlier score is reused only when its key is this one."""
     at = command.index('--out')
-    return {'command': command[:at] + command[at + 2:], 'checkpoint': stamp(checkpoint)}
+    return {'command': command[:at] + command[at + 2:], 'program': stamp(command[0]),
+            'checkpoint': stamp(checkpoint)}
+
+
+def figures_of(out):
+    """The summary figures handscs-eval wrote into `out`; a summary without them stops the script,
+    naming it."""
+    path = os.path.join(out, 'summary.json')
+    figures = read_json(path).get('summary')
+    if not isinstance(figures, dict):
+        sys.exit(f'early_stopping: {path}: no "summary" object (not a handscs-eval summary?)')
+    return figures
 
 
 def kept_summary(out, key):
@@ -69,7 +80,16 @@ def kept_summary(out, key):
     summary, kept = os.path.join(out, 'summary.json'), out + '.key.json'
     if not (os.path.exists(summary) and os.path.exists(kept)) or read_json(kept) != key:
         return None
-    return read_json(summary).get('summary')
+    return figures_of(out)
+
+
+def forget(out):
+    """Removes an earlier score in `out` (its folder, key and log), so that a score cut short never
+    sits beside an older key."""
+    for path in (out + '.key.json', out + '.log'):
+        if os.path.exists(path):
+            os.remove(path)
+    shutil.rmtree(out, ignore_errors=True)
 
 
 def run_eval(args, checkpoint, out, options, sets, copy_from=None):
@@ -86,8 +106,9 @@ def run_eval(args, checkpoint, out, options, sets, copy_from=None):
     kept = kept_summary(out, key)
     if kept is not None:
         return kept
+    forget(out)
     if copy_from is not None and kept_summary(copy_from, key) is not None:
-        shutil.copytree(copy_from, out, dirs_exist_ok=True)
+        shutil.copytree(copy_from, out)
     else:
         os.makedirs(os.path.dirname(out), exist_ok=True)
         log = out + '.log'
@@ -98,9 +119,11 @@ def run_eval(args, checkpoint, out, options, sets, copy_from=None):
                 tail = f.read().splitlines()[-3:]
             sys.exit(f'early_stopping: handscs-eval failed on {checkpoint}; the end of {log}:\n' +
                      '\n'.join(tail))
-    with open(out + '.key.json', 'w') as f:
+    figures = figures_of(out)
+    with open(out + '.key.json.tmp', 'w') as f:
         json.dump(key, f)
-    return read_json(os.path.join(out, 'summary.json')).get('summary')
+    os.replace(out + '.key.json.tmp', out + '.key.json')  # the key last, and whole
+    return figures
 
 
 def checkpoints_of(run):
@@ -120,8 +143,10 @@ def unusable(run, budget):
     config = read_json(os.path.join(run, 'config.json'))
     if int((config.get('data') or {}).get('validation_poses', 0)) <= 0:
         return 'trained without data.validation_poses'
-    kept = int((config.get('train') or {}).get('keep_checkpoints', 0))
-    if kept != 0:
+    kept = (config.get('train') or {}).get('keep_checkpoints')
+    if kept is None:  # builds before the key kept the newest two
+        return 'its config has no train.keep_checkpoints (a build that kept only the newest two checkpoints)'
+    if int(kept) != 0:
         return f'kept only its newest {kept} checkpoints (train.keep_checkpoints; early stopping needs 0, all)'
     checkpoints = checkpoints_of(run)
     if not checkpoints or checkpoints[-1][0] != budget:

@@ -52,14 +52,16 @@ def number(text):
 
 
 def novel_pose(folder, line):
-    """Whether a kept run held out poses (its config.json's data.split_rule; a run folder without one
-    is taken as novel-pose). Gesture groups split held-out poses: a novel-view run's test images show
-    the training poses."""
+    """Whether a kept run scored the held-out poses (its config.json: data.split_rule novel_pose and
+    no data.validation_poses; a run folder without one is taken as such). Gesture groups split
+    held-out poses: a novel-view run's test images show training poses, and so do a validation
+    split's."""
     config = os.path.join(folder, 'runs', f'{line["point"]}_{line["budget"]}', 'config.json')
     if not os.path.exists(config):
         return True
     with open(config) as f:
-        return (json.load(f).get('data') or {}).get('split_rule', 'novel_pose') == 'novel_pose'
+        data = json.load(f).get('data') or {}
+    return data.get('split_rule', 'novel_pose') == 'novel_pose' and not data.get('validation_poses')
 
 
 def read_sweep(folder, gesture_groups=None):

@@ -27,7 +27,6 @@ constexpr char kMagic[] = "HANDSCS-SCAN-CACHE";
 // Bump whenever the encoding below changes: files of another format are rewritten, never read.
 constexpr uint32_t kFormatVersion = 1;
 
-
 struct Entry {
   FileStamp stamp;
   ImageScan scan;

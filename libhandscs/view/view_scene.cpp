@@ -112,7 +112,6 @@ const AvatarState& ViewScene::posed(const PoseFrame& frame) {
 
 Camera ViewScene::camera_for(const AvatarState& state, const OrbitView& view) const {
   // The root joint's transform A_0 carries the rest hand (centre, axes) to where the pose puts it.
-  using synth::operator+, synth::operator*;
   const torch::Tensor a0 = state.lbs.joint_transforms[0][0].to(torch::kFloat64).contiguous();
   const double* a = a0.data_ptr<double>();
   const synth::Mat3 rotation = {a[0], a[1], a[2], a[4], a[5], a[6], a[8], a[9], a[10]};

@@ -9,7 +9,10 @@
 // checkpoints, and paired_gains.py reads the output as a sweep.
 #include <catch2/catch.hpp>
 
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -65,19 +68,22 @@ void write_fake_eval(const std::string& dir) {
                              "step=$(basename \"$ckpt\" .ckpt); step=$((10#${step#step_}))\n"
                              "case \"$args\" in *data.validation_poses=0*) psnr=$((3000 + step))e-2 ;;\n"
                              "  *) psnr=$(awk -v c=\"$ckpt\" '$1 == c {print $2}' '" + dir + "/psnr.txt') ;; esac\n"
+                             "psnr=${psnr:-\\\"missing\\\"}\n"
                              "mkdir -p \"$out\"\n"
                              "echo \"{\\\"inputs\\\": {}, \\\"summary\\\": {\\\"psnr\\\": $psnr, \\\"ssim\\\": 0.9, \\\"scored\\\": 12}}\" "
                              "> \"$out/summary.json\"\n");
   std::filesystem::permissions(program, std::filesystem::perms::owner_all);
 }
 
-// A kept run folder: config.json and empty checkpoint files at `steps`.
+// A kept run folder: config.json (without train.keep_checkpoints when it is negative, as builds
+// before the key wrote it) and empty checkpoint files at `steps`.
 void write_run(const std::string& run, int validation_poses, int keep_checkpoints, const std::vector<int>& steps) {
   std::filesystem::create_directories(run + "/checkpoints");
-  handscs::write_file_atomic(run + "/config.json", "{\"data\": {\"validation_poses\": " +
-                                                       std::to_string(validation_poses) +
-                                                       "}, \"train\": {\"keep_checkpoints\": " +
-                                                       std::to_string(keep_checkpoints) + "}}");
+  handscs::write_file_atomic(run + "/config.json",
+                             "{\"data\": {\"validation_poses\": " + std::to_string(validation_poses) +
+                                 "}, \"train\": {" +
+                                 (keep_checkpoints < 0 ? "" : "\"keep_checkpoints\": " + std::to_string(keep_checkpoints)) +
+                                 "}}");
   for (int step : steps) {
     char name[32];
     std::snprintf(name, sizeof(name), "/step_%08d.ckpt", step);
@@ -104,9 +110,11 @@ TEST_CASE("early_stopping.py: the choice, the test scores and the runs left out,
   write_run(runs + "kept2.p2v1.s0_20", 1, 2, {10, 20});
   write_run(runs + "short.p2v1.s0_40", 1, 0, {10, 30});
   write_run(runs + "plain.p2.s0_20", 0, 0, {10, 20});
+  write_run(runs + "old.p2v1.s0_20", 1, -1, {10, 20});
   handscs::write_file_atomic(dir + "/sweep/results.csv",
                              "point,budget,status\nfull.p2v1.s0,40,ok\ninter.p2v1.s0,20,ok\nkept2.p2v1.s0,20,ok\n"
-                             "short.p2v1.s0,40,ok\nplain.p2.s0,20,ok\ngone.p2v1.s0,20,ok\nfailed.p2v1.s0,20,failed\n");
+                             "short.p2v1.s0,40,ok\nplain.p2.s0,20,ok\nold.p2v1.s0,20,ok\ngone.p2v1.s0,20,ok\n"
+                             "failed.p2v1.s0,20,failed\n");
   // full: 22.5 at steps 20 and 30 (the earlier wins), the last (40) lower. inter: step 10 not finite.
   const std::string full = runs + "full.p2v1.s0_40/checkpoints/step_000000", inter = runs + "inter.p2v1.s0_20/checkpoints/step_000000";
   handscs::write_file_atomic(dir + "/psnr.txt", full + "10.ckpt 20\n" + full + "20.ckpt 22.5\n" + full + "30.ckpt 22.5\n" +
@@ -122,6 +130,7 @@ TEST_CASE("early_stopping.py: the choice, the test scores and the runs left out,
   CHECK(text.find("short.p2v1.s0_40: its last checkpoint is step 30, not its budget 40") != std::string::npos);
   CHECK(text.find("plain.p2.s0_20: trained without data.validation_poses") != std::string::npos);
   CHECK(text.find("gone.p2v1.s0_20: not kept (handscs-bench without --keep-runs?)") != std::string::npos);
+  CHECK(text.find("old.p2v1.s0_20: its config has no train.keep_checkpoints") != std::string::npos);
 
   const auto results = handscs::read_csv(dir + "/out/results.csv");
   REQUIRE(results.rows.size() == 4);
@@ -149,6 +158,7 @@ TEST_CASE("early_stopping.py: the choice, the test scores and the runs left out,
   CHECK(validation_calls == 6);
   CHECK(test_calls == 3);
   CHECK(std::filesystem::exists(dir + "/out/runs/inter_end.p2v1.s0_20/eval/summary.json"));
+  CHECK(std::filesystem::exists(dir + "/out/runs/inter_end.p2v1.s0_20/eval.key.json"));
 
   // A second call scores nothing again; a checkpoint file rewritten is scored again (validation and
   // test: it is still the choice).

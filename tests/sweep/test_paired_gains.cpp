@@ -122,7 +122,9 @@ TEST_CASE("paired_gains.py: a region's gain reads its pooled-MSE PSNR; --frames 
                                                           line("inter_pose.p50.s1", 2000, "ok", 31) +
                                                           line("full.p50.s1", 2000, "ok", 31.5) +
                                                           line("inter_pose.view.s1", 2000, "ok", 32) +
-                                                          line("full.view.s1", 2000, "ok", 32.25));
+                                                          line("full.view.s1", 2000, "ok", 32.25) +
+                                                          line("inter_pose.val.s1", 2000, "ok", 32) +
+                                                          line("full.val.s1", 2000, "ok", 32.5));
   // Held-out frames 6 and 18 move to a gesture training saw, 12 to one it never saw.
   handscs::write_file_atomic(dir + "/frames.csv",
                              "seq_name,frame_idx,held_out,gesture,gesture_in_training\n"
@@ -130,25 +132,27 @@ TEST_CASE("paired_gains.py: a region's gain reads its pooled-MSE PSNR; --frames 
                              "0000_synth_gestures,12,1,rock,0\n0000_synth_gestures,18,1,fist,1\n");
   // Per run: its contact region's pooled-MSE PSNR (the per-image mean is infinite: one image's
   // region matched exactly) and three images' PSNRs (frames 6, 12, 18).
-  // The novel-view runs (config.json: split_rule novel_view) score frame 0, a training pose: they
-  // are not split by gesture group.
+  // The novel-view runs (config.json: split_rule novel_view) and the validation-split ones
+  // (validation_poses) score frame 0, a training pose: they are not split by gesture group.
   const std::map<std::string, std::pair<double, std::vector<double>>> runs = {
       {"inter_pose.p50.s1", {20.0, {30, 28, 32}}},
       {"full.p50.s1", {20.25, {30.5, 27.5, 32.25}}},
       {"inter_pose.view.s1", {21.0, {31, 31, 31}}},
-      {"full.view.s1", {21.5, {32, 32, 32}}}};
+      {"full.view.s1", {21.5, {32, 32, 32}}},
+      {"inter_pose.val.s1", {21.0, {31, 31, 31}}},
+      {"full.val.s1", {21.75, {32, 32, 32}}}};
   for (const auto& [point, values] : runs) {
     const std::string eval = dir + "/sweep/runs/" + point + "_2000/eval";
     handscs::ensure_directory(eval);
-    const bool view = point.find(".view.") != std::string::npos;
+    const bool view = point.find(".view.") != std::string::npos, val = point.find(".val.") != std::string::npos;
     handscs::write_file_atomic(dir + "/sweep/runs/" + point + "_2000/config.json",
                                std::string(R"({"data": {"split_rule": ")") + (view ? "novel_view" : "novel_pose") +
-                                   "\"}}");
+                                   "\", \"validation_poses\": " + (val ? "10" : "0") + "}}");
     handscs::write_file_atomic(eval + "/summary.json", R"({"regions": {"contact": {"psnr": "inf", "psnr_pooled_mse": )" +
                                                            number(values.first) + "}}}");
     std::string images = "name,status,psnr,ssim,lpips\n";
     for (int k = 0; k < 3; ++k)
-      images += "Capture0/0000_synth_gestures/cam400002/image" + std::to_string(view ? 0 : 6 * (k + 1)) + ".jpg,ok," +
+      images += "Capture0/0000_synth_gestures/cam400002/image" + std::to_string(view || val ? 0 : 6 * (k + 1)) + ".jpg,ok," +
                 number(values.second[k]) + ",0.9,0.05\n";
     handscs::write_file_atomic(eval + "/per_image.csv", images);
   }
@@ -168,5 +172,7 @@ TEST_CASE("paired_gains.py: a region's gain reads its pooled-MSE PSNR; --frames 
   CHECK(mean_of("scs|p50|2000|psnr_gestures_unseen") == Approx(-0.5).margin(1e-9));
   CHECK(mean_of("scs|view|2000|psnr_contact") == Approx(0.5).margin(1e-9));
   CHECK(rows.count("scs|view|2000|psnr_gestures_seen") == 0);
+  CHECK(mean_of("scs|val|2000|psnr_contact") == Approx(0.75).margin(1e-9));
+  CHECK(rows.count("scs|val|2000|psnr_gestures_seen") == 0);
   std::filesystem::remove_all(dir);
 }
