@@ -137,9 +137,9 @@ def checkpoints_of(run):
     return sorted(found)
 
 
-def unusable(run, budget):
+def unusable(run, budget, checkpoints):
     """Why a kept run cannot stop early ('' when it can): no validation poses, not every checkpoint
-    kept, or no checkpoint at its budget."""
+    kept, or no checkpoint at its budget. checkpoints: checkpoints_of(run)."""
     config = read_json(os.path.join(run, 'config.json'))
     if int((config.get('data') or {}).get('validation_poses', 0)) <= 0:
         return 'trained without data.validation_poses'
@@ -148,7 +148,6 @@ def unusable(run, budget):
         return 'its config has no train.keep_checkpoints (a build that kept only the newest two checkpoints)'
     if int(kept) != 0:
         return f'kept only its newest {kept} checkpoints (train.keep_checkpoints; early stopping needs 0, all)'
-    checkpoints = checkpoints_of(run)
     if not checkpoints or checkpoints[-1][0] != budget:
         last = checkpoints[-1][0] if checkpoints else 'none'
         return f'its last checkpoint is step {last}, not its budget {budget}'
@@ -239,19 +238,19 @@ def main():
 
     runs = []
     for point, budget, run in runs_of(args.sweeps):
-        why = unusable(run, budget)
+        checkpoints = checkpoints_of(run)
+        why = unusable(run, budget, checkpoints)
         if why:
             print(f'early_stopping: {run}: {why}; left out', file=sys.stderr)
         else:
-            runs.append((point, budget, run))
+            runs.append((point, budget, run, checkpoints))
     if not runs:
         sys.exit('early_stopping: no kept run trained with validation poses and every checkpoint')
 
     os.makedirs(args.out, exist_ok=True)
     test_options = ['--lpips-weights', args.lpips_weights] if args.lpips_weights else []
     results, validation, curves = [], [], []
-    for point, budget, run in runs:
-        checkpoints = checkpoints_of(run)
+    for point, budget, run, checkpoints in runs:
         scores = []
         for step, checkpoint in checkpoints:
             print(f'early_stopping: {point}@{budget}: validation, step {step}', file=sys.stderr)
@@ -263,9 +262,10 @@ def main():
                                figure(number(s.get('ssim')), 5)])
         best = choose(scores)
         curves.append((point, scores, best))
+        checkpoint_at = dict(checkpoints)
         last_step = checkpoints[-1][0]
         picks = [('_es', best[0] if best else None, best[1] if best else None),
-                 ('_end', last_step, dict(scores)[last_step])]
+                 ('_end', last_step, scores[-1][1])]
         tested = {}  # step: its test folder, so one checkpoint chosen twice is scored once
         for suffix, step, validation_psnr in picks:
             name = renamed(point, suffix)
@@ -276,7 +276,7 @@ def main():
             else:
                 target = os.path.join(args.out, 'runs', f'{name}_{budget}', 'eval')
                 print(f'early_stopping: {name}@{budget}: test, step {step}', file=sys.stderr)
-                s = run_eval(args, dict(checkpoints)[step], target, test_options, ['data.validation_poses=0'],
+                s = run_eval(args, checkpoint_at[step], target, test_options, ['data.validation_poses=0'],
                              copy_from=tested.get(step))
                 tested[step] = target
                 row.update({'status': 'ok', 'eval_images': figure(number(s.get('scored')), 0),

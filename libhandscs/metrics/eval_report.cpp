@@ -269,9 +269,7 @@ void write_eval_outputs(const EvalReport& report, const std::string& json_path,
 std::string score_text(const std::optional<double>& score, int digits) {
   if (!score) return "n/a";
   if (!std::isfinite(*score)) return non_finite_text(*score);
-  char text[64];
-  std::snprintf(text, sizeof(text), "%.*f", digits, *score);
-  return text;
+  return format(("%." + std::to_string(digits) + "f").c_str(), *score);
 }
 
 }  // namespace handscs
