@@ -1,6 +1,7 @@
 // Small double-precision 3-vector helpers (sum, difference, scaling, dot and cross products, length,
-// unit vector) for the code that places cameras and hand parts in plain doubles: the synthetic
-// capture generator, the orbit cameras of handscs-render and handscs-view.
+// unit vector) for the code that places cameras and hand parts in plain doubles: the built-in
+// procedural hand, the synthetic capture generator, the orbit cameras of handscs-render and
+// handscs-view, and the raster benchmark's hand scene.
 #pragma once
 
 #include <array>

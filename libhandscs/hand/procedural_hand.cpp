@@ -16,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/vec3.h"
 #include "hand/joint_order.h"
 #include "hand/rig_mirror.h"
 
@@ -23,18 +24,6 @@ namespace handscs {
 
 namespace {
 
-struct Vec3 {
-  double x = 0, y = 0, z = 0;
-};
-Vec3 operator+(Vec3 a, Vec3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-Vec3 operator-(Vec3 a, Vec3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-Vec3 operator*(Vec3 a, double s) { return {a.x * s, a.y * s, a.z * s}; }
-double dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-Vec3 cross(Vec3 a, Vec3 b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-double norm(Vec3 a) { return std::sqrt(dot(a, a)); }
-Vec3 normalized(Vec3 a) { return a * (1.0 / norm(a)); }
 Vec3 lerp(Vec3 a, Vec3 b, double t) { return a + (b - a) * t; }
 double lerp(double a, double b, double t) { return a + (b - a) * t; }
 double smoothstep(double x) {
@@ -67,7 +56,7 @@ struct VertexInfo {
   int finger = -1;       // finger of the vertex (fingers) or of its column (palm knuckle side)
   double s = 0;  // fingers: arc length from the finger's base joint; palm: -(distance to knuckles)
   double t = 0;  // palm parameter: 0 at the wrist ring, 1 at the knuckle ring
-  Vec3 centre;   // axis point of the vertex's ring
+  Vec3 centre{};  // axis point of the vertex's ring
   bool shared = false;  // on the knuckle ring or the thumb hole (palm and finger meet)
 };
 
@@ -103,7 +92,7 @@ struct Mesh {
       faces.push_back({ring[j], ring[(j + 1) % ring.size()], pole});
   }
   Vec3 centroid(const std::vector<int>& ids) const {
-    Vec3 sum;
+    Vec3 sum{};
     for (int id : ids) sum = sum + positions[id];
     return sum * (1.0 / static_cast<double>(ids.size()));
   }
@@ -115,7 +104,7 @@ struct Mesh {
 // Skeleton of one finger: base joint, two more joints, and the tip's extreme point.
 struct Chain {
   std::array<Vec3, 4> points;
-  Vec3 dorsal;        // direction the nail faces
+  Vec3 dorsal{};      // direction the nail faces
   double radius = 1;  // scale of the cross-section radii
   double length(int i) const { return norm(points[i + 1] - points[i]); }
   double joint_s(int i) const {  // arc length of points[i] from points[0]
@@ -176,7 +165,7 @@ std::vector<double> unwrap(std::vector<double> angles) {
 }
 
 struct Design {
-  Vec3 wrist;
+  Vec3 wrist{};
   std::array<Chain, 5> chains;  // indexed by Finger; chains[kThumb].points[0] is the CMC joint
   std::array<double, 5> knuckle_height;  // dorsal half-axis of each finger's knuckle ring
   std::array<Radii, 5> radii;            // by arc length from the base joint
@@ -199,7 +188,7 @@ Design make_design() {
   // (proximal, middle, distal to the tip's extreme), radius scale.
   struct FingerSpec {
     Finger finger;
-    Vec3 mcp;
+    Vec3 mcp{};
     double splay_deg;
     double proximal, middle, distal;
     double scale;
@@ -376,7 +365,7 @@ struct PalmContour {
   std::vector<int> columns;        // vertex ids, in the order of the walk around the palm
   std::vector<int> column_finger;  // finger whose knuckle ring holds each column
   std::vector<double> fraction;    // arc-length position: 0-1 dorsal half, 1-2 palmar half
-  Vec3 knuckle_centre;             // mean of the four MCP joints
+  Vec3 knuckle_centre{};           // mean of the four MCP joints
 };
 
 // Column positions along the knuckle contour: arc-length fractions of the dorsal half (radial
@@ -466,7 +455,7 @@ double section_angle(double t, double f) {
 Vec3 section_point(Vec3 wrist, Vec3 knuckle_centre, double t, double angle, double x) {
   const auto [u, v] = section_unit(angle);
   const Vec3 centre = lerp(wrist, knuckle_centre, t);
-  return Vec3{x, centre.y + section_height(t) * v, centre.z + section_width(t) * u};
+  return Vec3{x, centre[1] + section_height(t) * v, centre[2] + section_width(t) * u};
 }
 
 // The palm's rings of vertices, one column per knuckle contour vertex.
@@ -491,13 +480,13 @@ Palm add_palm_rings(Builder& b, const PalmContour& contour) {
     const Vec3 centre = lerp(design.wrist, contour.knuckle_centre, t);
     for (int c = 0; c < columns; ++c) {
       const Vec3 knuckle_point = mesh.positions[palm_columns[c]];
-      const double x = lerp(design.wrist.x, knuckle_point.x, t);
+      const double x = lerp(design.wrist[0], knuckle_point[0], t);
       // The cross-section morphs into the knuckle ring; x keeps the ring spacing.
       const Vec3 on_section = section_point(design.wrist, contour.knuckle_centre, t,
                                             section_angle(t, contour.fraction[c]), x);
       Vec3 p = lerp(on_section, knuckle_point, smoothstep((t - 0.5) / 0.5));
-      p.x = x;
-      VertexInfo info{kPartPalm, contour.column_finger[c], -(x - knuckle_point.x), t, centre,
+      p[0] = x;
+      VertexInfo info{kPartPalm, contour.column_finger[c], -(x - knuckle_point[0]), t, centre,
                       false};
       palm.rings[r].push_back(
           mesh.add(p, info, std::sin(palm.theta[c]) < kPalmarSin ? kPalmar : kSkin));
@@ -521,7 +510,7 @@ struct ThumbHole {
 int thumb_hole_column(const std::vector<double>& theta, const Chain& thumb) {
   const int columns = static_cast<int>(theta.size());
   const Vec3 thumb_axis = normalized(thumb.points[1] - thumb.points[0]);
-  const double target_angle = std::atan2(thumb_axis.y, thumb_axis.z);
+  const double target_angle = std::atan2(thumb_axis[1], thumb_axis[2]);
   int hole_column = 0;
   double best = 1e9;
   for (int c = 0; c < columns; ++c) {
@@ -542,13 +531,13 @@ int thumb_hole_ring(const Mesh& mesh, const Palm& palm, int hole_column, Vec3 kn
                     const Chain& thumb) {
   int hole_ring = 1;
   // Where the metacarpal axis reaches the palm's radial side (z = knuckle half-width).
-  const double side_z = knuckle_centre.z + 0.038;
-  const double along = (side_z - thumb.points[0].z) / (thumb.points[1].z - thumb.points[0].z);
-  const double exit_x = lerp(thumb.points[0].x, thumb.points[1].x, along);
+  const double side_z = knuckle_centre[2] + 0.038;
+  const double along = (side_z - thumb.points[0][2]) / (thumb.points[1][2] - thumb.points[0][2]);
+  const double exit_x = lerp(thumb.points[0][0], thumb.points[1][0], along);
   double best = 1e9;
   for (int r = 1; r + kHoleRings < kPalmRings - 1; ++r) {
-    const double mid_x = 0.5 * (mesh.positions[palm.rings[r][hole_column]].x +
-                                mesh.positions[palm.rings[r + kHoleRings - 1][hole_column]].x);
+    const double mid_x = 0.5 * (mesh.positions[palm.rings[r][hole_column]][0] +
+                                mesh.positions[palm.rings[r + kHoleRings - 1][hole_column]][0]);
     if (std::abs(mid_x - exit_x) < best) {
       best = std::abs(mid_x - exit_x);
       hole_ring = r;
@@ -674,8 +663,8 @@ Vec3 place_thumb_cmc(Builder& b, const Palm& palm, const ThumbHole& hole, Vec3 h
   const Chain& thumb = b.design.chains[kThumb];
   int inner_ring = hole.ring;
   for (int r = 0; r < kPalmRings - 1; ++r)
-    if (std::abs(mesh.positions[palm.rings[r][0]].x - thumb.points[0].x) <
-        std::abs(mesh.positions[palm.rings[inner_ring][0]].x - thumb.points[0].x))
+    if (std::abs(mesh.positions[palm.rings[r][0]][0] - thumb.points[0][0]) <
+        std::abs(mesh.positions[palm.rings[inner_ring][0]][0] - thumb.points[0][0]))
       inner_ring = r;
   const Vec3 inner_centre = mesh.centroid(palm.rings[inner_ring]);
   const Vec3 span = inner_centre - hole_centre;
@@ -858,7 +847,7 @@ std::array<Vec3, kRigJoints> regressed_joints(const Mesh& mesh,
   const int64_t V = static_cast<int64_t>(mesh.positions.size());
   std::array<Vec3, kRigJoints> joints;
   for (int k = 0; k < kRigJoints; ++k) {
-    Vec3 j;
+    Vec3 j{};
     for (int64_t v = 0; v < V; ++v) j = j + mesh.positions[v] * regressor[k * V + v];
     joints[k] = j;
   }
@@ -942,14 +931,14 @@ std::vector<double> shape_modes(const Builder& b, const std::array<Vec3, kRigJoi
   std::vector<double> shapedirs(static_cast<size_t>(V * 3 * kShapeDim), 0.0);
   {
     const Vec3 wrist = joints[0];
-    Vec3 knuckles;
+    Vec3 knuckles{};
     for (int f : kPalmFingers) knuckles = knuckles + joints[kFingerJoints[f][0]] * 0.25;
     const Vec3 hole_centre = joints[13];
-    const double palm_mid_z = knuckles.z;
+    const double palm_mid_z = knuckles[2];
     auto set = [&](int64_t v, int mode, Vec3 d) {
-      shapedirs[(v * 3 + 0) * kShapeDim + mode] = d.x;
-      shapedirs[(v * 3 + 1) * kShapeDim + mode] = d.y;
-      shapedirs[(v * 3 + 2) * kShapeDim + mode] = d.z;
+      shapedirs[(v * 3 + 0) * kShapeDim + mode] = d[0];
+      shapedirs[(v * 3 + 1) * kShapeDim + mode] = d[1];
+      shapedirs[(v * 3 + 2) * kShapeDim + mode] = d[2];
     };
     for (int64_t v = 0; v < V; ++v) {
       const VertexInfo& info = mesh.info[v];
@@ -962,14 +951,14 @@ std::vector<double> shape_modes(const Builder& b, const std::array<Vec3, kRigJoi
       // 1: finger length (index..pinky), 6 % per unit: rings slide along the chain.
       if (finger && f != kThumb && !info.shared) set(v, 1, (info.centre - base) * 0.06);
       // 2: palm width, 5 % per unit: fingers move with their knuckle, the palm stretches.
-      double z_ref = p.z;
-      if (info.part >= 0 && f != kThumb) z_ref = base.z;
-      if (info.part == kThumb) z_ref = hole_centre.z;
+      double z_ref = p[2];
+      if (info.part >= 0 && f != kThumb) z_ref = base[2];
+      if (info.part == kThumb) z_ref = hole_centre[2];
       if (info.part == kPartPalm && f >= 0 && f != kThumb)
-        z_ref = lerp(p.z, base.z, smoothstep(info.t));
+        z_ref = lerp(p[2], base[2], smoothstep(info.t));
       set(v, 2, Vec3{0, 0, 0.05 * (z_ref - palm_mid_z)});
       // 3: thickness, 6 % per unit, about each ring's centre.
-      set(v, 3, Vec3{0, 0.06 * (p.y - info.centre.y), 0});
+      set(v, 3, Vec3{0, 0.06 * (p[1] - info.centre[1]), 0});
       // 4: finger girth, 6 % per unit about the ring axis, fading in from the base ring.
       if (info.part >= 0 && !info.shared) {
         const double fade = smoothstep((info.s - b.base_s[f]) / 0.01);
@@ -1007,9 +996,9 @@ std::vector<double> relaxed_pose(const Builder& b, const std::array<Vec3, kRigJo
         const Vec3 end = child >= 0 ? joints[child] : b.mesh.positions[b.tips[f]];
         const Vec3 d = normalized(end - joints[joint]);
         const Vec3 axis = normalized(cross(d, palm_normal)) * curl[f][k];
-        hands_mean[(joint - 1) * 3 + 0] = axis.x;
-        hands_mean[(joint - 1) * 3 + 1] = axis.y;
-        hands_mean[(joint - 1) * 3 + 2] = axis.z;
+        hands_mean[(joint - 1) * 3 + 0] = axis[0];
+        hands_mean[(joint - 1) * 3 + 1] = axis[1];
+        hands_mean[(joint - 1) * 3 + 2] = axis[2];
       }
   }
   return hands_mean;
@@ -1034,7 +1023,7 @@ Rig build_right_hand() {
   rig.name = "builtin";
   rig.handedness = Handedness::right;
   std::vector<double> positions;
-  for (const Vec3& p : mesh.positions) positions.insert(positions.end(), {p.x, p.y, p.z});
+  for (const Vec3& p : mesh.positions) positions.insert(positions.end(), {p[0], p[1], p[2]});
   std::vector<int64_t> faces;
   for (const auto& f : mesh.faces) faces.insert(faces.end(), {f[0], f[1], f[2]});
   const auto f64 = torch::kFloat64;

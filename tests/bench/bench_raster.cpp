@@ -22,6 +22,7 @@
 #include "core/allocator.h"
 #include "core/logging.h"
 #include "core/threads.h"
+#include "core/vec3.h"
 #include "hand/lbs.h"
 #include "hand/rig.h"
 #include "render/raster_work.h"
@@ -37,6 +38,11 @@ using bench::ms_since;
 using bench::seconds_since;
 
 using handscs::Camera;
+using handscs::cross;
+using handscs::norm;
+using handscs::normalized;
+using handscs::operator-;
+using handscs::Vec3;
 
 struct Scene {
   torch::Tensor means, covs, colors, opacities;
@@ -99,31 +105,20 @@ Scene hand_scene(int n, int width, int height, uint64_t seed) {
   const int64_t num_faces = faces.size(0);
   std::vector<double> cdf(num_faces);
   double total = 0;
-  auto vec = [&](int64_t vi) { return std::array<double, 3>{V[vi][0], V[vi][1], V[vi][2]}; };
-  auto sub = [](std::array<double, 3> a, std::array<double, 3> b) {
-    return std::array<double, 3>{a[0] - b[0], a[1] - b[1], a[2] - b[2]};
-  };
-  auto cross = [](std::array<double, 3> a, std::array<double, 3> b) {
-    return std::array<double, 3>{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-  };
-  auto norm = [](std::array<double, 3> a) { return std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); };
+  auto vec = [&](int64_t vi) { return Vec3{V[vi][0], V[vi][1], V[vi][2]}; };
   for (int64_t f = 0; f < num_faces; ++f) {
-    total += 0.5 * norm(cross(sub(vec(F[f][1]), vec(F[f][0])), sub(vec(F[f][2]), vec(F[f][0]))));
+    total += 0.5 * norm(cross(vec(F[f][1]) - vec(F[f][0]), vec(F[f][2]) - vec(F[f][0])));
     cdf[f] = total;
   }
-  std::array<double, 3> centre{0, 0, 0};
+  Vec3 centre{0, 0, 0};
   for (int64_t i = 0; i < verts.size(0); ++i)
     for (int k = 0; k < 3; ++k) centre[k] += V[i][k] / double(verts.size(0));
 
   // Look at the hand from the back (+y in the canonical frame), slightly tilted.
   Scene s;
   s.camera = centred_camera(width, height, 700.0);
-  const std::array<double, 3> eye{centre[0] + 0.12, centre[1] + 0.52, centre[2] + 0.12};
-  auto normalized = [&](std::array<double, 3> a) {
-    const double l = norm(a);
-    return std::array<double, 3>{a[0] / l, a[1] / l, a[2] / l};
-  };
-  const auto zc = normalized(sub(centre, eye));
+  const Vec3 eye{centre[0] + 0.12, centre[1] + 0.52, centre[2] + 0.12};
+  const auto zc = normalized(centre - eye);
   const auto xc = normalized(cross(zc, {1.0, 0.0, 0.0}));
   const auto yc = cross(zc, xc);
   for (int k = 0; k < 3; ++k) {
@@ -147,7 +142,7 @@ Scene hand_scene(int n, int width, int height, uint64_t seed) {
     const auto a = vec(F[f][0]), b = vec(F[f][1]), d = vec(F[f][2]);
     double r1 = std::sqrt(U(rng)), r2 = U(rng);
     for (int k = 0; k < 3; ++k) m[i][k] = (1 - r1) * a[k] + r1 * (1 - r2) * b[k] + r1 * r2 * d[k];
-    const auto nrm = normalized(cross(sub(b, a), sub(d, a)));
+    const auto nrm = normalized(cross(b - a, d - a));
     // Sigma = ts^2 I + (ns^2 - ts^2) n n^T: a disc in the face plane.
     const double ts2 = tangent_sigma * tangent_sigma, ns2 = normal_sigma * normal_sigma;
     const int idx[6][2] = {{0, 0}, {0, 1}, {0, 2}, {1, 1}, {1, 2}, {2, 2}};
