@@ -7,17 +7,19 @@ Points are named <row>.s<seed>; this groups the sweep's results.csv by row and w
                 region PSNRs (crease / contact / shadow: each region's PSNR of its pooled MSE) when the
                 runs' eval/summary.json has them; a cell that only some seeds have a finite value for
                 says "(k of n seeds)";
-  ablation.csv  the same numbers, one line per row;
+  ablation.csv  the same numbers, one line per row, with how many seeds each mean is over;
   ablation.png / ablation.pdf  each row's mean with its spread (error bar = std, dots = seeds).
 Usage: /usr/bin/python3 scripts/ablation_table.py SWEEP_OUT [--title TEXT]
 """
 import argparse
 import csv
 import json
-import math
 import os
 import re
 import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from seed_stats import finite_mean_std  # noqa: E402  (one home for the mean and spread)
 
 # HandSCS Tables 3 and 4 (test/Capture0): PSNR, SSIM, LPIPS.
 PAPER = {
@@ -57,20 +59,9 @@ LABELS = {
 METRICS = ("psnr", "ssim", "lpips")
 
 
-def mean_std(values):
-    values = [v for v in values if v is not None and math.isfinite(v)]
-    if not values:
-        return None, None, 0
-    m = sum(values) / len(values)
-    if len(values) < 2:
-        return m, None, len(values)
-    var = sum((v - m) ** 2 for v in values) / (len(values) - 1)
-    return m, math.sqrt(var), len(values)
-
-
 def fmt(stats, digits, seeds):
-    """mean_std's (mean, std, count) as "mean ± std", with "(k of n seeds)" after it when only k of
-    the row's n seeds have a finite value."""
+    """finite_mean_std's (mean, std, count) as "mean ± std", with "(k of n seeds)" after it when
+    only k of the row's n seeds have a finite value."""
     m, s, count = stats
     if m is None:
         return ""
@@ -125,20 +116,20 @@ def main():
     csv_rows = []
     for row in order:
         entries = groups[row]
-        stats = {k: mean_std([e.get(k) for e in entries]) for k in METRICS}
+        stats = {k: finite_mean_std([e.get(k) for e in entries]) for k in METRICS}
         paper = PAPER.get(row)
         n = len(entries)
         cells = [LABELS.get(row, row), str(n), fmt(stats["psnr"], 2, n), fmt(stats["ssim"], 4, n),
                  fmt(stats["lpips"], 4, n), f"{paper[0]:.2f} / {paper[1]:.3f} / {paper[2]:.4f}" if paper else ""]
         for r in region_names:
-            cells.append(fmt(mean_std([e.get(f"{r}_psnr") for e in entries]), 2, n))
+            cells.append(fmt(finite_mean_std([e.get(f"{r}_psnr") for e in entries]), 2, n))
         lines.append("| " + " | ".join(cells) + " |")
-        csv_rows.append([row, len(entries)] + [x for k in METRICS for x in stats[k][:2]])
+        csv_rows.append([row, len(entries)] + [x for k in METRICS for x in stats[k]])
     with open(os.path.join(args.out, "ablation.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
     with open(os.path.join(args.out, "ablation.csv"), "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["row", "seeds"] + [f"{k}_{s}" for k in METRICS for s in ("mean", "std")])
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(["row", "seeds"] + [f"{k}_{s}" for k in METRICS for s in ("mean", "std", "seeds")])
         w.writerows(csv_rows)
     print("\n".join(lines))
 
@@ -149,7 +140,7 @@ def main():
     for ax, key, name in ((axes[0], "psnr", "PSNR (dB) ↑"), (axes[1], "lpips", "LPIPS ↓")):
         for y, row in enumerate(order):
             values = [e[key] for e in groups[row] if key in e]
-            m, s, _ = mean_std(values)
+            m, s, _ = finite_mean_std(values)
             if m is None:
                 continue
             ax.errorbar(m, y, xerr=s or 0, fmt="o", color="C0", capsize=3)

@@ -285,11 +285,11 @@ def main():
             results.append(row)
 
     with open(os.path.join(args.out, 'results.csv'), 'w', newline='') as f:
-        writer = csv.DictWriter(f, fieldnames=RESULT_COLUMNS)
+        writer = csv.DictWriter(f, fieldnames=RESULT_COLUMNS, lineterminator='\n')
         writer.writeheader()
         writer.writerows(results)
     with open(os.path.join(args.out, 'validation.csv'), 'w', newline='') as f:
-        writer = csv.writer(f)
+        writer = csv.writer(f, lineterminator='\n')
         writer.writerow(['point', 'budget', 'step', 'psnr', 'ssim'])
         writer.writerows(validation)
     plot(args.out, curves)

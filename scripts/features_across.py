@@ -29,6 +29,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from plot_features import read_run, score_per_pose  # noqa: E402  (one home for reading and scoring)
+from seed_stats import mean_std, std_text  # noqa: E402  (one home for the mean and spread)
 
 # metrics_summary.csv columns: each set's pose mean, and the across-poses accuracy.
 SUMMARY_METRICS = {"knn": "knn_mean", "balanced": "knn_balanced_mean", "silhouette": "silhouette_mean",
@@ -61,10 +62,6 @@ def run_scores(folder, k):
     return scores
 
 
-def mean_sd(values):
-    return float(np.mean(values)), float(np.std(values, ddof=1)) if len(values) > 1 else 0.0
-
-
 def group_rows(groups, scores):
     rows = []
     for group, folders in groups:
@@ -74,7 +71,7 @@ def group_rows(groups, scores):
                 continue
             for metric in per_run[0][name]:
                 values = [s[name][metric] for s in per_run]
-                rows.append((group, name, metric, values) + mean_sd(values))
+                rows.append((group, name, metric, values) + mean_std(values))
     return rows
 
 
@@ -95,19 +92,19 @@ def pair_rows(pairs, groups, scores):
 def write_outputs(prefix, rows, pairs):
     runs = max(len(r[3]) for r in rows)
     with open(prefix + ".csv", "w", newline="") as f:
-        w = csv.writer(f)
+        w = csv.writer(f, lineterminator="\n")
         w.writerow(["group", "set", "metric"] + [f"run{i}" for i in range(runs)] + ["mean", "sd"])
         for group, name, metric, values, mean, sd in rows:
             w.writerow([group, name, metric] + [f"{v:.6f}" for v in values] + [""] * (runs - len(values)) +
-                       [f"{mean:.6f}", f"{sd:.6f}"])
+                       [f"{mean:.6f}", "" if sd is None else f"{sd:.6f}"])
     with open(prefix + "_pairs.csv", "w", newline="") as f:
-        w = csv.writer(f)
+        w = csv.writer(f, lineterminator="\n")
         w.writerow(["with_scs", "without_scs", "run", "gap", "control", "control_share", "without_p"])
         for a, b, i, gap, control, share, without_p in pairs:
             w.writerow([a, b, i, f"{gap:.6f}", f"{control:.6f}", f"{share:.6f}", f"{without_p:.6f}"])
     table = {}
     for group, name, metric, values, mean, sd in rows:
-        table.setdefault((name, group), {})[metric] = f"{mean:.3f} ± {sd:.3f}"
+        table.setdefault((name, group), {})[metric] = f"{mean:.3f} ± {std_text(sd, 3)}"
     lines = ["| set | avatars | k-NN accuracy | balanced | silhouette | across poses (balanced) |",
              "|---|---|---|---|---|---|"]
     for (name, group), m in table.items():

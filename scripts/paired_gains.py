@@ -33,11 +33,11 @@ import json
 import math
 import os
 import re
-import statistics
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import frame_groups  # noqa: E402  (scripts/frame_groups.py: the held-out gesture groups)
+from seed_stats import mean_std, std_text  # noqa: E402  (one home for the mean and spread)
 
 POINT = re.compile(r'^(?P<row>[A-Za-z0-9_-]+)(?:\.(?P<cell>[A-Za-z0-9_-]+))?\.s(?P<seed>\d+)$')
 METRICS = ('psnr', 'ssim', 'lpips')
@@ -106,10 +106,9 @@ def read_sweep(folder, gesture_groups=None):
     return results, left_out
 
 
-def mean_std(values):
-    if not values:
-        return None, None
-    return statistics.fmean(values), (statistics.stdev(values) if len(values) > 1 else 0.0)
+def csv_std(std):
+    """A std for the CSV: empty when there is none (one seed)."""
+    return '' if std is None else f'{std:.4f}'
 
 
 def reading(gains):
@@ -137,7 +136,7 @@ def row_means(results, gains, cells):
             cols = []
             for metric, digits in (('psnr', 3), ('ssim', 4), ('lpips', 4)):
                 mean, std = mean_std([v[metric] for v in runs if v.get(metric) is not None])
-                cols.append('' if mean is None else f'{mean:.{digits}f} +- {std:.{digits}f}')
+                cols.append('' if mean is None else f'{mean:.{digits}f} +- {std_text(std, digits)}')
             md.append(f'| {row} | {cell} | {budget} | {len(runs)} | ' + ' | '.join(cols) + ' |')
     return md
 
@@ -205,7 +204,7 @@ def main():
                 mean, std = mean_std(diffs)
                 if mean is not None:
                     rows_csv.append([name, cell, budget, metric, len(diffs), f'{mean:.4f}',
-                                     f'{std:.4f}', ' '.join(f'{d:+.4f}' for d in diffs)])
+                                     csv_std(std), ' '.join(f'{d:+.4f}' for d in diffs)])
             psnr = per_metric['psnr']
             # Every row read has a finite PSNR (read_sweep leaves the others out): one gain a seed.
             psnr_gains[(name, cell, budget)] = dict(zip(seeds, psnr))
@@ -214,15 +213,15 @@ def main():
             lpips_m, lpips_s = mean_std(per_metric.get('lpips', []))
             # A region some runs do not score (no such pixels, or an older build) says on how many seeds.
             regions = ', '.join(f'{k[5:]} {mean_std(per_metric[k])[0]:+.3f} +- '
-                                f'{mean_std(per_metric[k])[1]:.3f}'
+                                f'{std_text(mean_std(per_metric[k])[1], 3)}'
                                 + ('' if len(per_metric[k]) == len(psnr) else
                                    f' ({len(per_metric[k])} of {len(psnr)} seeds)')
                                 for k in metrics if k.startswith('psnr_') and per_metric[k])
             md.append(f'| {name} ({row} - {base}) | {cell} | {budget} | {len(psnr)} | '
-                      f'{mean:+.3f} +- {std:.3f} | {" / ".join(f"{d:+.3f}" for d in psnr)} | '
+                      f'{mean:+.3f} +- {std_text(std, 3)} | {" / ".join(f"{d:+.3f}" for d in psnr)} | '
                       f'{reading(psnr)} | '
-                      + (f'{ssim_m:+.4f} +- {ssim_s:.4f}' if ssim_m is not None else '') + ' | '
-                      + (f'{lpips_m:+.4f} +- {lpips_s:.4f}' if lpips_m is not None else '')
+                      + (f'{ssim_m:+.4f} +- {std_text(ssim_s, 4)}' if ssim_m is not None else '') + ' | '
+                      + (f'{lpips_m:+.4f} +- {std_text(lpips_s, 4)}' if lpips_m is not None else '')
                       + f' | {regions} |')
             if name in args.plot_gain:
                 plot.setdefault((name, budget), []).append((cell, psnr))
@@ -233,9 +232,9 @@ def main():
                '| change | seeds | PSNR (dB) | per seed | reading |', '|---|---|---|---|---|']
         for label, diffs in changes:
             mean, std = mean_std(diffs)
-            md.append(f'| {label} | {len(diffs)} | {mean:+.3f} +- {std:.3f} | '
+            md.append(f'| {label} | {len(diffs)} | {mean:+.3f} +- {std_text(std, 3)} | '
                       f'{" / ".join(f"{d:+.3f}" for d in diffs)} | {change_reading(diffs)} |')
-            rows_csv.append([label, '', '', 'psnr_change', len(diffs), f'{mean:.4f}', f'{std:.4f}',
+            rows_csv.append([label, '', '', 'psnr_change', len(diffs), f'{mean:.4f}', csv_std(std),
                              ' '.join(f'{d:+.4f}' for d in diffs)])
     if left_out:
         md += ['', f'Left out ({len(left_out)}): ' + ', '.join(left_out)]
@@ -301,13 +300,13 @@ def draw(plot, args):
         others = [(c, g) for c, g in cells if poses_of(c) is None]
         if points:
             xs = [p for p, _, _ in points]
-            line, = ax.plot(xs, [statistics.fmean(g) for _, g, _ in points], marker='o',
+            line, = ax.plot(xs, [mean_std(g)[0] for _, g, _ in points], marker='o',
                             label=f'{name}, {budget} steps')
             for p, g, _ in points:  # each seed, in its line's colour
                 ax.scatter([p] * len(g), g, s=12, color=line.get_color(), alpha=0.5, zorder=3)
         for c, g in others:
             ax.errorbar([max([p for p, _, _ in points], default=0) * 1.15 + 10],
-                        [statistics.fmean(g)], yerr=[statistics.stdev(g) if len(g) > 1 else 0],
+                        [mean_std(g)[0]], yerr=[mean_std(g)[1] or 0],
                         fmt='s', label=f'{name}: {c}, {budget} steps')
     ax.axhline(0, color='black', linewidth=0.8)
     ax.set_xlabel('training poses')

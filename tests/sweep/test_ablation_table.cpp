@@ -1,8 +1,8 @@
 // scripts/ablation_table.py, which summarises a seeded ablation sweep: each row's mean and sample
 // std over its seeds against values worked out here from made-up figures, the paper's numbers beside
 // the row they belong to, a region's column read from its pooled-MSE PSNR (its mean of per-image
-// PSNRs is "inf" in one run, as a region matching exactly in one image makes it), and a cell that
-// only some seeds have a value for saying so.
+// PSNRs is "inf" in one run, as a region matching exactly in one image makes it), a cell that only
+// some seeds have a value for saying so, and the CSV's seed count per mean.
 #include <catch2/catch.hpp>
 
 #include <cstdlib>
@@ -47,5 +47,13 @@ TEST_CASE("ablation_table.py: means, stds, the paper's row and pooled region PSN
   CHECK(table.find("| (b) + embeddings | 1 | 29.50 | 0.9400 | 0.0600 | 32.23 / 0.961 / 0.0337 | 24.00 |") !=
         std::string::npos);
   CHECK(table.find("inf") == std::string::npos);
+  // The CSV says how many seeds each mean is over, and gives no std for one seed.
+  const std::string csv = handscs::read_file(dir + "/ablation.csv");
+  INFO(csv);
+  CHECK(csv.find("row,seeds,psnr_mean,psnr_std,psnr_seeds,ssim_mean,ssim_std,ssim_seeds,lpips_mean,lpips_std,"
+                 "lpips_seeds\n") == 0);
+  CHECK(csv.find("\nfull,2,31.0,1.414213562373095") != std::string::npos);
+  CHECK(csv.find(",0.05,,1\n") != std::string::npos);
+  CHECK(csv.find("\nembedding,1,29.5,,1,0.94,,1,0.06,,1\n") != std::string::npos);
   std::filesystem::remove_all(dir);
 }

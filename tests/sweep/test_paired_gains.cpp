@@ -2,7 +2,7 @@
 // reading, and how a gain changes with training poses, budget and a setting, all against values
 // worked out here from the made-up PSNRs written below; a failed row is left out and counted, a
 // run's own summary (full precision) wins over the CSV's printed figure, a region's gain reads its
-// pooled-MSE PSNR and --frames splits the gains by held-out gesture group.
+// pooled-MSE PSNR, --frames splits the gains by held-out gesture group, and one seed's gain has no std.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -167,6 +167,12 @@ TEST_CASE("paired_gains.py: a region's gain reads its pooled-MSE PSNR; --frames 
     return std::stod(rows.at(key)[5]);
   };
   CHECK(mean_of("scs|p50|2000|psnr_contact") == Approx(0.25).margin(1e-9));
+  // One seed gives no spread: the CSV's std is empty and the table says n/a.
+  CHECK(mean_of("scs|p50|2000|psnr") == Approx(0.5).margin(1e-9));
+  CHECK(rows.at("scs|p50|2000|psnr")[6].empty());
+  const std::string table = handscs::read_file(dir + "/gains.md");
+  INFO(table);
+  CHECK(table.find("| +0.500 +- n/a | +0.500 |") != std::string::npos);
   // seen: frames 6 and 18, (30.5 + 32.25) / 2 - (30 + 32) / 2; unseen: frame 12, 27.5 - 28
   CHECK(mean_of("scs|p50|2000|psnr_gestures_seen") == Approx(0.375).margin(1e-9));
   CHECK(mean_of("scs|p50|2000|psnr_gestures_unseen") == Approx(-0.5).margin(1e-9));
