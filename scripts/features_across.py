@@ -17,7 +17,7 @@ Usage:
       gap = A's decoder input k-NN accuracy - B's; control = B's with_p - A's decoder input;
       without_p = A's without_p - B's decoder input. The control's share is |control| / |gap|.
   Writes PREFIX.csv (one row per group, set and metric: each run's pose mean, then the mean and the
-  sample standard deviation over runs), PREFIX_pairs.csv (one row per pair and run) and PREFIX.md
+  sample standard deviation over runs, empty for one run; n/a in the Markdown), PREFIX_pairs.csv (one row per pair and run) and PREFIX.md
   (both as Markdown tables).
 """
 import argparse

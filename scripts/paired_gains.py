@@ -25,7 +25,8 @@ BASE_GAIN in each cell (e.g. scs_tau003-scs: what a setting changes in a gain).
 With --frames CAPTURE/frames.csv (handscs-synth's), each kept novel-pose run's per-image PSNRs are
 also split as scripts/frame_groups.py splits them, into held-out gestures some training pose moves to
 and those none does; their gains appear beside the region PSNRs as gestures_seen / gestures_unseen.
-Rows that failed or whose PSNR is not finite are left out and counted in the table.
+Rows that failed or whose PSNR is not finite are left out and counted in the table. One seed has
+no std: n/a in the table, empty in the CSV.
 """
 import argparse
 import csv

@@ -2,19 +2,22 @@
 (paired_gains.py, ablation_table.py, features_across.py)."""
 
 import math
-import statistics
 
 
 def mean_std(values):
-    """(mean, sample standard deviation) of a list of numbers: (None, None) for an empty list, and
-    the std None for one value (one seed gives no spread). A NaN in the list makes both NaN: callers
+    """(mean, sample standard deviation, n - 1 in the denominator) of a list of numbers: (None, None)
+    for an empty list, and the std None for one value (one seed gives no spread). A NaN or an
+    infinity in the list makes the std NaN (and the mean NaN or infinite), never an error: callers
     that mean to leave non-finite values out do so themselves and say how many they kept."""
     values = [float(v) for v in values]
     if not values:
         return None, None
+    mean = math.fsum(values) / len(values)
     if len(values) == 1:
-        return values[0], None
-    return statistics.fmean(values), statistics.stdev(values)
+        return mean, None
+    if not all(math.isfinite(v) for v in values):
+        return mean, math.nan
+    return mean, math.sqrt(math.fsum((v - mean) ** 2 for v in values) / (len(values) - 1))
 
 
 def finite_mean_std(values):
