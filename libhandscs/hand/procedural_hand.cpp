@@ -103,7 +103,7 @@ struct Mesh {
 
 // Skeleton of one finger: base joint, two more joints, and the tip's extreme point.
 struct Chain {
-  std::array<Vec3, 4> points;
+  std::array<Vec3, 4> points{};
   Vec3 dorsal{};      // direction the nail faces
   double radius = 1;  // scale of the cross-section radii
   double length(int i) const { return norm(points[i + 1] - points[i]); }
@@ -236,7 +236,7 @@ Design make_design() {
 
 // Finger `f`'s ring at arc length s: frame from the chain direction and the finger's dorsal side.
 struct RingFrame {
-  Vec3 centre, axis, radial, dorsal;
+  Vec3 centre{}, axis{}, radial{}, dorsal{};
 };
 RingFrame ring_frame(const Chain& chain, double s) {
   RingFrame frame;
