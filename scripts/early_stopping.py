@@ -1,23 +1,24 @@
 #!/usr/bin/python3
-"""Early stopping on a validation split of the training poses, for the runs a sweep kept.
+"""Early stopping on a validation split of the training poses or cameras, for the runs a sweep kept.
 
     /usr/bin/python3 scripts/early_stopping.py SWEEP_OUT... --out OUT [--lpips-weights W]
         [--bin build/bin] [--threads 1] [--set KEY=VALUE] [--set KEY=VALUE] ...
 
 Each SWEEP_OUT is a handscs-bench output folder (results.csv, runs/<point>_<budget>/) whose runs
-trained on the novel-pose split with data.validation_poses > 0 (the last N training poses held out
-as validation, the capture's test poses unopened) and kept every checkpoint
-(train.keep_checkpoints=0) up to the budget; other runs are named and left out. Point names are
-<row>.<cell>.s<seed>, as scripts/paired_gains.py reads them. For every such run:
-  1. each checkpoint is scored on the validation poses (handscs-eval: PSNR and SSIM of every
+trained with a validation split, data.validation_poses > 0 on the novel-pose split (the last N
+training poses held out as validation, the capture's test poses unopened) or data.validation_cameras
+on the novel-view split (those training cameras held out, the test cameras unopened), and kept
+every checkpoint (train.keep_checkpoints=0) up to the budget; other runs are named and left out.
+Point names are <row>.<cell>.s<seed>, as scripts/paired_gains.py reads them. For every such run:
+  1. each checkpoint is scored on the validation split (handscs-eval: PSNR and SSIM of every
      validation image, no LPIPS, no regions) into RUN/early_stopping/validation_<step>/; a second
      call scores again only what is missing or was scored by another command or checkpoint file;
   2. the checkpoint of the highest validation PSNR is chosen, the earliest of equal ones; a
      checkpoint whose PSNR is not finite is never chosen;
-  3. the chosen checkpoint and the last one are scored on the capture's held-out test poses
-     (data.validation_poses=0: every test image, LPIPS with --lpips-weights or the run's weights,
-     the capture's region masks) into OUT/runs/<row>_es.<cell>.s<seed>_<budget>/eval/ and
-     OUT/runs/<row>_end.<cell>.s<seed>_<budget>/eval/.
+  3. the chosen checkpoint and the last one are scored on the capture's test split
+     (data.validation_poses=0 or data.validation_cameras=[], whichever the run set: every test
+     image, LPIPS with --lpips-weights or the run's weights, the capture's region masks) into
+     OUT/runs/<row>_es.<cell>.s<seed>_<budget>/eval/ and OUT/runs/<row>_end.<cell>.s<seed>_<budget>/eval/.
 Writes OUT/results.csv (point, budget, status, step, validation_psnr, eval_images, psnr, ssim, lpips;
 rows <row>_es and <row>_end, which scripts/paired_gains.py reads like a sweep's), OUT/validation.csv
 (point, budget, step, psnr, ssim of every checkpoint) and, with Debian's python3-matplotlib,
@@ -137,12 +138,25 @@ def checkpoints_of(run):
     return sorted(found)
 
 
+def test_split(run):
+    """The config keys that turn a run's validation split back into the capture's test split:
+    data.validation_poses=0 (novel pose) and data.validation_cameras=[] (novel view), each only
+    when the run set it (a build that predates a key refuses it). Empty: no validation split."""
+    data = read_json(os.path.join(run, 'config.json')).get('data') or {}
+    keys = []
+    if int(data.get('validation_poses', 0)) > 0:
+        keys.append('data.validation_poses=0')
+    if data.get('validation_cameras'):
+        keys.append('data.validation_cameras=[]')
+    return keys
+
+
 def unusable(run, budget, checkpoints):
-    """Why a kept run cannot stop early ('' when it can): no validation poses, not every checkpoint
+    """Why a kept run cannot stop early ('' when it can): no validation split, not every checkpoint
     kept, or no checkpoint at its budget. checkpoints: checkpoints_of(run)."""
     config = read_json(os.path.join(run, 'config.json'))
-    if int((config.get('data') or {}).get('validation_poses', 0)) <= 0:
-        return 'trained without data.validation_poses'
+    if not test_split(run):
+        return 'trained without data.validation_poses or data.validation_cameras'
     kept = (config.get('train') or {}).get('keep_checkpoints')
     if kept is None:  # builds before the key kept the newest two
         return 'its config has no train.keep_checkpoints (a build that kept only the newest two checkpoints)'
@@ -245,7 +259,7 @@ def main():
         else:
             runs.append((point, budget, run, checkpoints))
     if not runs:
-        sys.exit('early_stopping: no kept run trained with validation poses and every checkpoint')
+        sys.exit('early_stopping: no kept run trained with a validation split and every checkpoint')
 
     os.makedirs(args.out, exist_ok=True)
     test_options = ['--lpips-weights', args.lpips_weights] if args.lpips_weights else []
@@ -276,7 +290,7 @@ def main():
             else:
                 target = os.path.join(args.out, 'runs', f'{name}_{budget}', 'eval')
                 print(f'early_stopping: {name}@{budget}: test, step {step}', file=sys.stderr)
-                s = run_eval(args, checkpoint_at[step], target, test_options, ['data.validation_poses=0'],
+                s = run_eval(args, checkpoint_at[step], target, test_options, test_split(run),
                              copy_from=tested.get(step))
                 tested[step] = target
                 row.update({'status': 'ok', 'eval_images': figure(number(s.get('scored')), 0),

@@ -270,6 +270,28 @@ struct CameraSplit {
   }
 };
 
+// data.validation_cameras (novel_view): the listed training cameras become the test set and
+// leave training; the test cameras are not opened.
+void hold_out_validation_cameras(const CaptureConfig& c, const std::string& prefix,
+                                 CameraSplit& cams) {
+  const std::string key = key_name(prefix, "validation_cameras");
+  require(c.split_rule == "novel_view",
+          key + ": only split_rule novel_view holds out cameras (it is " + c.split_rule +
+              "; novel_pose holds out poses: " + key_name(prefix, "validation_poses") + ")");
+  std::set<std::string> training = cams.train;  // novel_view has filled it in by now
+  for (const auto& id : c.validation_cameras)
+    if (!training.count(id))
+      throw Error(key + ": camera \"" + id + "\" is not a training camera (the training cameras: " +
+                  list_text({training.begin(), training.end()}) + ")");
+  const std::set<std::string> validation(c.validation_cameras.begin(), c.validation_cameras.end());
+  if (validation.size() >= training.size())
+    throw Error(key + ": holds out every training camera (" + std::to_string(training.size()) +
+                "): none is left to train on");
+  for (const auto& id : validation) training.erase(id);
+  cams.train = training;
+  cams.test = validation;
+}
+
 // Step 2: the cameras of each side of the split. Every listed camera must have images.
 CameraSplit choose_cameras(const CaptureConfig& c, const CaptureRecords& records,
                            const std::string& prefix) {
@@ -306,6 +328,7 @@ CameraSplit choose_cameras(const CaptureConfig& c, const CaptureRecords& records
   } else if (cams.test.empty()) {
     cams.test = cams.train;  // novel_pose tests the held-out poses from the training views
   }
+  if (!c.validation_cameras.empty()) hold_out_validation_cameras(c, prefix, cams);
   return cams;
 }
 

@@ -51,6 +51,9 @@ struct CaptureConfig {
   // novel_pose: > 0 makes the last validation_poses training poses the test set and leaves the
   // held-out poses unused, so that a choice is made without ever seeing the test poses.
   int validation_poses = 0;
+  // novel_view: these training cameras become the test set and leave training; the test cameras
+  // are then unused, so that a choice is made without ever seeing the test views.
+  std::vector<std::string> validation_cameras;
   // novel_view without camera lists: this many cameras, evenly spaced over the sorted ids, test
   // views interleaved between training views (the paper: 10 train, 15 test; its exact ids are in a
   // supplement we do not have). Counted before monochrome cameras are dropped.
@@ -97,6 +100,9 @@ struct CaptureConfig {
     v.field("validation_poses", validation_poses,
             "novel_pose: test on the last N training poses instead of the held-out ones, which "
             "are then unused (0 = off)", 0, 1000000);
+    v.field("validation_cameras", validation_cameras,
+            "novel_view: test on these training cameras (no longer trained on) instead of the "
+            "test cameras, which are then unused (empty = off)");
     v.field("novel_view_train_views", novel_view_train_views,
             "novel_view without camera lists: number of training cameras chosen", 1, 100000);
     v.field("novel_view_test_views", novel_view_test_views,

@@ -21,6 +21,7 @@ std::vector<std::string> experiment_differences(const RunConfig& stored, const R
                                     "train_cameras", "test_cameras",   "frame_stride",
                                     "drop_monochrome", "skip_black_images", "split_rule",
                                     "held_out_poses", "train_poses",   "validation_poses",
+                                    "validation_cameras",
                                     "novel_view_train_views", "novel_view_test_views", "rig",
                                     "flat_hand_mean"};
   RunConfig a = stored, b = given;

@@ -242,6 +242,18 @@ TEST_CASE("capture errors: bad configuration values name the key") {
   CHECK(error_of([&] { Capture::open(config); }) ==
         "data.test_cameras: camera \"400002\" is also a training camera (novel_view needs "
         "disjoint lists)");
+  config.train_cameras = {"400004"};
+  config.validation_cameras = {"400002"};
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        "data.validation_cameras: camera \"400002\" is not a training camera (the training "
+        "cameras: 400004)");
+  config.validation_cameras = {"400004"};
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        "data.validation_cameras: holds out every training camera (1): none is left to train on");
+  config.split_rule = "novel_pose";
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        "data.validation_cameras: only split_rule novel_view holds out cameras (it is novel_pose; "
+        "novel_pose holds out poses: data.validation_poses)");
 
   config = data_test::tiny_config(root);
   config.sequences = {"9999_nothing"};

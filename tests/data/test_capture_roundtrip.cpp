@@ -194,6 +194,17 @@ TEST_CASE("capture roundtrip: novel_view split, sequences and frame stride") {
   for (const auto& f : view.test()) CHECK(f.camera_id == ids[3]);
   for (const auto& f : view.train()) CHECK(f.camera_id != ids[3]);
 
+  // validation_cameras: a training camera becomes the test set and leaves training; the test
+  // camera is not opened.
+  config.validation_cameras = {ids[1]};
+  Capture validation = Capture::open(config);
+  CHECK(validation.train().size() == 24);
+  CHECK(validation.test().size() == 12);
+  for (const auto& f : validation.test()) CHECK(f.camera_id == ids[1]);
+  for (const auto& f : validation.train()) CHECK((f.camera_id == ids[0] || f.camera_id == ids[2]));
+  for (const auto& f : validation.frames()) CHECK(f.camera_id != ids[3]);
+  config.validation_cameras.clear();
+
   // No camera lists: 4 cameras, 10:15 asked -> 2 train, 2 test, alternating by sorted id.
   config.test_cameras.clear();
   Capture chosen = Capture::open(config);

@@ -2,8 +2,8 @@
 // stand-in handscs-eval that reports PSNRs chosen here and logs its calls: the choice is the best
 // validation PSNR (the earlier of a tie, never a non-finite one), the chosen and the last checkpoint
 // are scored on the test poses with the right options (once when they are the same), runs that cannot
-// stop early are named and left out, and a second call scores again only a checkpoint file that
-// changed. Then end to end on the tiny capture: each checkpoint's validation PSNR is the mean of its
+// stop early are named and left out, a second call scores again only a checkpoint file that changed,
+// and a novel-view run's validation cameras are emptied (not its validation poses) for the test. Then end to end on the tiny capture: each checkpoint's validation PSNR is the mean of its
 // images' PSNRs over the last two training poses' frames (none of them a test frame, no LPIPS), the
 // choice is the brute-force best, the test scores equal handscs-eval's own scores of those
 // checkpoints, and paired_gains.py reads the output as a sweep.
@@ -66,7 +66,8 @@ void write_fake_eval(const std::string& dir) {
                              "--checkpoint) ckpt=$2; shift ;; esac; shift; done\n"
                              "echo \"$args\" >> '" + dir + "/calls.txt'\n"
                              "step=$(basename \"$ckpt\" .ckpt); step=$((10#${step#step_}))\n"
-                             "case \"$args\" in *data.validation_poses=0*) psnr=$((3000 + step))e-2 ;;\n"
+                             "case \"$args\" in *data.validation_poses=0*|*data.validation_cameras=[[]]*) "
+                             "psnr=$((3000 + step))e-2 ;;\n"
                              "  *) psnr=$(awk -v c=\"$ckpt\" '$1 == c {print $2}' '" + dir + "/psnr.txt') ;; esac\n"
                              "psnr=${psnr:-\\\"missing\\\"}\n"
                              "mkdir -p \"$out\"\n"
@@ -128,7 +129,8 @@ TEST_CASE("early_stopping.py: the choice, the test scores and the runs left out,
   INFO(text);
   CHECK(text.find("kept2.p2v1.s0_20: kept only its newest 2 checkpoints") != std::string::npos);
   CHECK(text.find("short.p2v1.s0_40: its last checkpoint is step 30, not its budget 40") != std::string::npos);
-  CHECK(text.find("plain.p2.s0_20: trained without data.validation_poses") != std::string::npos);
+  CHECK(text.find("plain.p2.s0_20: trained without data.validation_poses or data.validation_cameras") !=
+        std::string::npos);
   CHECK(text.find("gone.p2v1.s0_20: not kept (handscs-bench without --keep-runs?)") != std::string::npos);
   CHECK(text.find("old.p2v1.s0_20: its config has no train.keep_checkpoints") != std::string::npos);
 
@@ -174,6 +176,40 @@ TEST_CASE("early_stopping.py: the choice, the test scores and the runs left out,
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("early_stopping.py: a novel-view run held out validation cameras: its test scores restore them") {
+  const std::string dir = handscs_test::scratch_path("handscs_test_early_stopping_view", std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  write_fake_eval(dir);
+  const std::string run_dir = dir + "/sweep/runs/view.v.s0_20";
+  write_run(run_dir, 0, 0, {10, 20});
+  handscs::write_file_atomic(run_dir + "/config.json",
+                             R"({"data": {"validation_poses": 0, "validation_cameras": ["400004"]},
+                                 "train": {"keep_checkpoints": 0}})");
+  handscs::write_file_atomic(dir + "/sweep/results.csv", "point,budget,status\nview.v.s0,20,ok\n");
+  const std::string ckpt = run_dir + "/checkpoints/step_000000";
+  handscs::write_file_atomic(dir + "/psnr.txt", ckpt + "10.ckpt 21\n" + ckpt + "20.ckpt 20\n");
+  const std::string log = dir + "/log.txt";
+  REQUIRE(run("/usr/bin/python3 '" + kSource + "/scripts/early_stopping.py' --bin " + dir + "/bin --out " + dir +
+                  "/out " + dir + "/sweep",
+              log) == 0);
+  const auto results = handscs::read_csv(dir + "/out/results.csv");
+  REQUIRE(results.rows.size() == 2);
+  CHECK(std::vector<std::string>(results.rows[0].begin(), results.rows[0].begin() + 7) ==
+        std::vector<std::string>{"view_es.v.s0", "20", "ok", "10", "21.0000", "12", "30.1000"});
+  CHECK(std::vector<std::string>(results.rows[1].begin(), results.rows[1].begin() + 7) ==
+        std::vector<std::string>{"view_end.v.s0", "20", "ok", "20", "20.0000", "12", "30.2000"});
+  // Two validation calls, then two test calls that empty the validation cameras and leave
+  // data.validation_poses alone (the run did not set it).
+  const auto calls = lines_of(dir + "/calls.txt");
+  REQUIRE(calls.size() == 4);
+  for (size_t k = 0; k < calls.size(); ++k) {
+    INFO(calls[k]);
+    CHECK((calls[k].find("data.validation_cameras=[]") != std::string::npos) == (k >= 2));
+    CHECK(calls[k].find("data.validation_poses") == std::string::npos);
+  }
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("early_stopping.py: the best validation checkpoint and the last, scored on the test poses") {
   const std::string dir = handscs_test::scratch_path("handscs_test_early_stopping", std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
@@ -197,7 +233,7 @@ TEST_CASE("early_stopping.py: the best validation checkpoint and the last, score
   const std::string out = dir + "/out";
   const std::string call = script + " --out " + out + " " + dir + "/sweep";  // LPIPS: the run's weights
   REQUIRE(run(call, log) == 0);
-  CHECK(handscs::read_file(log).find("plain.p9.s0_10: trained without data.validation_poses; left out") !=
+  CHECK(handscs::read_file(log).find("plain.p9.s0_10: trained without data.validation_poses or data.validation_cameras; left out") !=
         std::string::npos);
 
   // Every checkpoint's validation PSNR: the mean over the validation images, frames of the two
@@ -278,7 +314,7 @@ TEST_CASE("early_stopping.py: the best validation checkpoint and the last, score
   // A sweep with no run trained on validation poses is refused, and says why.
   handscs::write_file_atomic(dir + "/sweep/results.csv", "point,budget,status\nplain.p9.s0,10,ok\n");
   CHECK(run(script + " --out " + dir + "/none " + dir + "/sweep", log) != 0);
-  CHECK(handscs::read_file(log).find("no kept run trained with validation poses and every checkpoint") !=
+  CHECK(handscs::read_file(log).find("no kept run trained with a validation split and every checkpoint") !=
         std::string::npos);
   std::filesystem::remove_all(dir);
 }
