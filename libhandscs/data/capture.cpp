@@ -560,6 +560,13 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
     spdlog::info("monochrome cameras: {} ({})", join(impl->monochrome_cameras, ", "),
                  c.drop_monochrome ? std::to_string(selection.dropped_monochrome) + " images dropped"
                                    : "kept");
+  // A dropped camera as validation would shrink the validation set or empty it without a word.
+  if (c.drop_monochrome)
+    for (const auto& id : c.validation_cameras)
+      if (std::count(impl->monochrome_cameras.begin(), impl->monochrome_cameras.end(), id))
+        throw Error(key_name(config_key, "validation_cameras") + ": camera \"" + id +
+                    "\" is monochrome and its images are dropped (" +
+                    key_name(config_key, "drop_monochrome") + "); hold out a colour camera");
   if (usable.empty())
     throw Error(records.index_file + ": no usable images" +
                 (records.layout == "interhand" ? " in capture " + std::to_string(c.capture) : "") +

@@ -52,7 +52,8 @@ struct CaptureConfig {
   // held-out poses unused, so that a choice is made without ever seeing the test poses.
   int validation_poses = 0;
   // novel_view: these training cameras become the test set and leave training; the test cameras
-  // are then unused, so that a choice is made without ever seeing the test views.
+  // are then unused, so that a choice is made without ever seeing the test views. A monochrome
+  // camera is refused while drop_monochrome drops its images.
   std::vector<std::string> validation_cameras;
   // novel_view without camera lists: this many cameras, evenly spaced over the sorted ids, test
   // views interleaved between training views (the paper: 10 train, 15 test; its exact ids are in a

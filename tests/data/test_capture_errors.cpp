@@ -181,6 +181,19 @@ TEST_CASE("capture errors: monochrome cameras are detected and dropped") {
   CHECK(kept.frames().size() == 48);
   // The grey images of a monochrome camera are that camera's, not grey images in a colour camera.
   CHECK(kept.grey_images().empty());
+  // Held out as validation it would leave its validation images dropped: refused while dropped,
+  // the test set while kept.
+  config.split_rule = "novel_view";
+  config.train_cameras = {"400002", "400004", "400008"};
+  config.test_cameras = {"400006"};
+  config.validation_cameras = {"400008"};
+  Capture validation = Capture::open(config);
+  CHECK(validation.test().size() == 12);
+  for (const auto& f : validation.test()) CHECK(f.camera_id == "400008");
+  config.drop_monochrome = true;
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        "data.validation_cameras: camera \"400008\" is monochrome and its images are dropped "
+        "(data.drop_monochrome); hold out a colour camera");
 }
 
 TEST_CASE("capture errors: a grey image in a colour camera is used and named") {

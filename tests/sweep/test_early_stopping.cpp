@@ -57,7 +57,7 @@ std::set<std::string> images_of(const std::string& eval_dir, double* mean_psnr =
 
 // A stand-in handscs-eval: logs its arguments to calls.txt and writes a summary whose PSNR is the
 // checkpoint's line in psnr.txt ("PATH PSNR") for a validation score, 30 + step / 100 for a test
-// score (data.validation_poses=0).
+// score (data.validation_poses=0 or data.validation_cameras=[]).
 void write_fake_eval(const std::string& dir) {
   std::filesystem::create_directories(dir + "/bin");
   const std::string program = dir + "/bin/handscs-eval";
