@@ -138,11 +138,12 @@ def checkpoints_of(run):
     return sorted(found)
 
 
-def test_split(run):
-    """The config keys that turn a run's validation split back into the capture's test split:
-    data.validation_poses=0 (novel pose) and data.validation_cameras=[] (novel view), each only
-    when the run set it (a build that predates a key refuses it). Empty: no validation split."""
-    data = read_json(os.path.join(run, 'config.json')).get('data') or {}
+def test_split(config):
+    """The config keys that turn a run's validation split back into the capture's test split
+    (config: the run's config.json): data.validation_poses=0 (novel pose) and
+    data.validation_cameras=[] (novel view), each only when the run set it (a build that predates a
+    key refuses it). Empty: no validation split."""
+    data = config.get('data') or {}
     keys = []
     if int(data.get('validation_poses', 0)) > 0:
         keys.append('data.validation_poses=0')
@@ -151,11 +152,10 @@ def test_split(run):
     return keys
 
 
-def unusable(run, budget, checkpoints):
+def unusable(config, budget, checkpoints):
     """Why a kept run cannot stop early ('' when it can): no validation split, not every checkpoint
-    kept, or no checkpoint at its budget. checkpoints: checkpoints_of(run)."""
-    config = read_json(os.path.join(run, 'config.json'))
-    if not test_split(run):
+    kept, or no checkpoint at its budget. config: its config.json; checkpoints: checkpoints_of(run)."""
+    if not test_split(config):
         return 'trained without data.validation_poses or data.validation_cameras'
     kept = (config.get('train') or {}).get('keep_checkpoints')
     if kept is None:  # builds before the key kept the newest two
@@ -253,18 +253,19 @@ def main():
     runs = []
     for point, budget, run in runs_of(args.sweeps):
         checkpoints = checkpoints_of(run)
-        why = unusable(run, budget, checkpoints)
+        config = read_json(os.path.join(run, 'config.json'))
+        why = unusable(config, budget, checkpoints)
         if why:
             print(f'early_stopping: {run}: {why}; left out', file=sys.stderr)
         else:
-            runs.append((point, budget, run, checkpoints))
+            runs.append((point, budget, run, checkpoints, test_split(config)))
     if not runs:
         sys.exit('early_stopping: no kept run trained with a validation split and every checkpoint')
 
     os.makedirs(args.out, exist_ok=True)
     test_options = ['--lpips-weights', args.lpips_weights] if args.lpips_weights else []
     results, validation, curves = [], [], []
-    for point, budget, run, checkpoints in runs:
+    for point, budget, run, checkpoints, restore_test in runs:
         scores = []
         for step, checkpoint in checkpoints:
             print(f'early_stopping: {point}@{budget}: validation, step {step}', file=sys.stderr)
@@ -290,7 +291,7 @@ def main():
             else:
                 target = os.path.join(args.out, 'runs', f'{name}_{budget}', 'eval')
                 print(f'early_stopping: {name}@{budget}: test, step {step}', file=sys.stderr)
-                s = run_eval(args, checkpoint_at[step], target, test_options, test_split(run),
+                s = run_eval(args, checkpoint_at[step], target, test_options, restore_test,
                              copy_from=tested.get(step))
                 tested[step] = target
                 row.update({'status': 'ok', 'eval_images': figure(number(s.get('scored')), 0),

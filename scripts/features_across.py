@@ -96,7 +96,7 @@ def write_outputs(prefix, rows, pairs):
         w.writerow(["group", "set", "metric"] + [f"run{i}" for i in range(runs)] + ["mean", "sd"])
         for group, name, metric, values, mean, sd in rows:
             w.writerow([group, name, metric] + [f"{v:.6f}" for v in values] + [""] * (runs - len(values)) +
-                       [f"{mean:.6f}", "" if sd is None else f"{sd:.6f}"])
+                       [f"{mean:.6f}", std_text(sd, 6, missing="")])
     with open(prefix + "_pairs.csv", "w", newline="") as f:
         w = csv.writer(f, lineterminator="\n")
         w.writerow(["with_scs", "without_scs", "run", "gap", "control", "control_share", "without_p"])

@@ -107,11 +107,6 @@ def read_sweep(folder, gesture_groups=None):
     return results, left_out
 
 
-def csv_std(std):
-    """A std for the CSV: empty when there is none (one seed)."""
-    return '' if std is None else f'{std:.4f}'
-
-
 def reading(gains):
     if len(gains) < 2:
         return 'too few seeds'
@@ -205,7 +200,7 @@ def main():
                 mean, std = mean_std(diffs)
                 if mean is not None:
                     rows_csv.append([name, cell, budget, metric, len(diffs), f'{mean:.4f}',
-                                     csv_std(std), ' '.join(f'{d:+.4f}' for d in diffs)])
+                                     std_text(std, 4, missing=''), ' '.join(f'{d:+.4f}' for d in diffs)])
             psnr = per_metric['psnr']
             # Every row read has a finite PSNR (read_sweep leaves the others out): one gain a seed.
             psnr_gains[(name, cell, budget)] = dict(zip(seeds, psnr))
@@ -213,11 +208,15 @@ def main():
             ssim_m, ssim_s = mean_std(per_metric.get('ssim', []))
             lpips_m, lpips_s = mean_std(per_metric.get('lpips', []))
             # A region some runs do not score (no such pixels, or an older build) says on how many seeds.
-            regions = ', '.join(f'{k[5:]} {mean_std(per_metric[k])[0]:+.3f} +- '
-                                f'{std_text(mean_std(per_metric[k])[1], 3)}'
-                                + ('' if len(per_metric[k]) == len(psnr) else
-                                   f' ({len(per_metric[k])} of {len(psnr)} seeds)')
-                                for k in metrics if k.startswith('psnr_') and per_metric[k])
+            region_texts = []
+            for k in metrics:
+                if not (k.startswith('psnr_') and per_metric[k]):
+                    continue
+                region_mean, region_std = mean_std(per_metric[k])
+                region_texts.append(f'{k[5:]} {region_mean:+.3f} +- {std_text(region_std, 3)}'
+                                    + ('' if len(per_metric[k]) == len(psnr) else
+                                       f' ({len(per_metric[k])} of {len(psnr)} seeds)'))
+            regions = ', '.join(region_texts)
             md.append(f'| {name} ({row} - {base}) | {cell} | {budget} | {len(psnr)} | '
                       f'{mean:+.3f} +- {std_text(std, 3)} | {" / ".join(f"{d:+.3f}" for d in psnr)} | '
                       f'{reading(psnr)} | '
@@ -235,7 +234,7 @@ def main():
             mean, std = mean_std(diffs)
             md.append(f'| {label} | {len(diffs)} | {mean:+.3f} +- {std_text(std, 3)} | '
                       f'{" / ".join(f"{d:+.3f}" for d in diffs)} | {change_reading(diffs)} |')
-            rows_csv.append([label, '', '', 'psnr_change', len(diffs), f'{mean:.4f}', csv_std(std),
+            rows_csv.append([label, '', '', 'psnr_change', len(diffs), f'{mean:.4f}', std_text(std, 4, missing=''),
                              ' '.join(f'{d:+.4f}' for d in diffs)])
     if left_out:
         md += ['', f'Left out ({len(left_out)}): ' + ', '.join(left_out)]
@@ -306,8 +305,9 @@ def draw(plot, args):
             for p, g, _ in points:  # each seed, in its line's colour
                 ax.scatter([p] * len(g), g, s=12, color=line.get_color(), alpha=0.5, zorder=3)
         for c, g in others:
+            g_mean, g_std = mean_std(g)
             ax.errorbar([max([p for p, _, _ in points], default=0) * 1.15 + 10],
-                        [mean_std(g)[0]], yerr=[mean_std(g)[1] or 0],
+                        [g_mean], yerr=[g_std or 0],
                         fmt='s', label=f'{name}: {c}, {budget} steps')
     ax.axhline(0, color='black', linewidth=0.8)
     ax.set_xlabel('training poses')

@@ -27,6 +27,7 @@ def finite_mean_std(values):
     return mean_std(kept) + (len(kept),)
 
 
-def std_text(std, digits):
-    """A std as text: "n/a" when there is none (one seed)."""
-    return 'n/a' if std is None else f'{std:.{digits}f}'
+def std_text(std, digits, missing='n/a'):
+    """A std as text: `missing` when there is none (one seed; tables say "n/a", CSVs leave it
+    empty)."""
+    return missing if std is None else f'{std:.{digits}f}'

@@ -278,18 +278,16 @@ void hold_out_validation_cameras(const CaptureConfig& c, const std::string& pref
   require(c.split_rule == "novel_view",
           key + ": only split_rule novel_view holds out cameras (it is " + c.split_rule +
               "; novel_pose holds out poses: " + key_name(prefix, "validation_poses") + ")");
-  std::set<std::string> training = cams.train;  // novel_view has filled it in by now
+  // novel_view has filled in the training cameras by now.
   for (const auto& id : c.validation_cameras)
-    if (!training.count(id))
+    if (!cams.train.count(id))
       throw Error(key + ": camera \"" + id + "\" is not a training camera (the training cameras: " +
-                  list_text({training.begin(), training.end()}) + ")");
-  const std::set<std::string> validation(c.validation_cameras.begin(), c.validation_cameras.end());
-  if (validation.size() >= training.size())
-    throw Error(key + ": holds out every training camera (" + std::to_string(training.size()) +
+                  list_text({cams.train.begin(), cams.train.end()}) + ")");
+  cams.test = {c.validation_cameras.begin(), c.validation_cameras.end()};
+  if (cams.test.size() >= cams.train.size())
+    throw Error(key + ": holds out every training camera (" + std::to_string(cams.train.size()) +
                 "): none is left to train on");
-  for (const auto& id : validation) training.erase(id);
-  cams.train = training;
-  cams.test = validation;
+  for (const auto& id : cams.test) cams.train.erase(id);
 }
 
 // Step 2: the cameras of each side of the split. Every listed camera must have images.
