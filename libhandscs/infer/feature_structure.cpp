@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <map>
 #include <optional>
 #include <set>
 
@@ -135,37 +136,32 @@ std::vector<std::string> column_series(const std::string& prefix, int64_t count)
   return names;
 }
 
+// Column names of each feature set, keyed like GaussianFeatures::get.
 struct Columns {
-  std::vector<std::string> position{"x", "y", "z"}, embedding, transform, descriptor, descriptor_static,
-      descriptor_virtual, decoder_input;
-  const std::vector<std::string>& get(FeatureSet set) const {
-    switch (set) {
-      case FeatureSet::position: return position;
-      case FeatureSet::embedding: return embedding;
-      case FeatureSet::transform: return transform;
-      case FeatureSet::descriptor: return descriptor;
-      case FeatureSet::descriptor_static: return descriptor_static;
-      case FeatureSet::descriptor_virtual: return descriptor_virtual;
-      case FeatureSet::decoder_input: return decoder_input;
-    }
-    throw Error("Columns::get: unknown feature set (programming error)");
-  }
+  std::map<FeatureSet, std::vector<std::string>> by_set;
+  const std::vector<std::string>& get(FeatureSet set) const { return by_set.at(set); }
 };
 
 Columns column_names(const GaussianFeatures& f, bool scs) {
-  Columns c;
   const int64_t d = f.embedding.size(1) / 2;
-  c.embedding = column_series("eg", d);
+  std::vector<std::string> embedding = column_series("eg", d);
   const auto ea = column_series("ea", d);
-  c.embedding.insert(c.embedding.end(), ea.begin(), ea.end());
-  c.transform = column_series("t", 12);
-  c.descriptor = column_series("p", f.descriptor.size(1));
-  const auto split = c.descriptor.begin() + f.descriptor_static.size(1);
-  c.descriptor_static.assign(c.descriptor.begin(), split);
-  c.descriptor_virtual.assign(split, c.descriptor.end());
-  if (scs) c.decoder_input = c.descriptor;
-  c.decoder_input.insert(c.decoder_input.end(), c.embedding.begin(), c.embedding.end());
-  c.decoder_input.insert(c.decoder_input.end(), c.transform.begin(), c.transform.end());
+  embedding.insert(embedding.end(), ea.begin(), ea.end());
+  const std::vector<std::string> transform = column_series("t", 12);
+  const std::vector<std::string> descriptor = column_series("p", f.descriptor.size(1));
+  const auto split = descriptor.begin() + f.descriptor_static.size(1);
+  std::vector<std::string> decoder_input;
+  if (scs) decoder_input = descriptor;
+  decoder_input.insert(decoder_input.end(), embedding.begin(), embedding.end());
+  decoder_input.insert(decoder_input.end(), transform.begin(), transform.end());
+  Columns c;
+  c.by_set[FeatureSet::position] = {"x", "y", "z"};
+  c.by_set[FeatureSet::embedding] = embedding;
+  c.by_set[FeatureSet::transform] = transform;
+  c.by_set[FeatureSet::descriptor] = descriptor;
+  c.by_set[FeatureSet::descriptor_static] = {descriptor.begin(), split};
+  c.by_set[FeatureSet::descriptor_virtual] = {split, descriptor.end()};
+  c.by_set[FeatureSet::decoder_input] = decoder_input;
   return c;
 }
 
