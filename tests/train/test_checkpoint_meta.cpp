@@ -187,6 +187,17 @@ TEST_CASE("checkpoint meta: a resume that changes the experiment's data is refus
   auto stored = four_step_config();
   CHECK(handscs::experiment_differences(stored, changed) ==
         std::vector<std::string>{"data.held_out_poses: 3 -> 4"});
+  // A validation split moves images from training to the test set: either kind is a change of
+  // experiment, so a resume with another one is refused like the change above.
+  auto by_cameras = stored;
+  by_cameras.data.validation_cameras = {"400014", "400042"};
+  auto by_poses = stored;
+  by_poses.data.validation_poses = 2;
+  CHECK(handscs::experiment_differences(stored, by_cameras) ==
+        std::vector<std::string>{"data.validation_cameras: [] -> [\"400014\",\"400042\"]"});
+  CHECK(handscs::experiment_differences(by_cameras, by_poses) ==
+        std::vector<std::string>{"data.validation_cameras: [\"400014\",\"400042\"] -> []",
+                                 "data.validation_poses: 0 -> 2"});
   // Another capture is another experiment too (its root named as written in each config).
   auto elsewhere = stored;
   elsewhere.data.root = "/another/capture";
