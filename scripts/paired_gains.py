@@ -2,6 +2,7 @@
 """Paired gains of a seeded study: what one row adds over another, cell by cell, seed by seed.
 
     /usr/bin/python3 scripts/paired_gains.py SWEEP_OUT... --gain NAME=ROW-BASE ... [--out PREFIX]
+        [--gain NAME=ROW@BUDGET-BASE@BUDGET ...]
         [--gain-change NAME=GAIN-BASE_GAIN ...] [--frames FRAMES.csv] [--plot-gain NAME ...]
         [--title TEXT]
 
@@ -11,6 +12,10 @@ are named <row>.<cell>.s<seed> (for example full.p350.s10: row full, cell p350, 
 <row>.s<seed> (one cell). A cell is the pair (cell name, budget). For every --gain NAME=ROW-BASE
 (e.g. scs=full-inter_pose) and cell, the gain of each seed present in both rows is ROW's metric
 minus BASE's, for PSNR, SSIM, LPIPS and the region PSNRs (each region's PSNR of its pooled MSE).
+--gain NAME=ROW@B1-BASE@B2 pairs two budgets instead: in every cell name, ROW at B1 steps minus BASE
+at B2 (e.g. full@10000-inter_pose@2000: the full model's long run against row (c)'s short one; or
+inter_pose@10000-inter_pose@2000: what the longer budget does to one row); its budget reads "B1 vs
+B2".
 Writes PREFIX.md (a Markdown table: mean +- sample std over the seeds, each seed's value, and the
 reading rule of docs/SCALING.md: "pays" if the PSNR gain is positive on every seed and there are at
 least 2, "costs" if negative on every seed, otherwise "no difference shown"), PREFIX.csv (one line
@@ -120,7 +125,7 @@ def reading(gains):
 def row_means(results, gains, cells):
     """Markdown lines: each row the gains name, per cell, as mean +- std over its seeds."""
     rows = []
-    for _, row, base in gains:
+    for _, row, _, base, _ in gains:
         rows += [r for r in (row, base) if r not in rows]
     md = ['', '## The rows (mean +- std over their seeds)', '',
           '| row | cell | budget | seeds | PSNR (dB) | SSIM | LPIPS |', '|---|---|---|---|---|---|---|']
@@ -168,12 +173,7 @@ def main():
         r, lo = read_sweep(folder, gesture_groups)
         results.update(r)
         left_out += lo
-    gains = []
-    for spec in args.gain:
-        m = re.match(r'^([A-Za-z0-9_]+)=([A-Za-z0-9_-]+)-([A-Za-z0-9_-]+)$', spec)
-        if not m:
-            sys.exit(f'--gain {spec}: expected NAME=ROW-BASE')
-        gains.append(m.groups())
+    gains = [parse_gain(spec) for spec in args.gain]
 
     cells = sorted({(cell, budget) for (_, cell, budget, _) in results},
                    key=lambda c: (c[1], poses_of(c[0]) or 0, c[0]))
@@ -185,16 +185,16 @@ def main():
     md.append('|---|---|---|---|---|---|---|---|---|---|')
     plot = {}
     psnr_gains = {}  # (gain name, cell, budget) -> {seed: PSNR gain}
-    for name, row, base in gains:
-        for cell, budget in cells:
-            seeds = sorted(s for (r, c, b, s) in results if r == row and c == cell and b == budget
-                           and (base, cell, budget, s) in results)
+    for name, row, row_budget, base, base_budget in gains:
+        for cell, budget, row_b, base_b in gain_cells(cells, row_budget, base_budget):
+            seeds = sorted(s for (r, c, b, s) in results if r == row and c == cell and b == row_b
+                           and (base, cell, base_b, s) in results)
             if not seeds:
                 continue
             per_metric = {}
             for metric in metrics:
-                values = [results[(row, cell, budget, s)].get(metric) for s in seeds]
-                bases = [results[(base, cell, budget, s)].get(metric) for s in seeds]
+                values = [results[(row, cell, row_b, s)].get(metric) for s in seeds]
+                bases = [results[(base, cell, base_b, s)].get(metric) for s in seeds]
                 diffs = [v - b for v, b in zip(values, bases) if v is not None and b is not None]
                 per_metric[metric] = diffs
                 mean, std = mean_std(diffs)
@@ -254,11 +254,34 @@ def paired(a, b):
     return [b[s] - a[s] for s in sorted(a) if s in b]
 
 
+def parse_gain(spec):
+    """(name, row, row budget, base, base budget) of --gain NAME=ROW-BASE (budgets None: both rows at
+    each cell's own budget) or NAME=ROW@B1-BASE@B2."""
+    m = re.match(r'^([A-Za-z0-9_]+)=([A-Za-z0-9_-]+)@(\d+)-([A-Za-z0-9_-]+)@(\d+)$', spec)
+    if m:
+        name, row, row_budget, base, base_budget = m.groups()
+        return name, row, int(row_budget), base, int(base_budget)
+    m = re.match(r'^([A-Za-z0-9_]+)=([A-Za-z0-9_-]+)-([A-Za-z0-9_-]+)$', spec)
+    if not m:
+        sys.exit(f'--gain {spec}: expected NAME=ROW-BASE or NAME=ROW@BUDGET-BASE@BUDGET')
+    name, row, base = m.groups()
+    return name, row, None, base, None
+
+
+def gain_cells(cells, row_budget, base_budget):
+    """[(cell, budget label, row's budget, base's budget)] a gain reads: every (cell, budget), or,
+    with budgets of its own, every cell name once, labelled "B1 vs B2"."""
+    if row_budget is None:
+        return [(cell, budget, budget, budget) for cell, budget in cells]
+    names = list(dict.fromkeys(cell for cell, _ in cells))
+    return [(cell, f'{row_budget} vs {base_budget}', row_budget, base_budget) for cell in names]
+
+
 def gain_changes(psnr_gains, gains, specs):
     """[(label, per-seed changes)]: each gain from the fewest to the most training poses per budget,
     from the smallest to the largest budget per cell, and each --gain-change GAIN-BASE per cell."""
     out = []
-    for name, _, _ in gains:
+    for name, *_ in gains:
         mine = {(c, b): v for (n, c, b), v in psnr_gains.items() if n == name}
         for budget in sorted({b for _, b in mine}):
             posed = sorted((poses_of(c), c) for c, b in mine if b == budget and poses_of(c) is not None)

@@ -2,7 +2,8 @@
 // reading, and how a gain changes with training poses, budget and a setting, all against values
 // worked out here from the made-up PSNRs written below; a failed row is left out and counted, a
 // run's own summary (full precision) wins over the CSV's printed figure, a region's gain reads its
-// pooled-MSE PSNR, --frames splits the gains by held-out gesture group, and one seed's gain has no std.
+// pooled-MSE PSNR, --frames splits the gains by held-out gesture group, one seed's gain has no std, and
+// a gain may pair two budgets (ROW@B1-BASE@B2).
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -74,7 +75,9 @@ TEST_CASE("paired_gains.py: paired gains, their readings and changes equal the v
 
   const std::string command = "/usr/bin/python3 '" + handscs_test::kSource + "/scripts/paired_gains.py' '" + dir +
                               "/tau08' '" + dir + "/tau03' --gain scs=full-inter_pose --gain scs_t=full_t-inter_pose_t "
-                              "--gain-change tau=scs_t-scs --out '" + dir + "/gains' > '" + dir + "/log' 2>&1";
+                              "--gain-change tau=scs_t-scs --gain long=full@10000-inter_pose@2000 "
+                              "--gain c_budget=inter_pose@10000-inter_pose@2000 --out '" + dir + "/gains' > '" + dir +
+                              "/log' 2>&1";
   REQUIRE(std::system(command.c_str()) == 0);
   const auto rows = rows_by_key(handscs::read_csv(dir + "/gains.csv"));
   // mean, std and per-seed values of one line of gains.csv
@@ -100,6 +103,11 @@ TEST_CASE("paired_gains.py: paired gains, their readings and changes equal the v
   check("scs: 10000 - 2000 steps, p50|||psnr_change", {0.10, 0.20});
   check("tau (scs_t - scs): p50, 2000 steps|||psnr_change", {0.03, 0.06, 0.09});
   check("tau (scs_t - scs): p350, 2000 steps|||psnr_change", {0.03, 0.06, 0.09});
+  // Two budgets paired: the full model's 10,000-step run against row (c)'s 2,000-step one (seeds 1-2
+  // have both), and what the longer budget does to row (c) alone.
+  check("long|p50|10000 vs 2000|psnr", {0.61, 0.72});
+  check("c_budget|p50|10000 vs 2000|psnr", {0.7, 0.7});
+  CHECK(rows.count("long|p350|10000 vs 2000|psnr") == 0);  // p350 has no 10,000-step runs
 
   const std::string table = handscs::read_file(dir + "/gains.md");
   const auto has = [&](const std::string& text) { return table.find(text) != std::string::npos; };
@@ -109,8 +117,16 @@ TEST_CASE("paired_gains.py: paired gains, their readings and changes equal the v
   CHECK(has("| scs: p350 - p50, 2000 steps | 3 | +0.270 +- 0.010 | +0.260 / +0.270 / +0.280 | rises |"));
   CHECK(has("| scs: 10000 - 2000 steps, p50 | 2 | +0.150 +- 0.071 | +0.100 / +0.200 | rises |"));
   CHECK(has("Left out (1): full.p350.s4@2000 (failed)"));
+  CHECK(has("| long (full - inter_pose) | p50 | 10000 vs 2000 | 2 | +0.665 +- 0.078 | +0.610 / +0.720 | pays |"));
   // Row (c) at p50, 2,000 steps: 31.1 / 31.2 / 31.3 over seeds 1-3.
   CHECK(has("| inter_pose | p50 | 2000 | 3 | 31.200 +- 0.100 | 0.9600 +- 0.0000 | 0.0500 +- 0.0000 |"));
+  // A gain with a budget on one side only is refused, naming the expected forms.
+  const std::string half = "/usr/bin/python3 '" + handscs_test::kSource + "/scripts/paired_gains.py' '" + dir +
+                           "/tau08' --gain bad=full@10000-inter_pose --out '" + dir + "/bad' > '" + dir +
+                           "/bad.log' 2>&1";
+  CHECK(std::system(half.c_str()) != 0);
+  CHECK(handscs::read_file(dir + "/bad.log").find("expected NAME=ROW-BASE or NAME=ROW@BUDGET-BASE@BUDGET") !=
+        std::string::npos);
   std::filesystem::remove_all(dir);
 }
 
