@@ -217,7 +217,8 @@ def main():
                                     + ('' if len(per_metric[k]) == len(psnr) else
                                        f' ({len(per_metric[k])} of {len(psnr)} seeds)'))
             regions = ', '.join(region_texts)
-            md.append(f'| {name} ({row} - {base}) | {cell} | {budget} | {len(psnr)} | '
+            md.append(f'| {name} ({at_budget(row, row_budget)} - {at_budget(base, base_budget)}) | {cell} | '
+                      f'{budget} | {len(psnr)} | '
                       f'{mean:+.3f} +- {std_text(std, 3)} | {" / ".join(f"{d:+.3f}" for d in psnr)} | '
                       f'{reading(psnr)} | '
                       + (f'{ssim_m:+.4f} +- {std_text(ssim_s, 4)}' if ssim_m is not None else '') + ' | '
@@ -266,6 +267,11 @@ def parse_gain(spec):
         sys.exit(f'--gain {spec}: expected NAME=ROW-BASE or NAME=ROW@BUDGET-BASE@BUDGET')
     name, row, base = m.groups()
     return name, row, None, base, None
+
+
+def at_budget(row, budget):
+    """A gain's row as its table names it: ROW, or ROW@BUDGET when the gain pairs two budgets."""
+    return row if budget is None else f'{row}@{budget}'
 
 
 def gain_cells(cells, row_budget, base_budget):

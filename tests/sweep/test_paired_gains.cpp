@@ -117,7 +117,7 @@ TEST_CASE("paired_gains.py: paired gains, their readings and changes equal the v
   CHECK(has("| scs: p350 - p50, 2000 steps | 3 | +0.270 +- 0.010 | +0.260 / +0.270 / +0.280 | rises |"));
   CHECK(has("| scs: 10000 - 2000 steps, p50 | 2 | +0.150 +- 0.071 | +0.100 / +0.200 | rises |"));
   CHECK(has("Left out (1): full.p350.s4@2000 (failed)"));
-  CHECK(has("| long (full - inter_pose) | p50 | 10000 vs 2000 | 2 | +0.665 +- 0.078 | +0.610 / +0.720 | pays |"));
+  CHECK(has("| long (full@10000 - inter_pose@2000) | p50 | 10000 vs 2000 | 2 | +0.665 +- 0.078 | +0.610 / +0.720 | pays |"));
   // Row (c) at p50, 2,000 steps: 31.1 / 31.2 / 31.3 over seeds 1-3.
   CHECK(has("| inter_pose | p50 | 2000 | 3 | 31.200 +- 0.100 | 0.9600 +- 0.0000 | 0.0500 +- 0.0000 |"));
   // A gain with a budget on one side only is refused, naming the expected forms.
