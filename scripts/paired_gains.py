@@ -156,7 +156,8 @@ def poses_of(cell):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('sweeps', nargs='+')
-    parser.add_argument('--gain', action='append', required=True, help='NAME=ROW-BASE')
+    parser.add_argument('--gain', action='append', required=True,
+                        help='NAME=ROW-BASE, or NAME=ROW@BUDGET-BASE@BUDGET to pair two budgets')
     parser.add_argument('--out', required=True, help='output prefix (PREFIX.md, .csv, .png)')
     parser.add_argument('--gain-change', action='append', default=[],
                         help='NAME=GAIN-BASE_GAIN: one gain minus another, cell by cell')
@@ -174,6 +175,10 @@ def main():
         results.update(r)
         left_out += lo
     gains = [parse_gain(spec) for spec in args.gain]
+    names = [name for name, *_ in gains]
+    if len(set(names)) < len(names):
+        sys.exit(f'--gain: a name given twice ({", ".join(sorted({n for n in names if names.count(n) > 1}))}): '
+                 'each gain needs its own')
 
     cells = sorted({(cell, budget) for (_, cell, budget, _) in results},
                    key=lambda c: (c[1], poses_of(c[0]) or 0, c[0]))

@@ -127,6 +127,12 @@ TEST_CASE("paired_gains.py: paired gains, their readings and changes equal the v
   CHECK(std::system(half.c_str()) != 0);
   CHECK(handscs::read_file(dir + "/bad.log").find("expected NAME=ROW-BASE or NAME=ROW@BUDGET-BASE@BUDGET") !=
         std::string::npos);
+  // Two gains of one name would overwrite each other's figures: refused, naming it.
+  const std::string twice = "/usr/bin/python3 '" + handscs_test::kSource + "/scripts/paired_gains.py' '" + dir +
+                            "/tau08' --gain g=full-inter_pose --gain g=full@10000-inter_pose@2000 --out '" + dir +
+                            "/twice' > '" + dir + "/twice.log' 2>&1";
+  CHECK(std::system(twice.c_str()) != 0);
+  CHECK(handscs::read_file(dir + "/twice.log").find("a name given twice (g)") != std::string::npos);
   std::filesystem::remove_all(dir);
 }
 
