@@ -16,6 +16,7 @@
 #include "core/progress.h"
 #include "core/csv_table.h"
 #include "sweep/pareto.h"
+#include "sweep/run_resume.h"
 #include "sweep/subprocess.h"
 
 namespace handscs {
@@ -28,7 +29,7 @@ const std::vector<std::string> kResultColumns = {
     "point",     "budget",      "threads",  "settings",     "status",      "train_wall_s",
     "loop_s",    "ms_per_step", "peak_rss_mb", "gaussians", "skipped_steps", "rollbacks",
     "eval_images", "psnr",      "ssim",     "lpips",        "eval_wall_s", "render_fps",
-    "data_ms",   "forward_ms",  "losses_ms", "backward_ms", "optimizer_ms"};
+    "data_ms",   "forward_ms",  "losses_ms", "backward_ms", "optimizer_ms", "resumed_from_step"};
 // Step stages logged by the trainer (metrics.csv), reported as medians over the run's second half.
 const std::vector<std::string> kStageColumns = {"data_ms", "forward_ms", "losses_ms",
                                                 "backward_ms", "optimizer_ms"};
@@ -56,12 +57,22 @@ double number(const std::string& cell) {
   }
 }
 
+// A file written before this version's last columns existed (its header a prefix of `columns`) is
+// read with those columns empty, so a sweep resumes from a CSV of an earlier version.
 CsvTable load_or_start(const std::string& path, const std::vector<std::string>& columns) {
   if (!fs::exists(path)) return CsvTable{columns, {}};
   CsvTable table = read_csv(path);
-  if (table.header != columns)
+  const bool earlier = table.header.size() < columns.size() &&
+                       std::equal(table.header.begin(), table.header.end(), columns.begin());
+  if (table.header != columns && !earlier)
     throw Error(path + ": columns differ from this version's (" + join(columns, ",") +
                 "); move the file away to start a new sweep");
+  if (earlier) {
+    spdlog::info("{}: written before the column(s) {}; they are left empty in its rows", path,
+                 join(std::vector<std::string>(columns.begin() + table.header.size(), columns.end()), ","));
+    for (auto& row : table.rows) row.resize(columns.size());
+    table.header = columns;
+  }
   return table;
 }
 
@@ -106,8 +117,6 @@ std::vector<std::string> run_point(const SweepConfig& config, const SweepOptions
       options.threads > 0 ? options.threads : point.threads > 0 ? point.threads : config.threads;
   const std::string run = (fs::path(options.out_dir) / "runs" /
                            (point.name + "_" + std::to_string(budget))).string();
-  fs::remove_all(run);  // a run stopped half-way is started again, not resumed
-  ensure_directory(run);
   std::vector<std::string> train = {
       options.bin_dir + "/handscs-train", "--config", config.run_config, "--out", run,
       "--threads", std::to_string(threads), "--set", "data.root=" + capture,
@@ -128,8 +137,42 @@ std::vector<std::string> run_point(const SweepConfig& config, const SweepOptions
     return row;
   };
 
-  const ProcessResult trained = run_process(train, run + "/train.log");
-  cells["train_wall_s"] = fixed(trained.wall_seconds, 1);
+  // A run stopped half-way by the same command continues from its newest checkpoint
+  // (sweep/run_resume.h); anything else in the folder is replaced by a fresh start.
+  const std::string identity = sweep_run_identity(train, run);
+  auto start_afresh = [&] {
+    fs::remove_all(run);
+    ensure_directory(run);
+    record_sweep_run(run, identity);
+  };
+  bool resuming = sweep_run_resumable(run, identity);
+  if (!resuming) start_afresh();
+  ProcessResult trained;
+  if (resuming) {
+    spdlog::info("sweep {}@{}: {} was stopped half-way; continuing it from its newest checkpoint",
+                 point.name, budget, run);
+    std::error_code ec;
+    fs::rename(run + "/train.log", run + "/train.interrupted.log", ec);  // the stopped attempt's
+    fs::remove_all(run + "/eval", ec);  // a scoring that never finished
+    trained = run_process({train.front(), "--resume", "--out", run, "--threads", std::to_string(threads)},
+                          run + "/train.log");
+    if (trained.exit_code != 0) {
+      spdlog::warn("sweep {}@{}: the stopped run cannot be continued (handscs-train exited with {}: "
+                   "{}); training it afresh", point.name, budget, trained.exit_code,
+                   tail_of(run + "/train.log"));
+      resuming = false;
+      start_afresh();
+    }
+  }
+  if (!resuming) trained = run_process(train, run + "/train.log");
+  const long long resumed_from = resuming ? resumed_step_in_log(run + "/train.log") : -1;
+  // A continued run's wall time covers its last attempt only: left empty (loop_s, the trainer's own
+  // clock, which a checkpoint carries, counts every attempt's steps); its peak memory is the last
+  // attempt's.
+  if (resumed_from >= 0)
+    cells["resumed_from_step"] = std::to_string(resumed_from);
+  else
+    cells["train_wall_s"] = fixed(trained.wall_seconds, 1);
   cells["peak_rss_mb"] = fixed(trained.peak_rss_mb, 0);
   if (trained.exit_code != 0) {
     spdlog::error("sweep {}@{}: handscs-train exited with {}: {}", point.name, budget,

@@ -1,7 +1,8 @@
 // Runs a speed-accuracy sweep: for every (point, budget) it trains with handscs-train, scores the
 // held-out poses with handscs-eval, and records wall time, ms per step, peak memory, Gaussian count
 // and PSNR/SSIM/LPIPS as one CSV row; then times the rasterizer alone over N and threads, and draws
-// the charts. Rows already in the CSV are kept, so a stopped sweep resumes where it stopped.
+// the charts. Rows already in the CSV are kept, so a stopped sweep resumes where it stopped, and a
+// run stopped half-way continues from its newest checkpoint (sweep/run_resume.h).
 #pragma once
 
 #include <string>

@@ -16,13 +16,19 @@ namespace fs = std::filesystem;
 using handscs_test::kBin;
 using handscs_test::kSource;
 
-TEST_CASE("sweep run: --threads reaches the runs, a failed run is kept and the exit status is 3") {
-  const std::string dir = handscs_test::scratch_path("handscs_test_sweep_run", "case");
+// An empty folder `dir` holding a fresh tiny synthetic capture, dir/capture (returned).
+std::string fresh_tiny_capture(const std::string& dir) {
   fs::remove_all(dir);
   fs::create_directories(dir);
   const std::string capture = dir + "/capture";
   REQUIRE(std::system((kBin + "/handscs-synth --preset tiny --threads 1 --log-level warn --out " +
                        capture + " > " + dir + "/synth.log 2>&1").c_str()) == 0);
+  return capture;
+}
+
+TEST_CASE("sweep run: --threads reaches the runs, a failed run is kept and the exit status is 3") {
+  const std::string dir = handscs_test::scratch_path("handscs_test_sweep_run", "case");
+  const std::string capture = fresh_tiny_capture(dir);
   const std::string sweep = handscs_test::scratch_file("handscs_test_sweep_run", "sweep.json", R"({
     "run_config": ")" + kSource + R"(/configs/tiny.json", "budgets": [10], "eval_images": 2,
     "threads": 2,
@@ -76,4 +82,91 @@ TEST_CASE("sweep run: a missing run config or capture is named before any run tr
   CHECK(handscs::read_file(dir + "/bench.log").find("/nonexistent/capture: --capture is not a folder") !=
         std::string::npos);
   CHECK_FALSE(fs::exists(dir + "/out/results.csv"));
+}
+
+// The state a sweep stopped half-way leaves is made without a race: a finished run's folder is
+// copied into a new sweep folder with its last checkpoint taken away, as if the machine had gone
+// after the step-10 checkpoint (the trainer drops the log rows past the checkpoint it resumes from).
+TEST_CASE("sweep run: a run stopped half-way continues from its checkpoint and scores as if never stopped") {
+  const std::string dir = handscs_test::scratch_path("handscs_test_sweep_run", "resume");
+  const std::string capture = fresh_tiny_capture(dir);
+  const std::string sweep = handscs_test::scratch_file("handscs_test_sweep_run", "resume.json", R"({
+    "run_config": ")" + kSource + R"(/configs/tiny.json", "budgets": [20], "eval_images": 2,
+    "threads": 1,
+    "points": [{"name": "p", "set": ["train.log_every=5", "train.checkpoint_every=10"]}]})");
+  const auto bench = [&](const std::string& out) {
+    const int status = std::system((kBin + "/handscs-bench --sweep " + sweep + " --out " + out +
+                                    " --capture " + capture + " --keep-runs > " + out + ".log 2>&1").c_str());
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  const std::string straight = dir + "/straight";
+  REQUIRE(bench(straight) == 0);
+  const handscs::CsvTable done = handscs::read_csv(straight + "/results.csv");
+  REQUIRE(done.rows.size() == 1);
+  REQUIRE(done.at(0, "status") == "ok");
+  CHECK_FALSE(done.at(0, "train_wall_s").empty());
+  CHECK(done.at(0, "resumed_from_step").empty());
+
+  const auto stopped_copy = [&](const std::string& out) {
+    fs::create_directories(out + "/runs");
+    fs::copy(straight + "/runs/p_20", out + "/runs/p_20", fs::copy_options::recursive);
+    REQUIRE(fs::remove(out + "/runs/p_20/checkpoints/step_00000020.ckpt"));
+    REQUIRE(fs::exists(out + "/runs/p_20/checkpoints/step_00000010.ckpt"));
+    return out + "/runs/p_20";
+  };
+
+  SECTION("the same command continues from step 10 to the same scores") {
+    const std::string out = dir + "/continued";
+    const std::string run = stopped_copy(out);
+    REQUIRE(bench(out) == 0);
+    const handscs::CsvTable resumed = handscs::read_csv(out + "/results.csv");
+    REQUIRE(resumed.rows.size() == 1);
+    CHECK(resumed.at(0, "status") == "ok");
+    CHECK(resumed.at(0, "resumed_from_step") == "10");
+    CHECK(resumed.at(0, "train_wall_s").empty());  // the last attempt's would understate it
+    CHECK_FALSE(resumed.at(0, "peak_rss_mb").empty());
+    for (const char* column : {"psnr", "ssim", "lpips", "gaussians", "eval_images"}) {
+      INFO(column);
+      CHECK(resumed.at(0, column) == done.at(0, column));  // resuming is exact
+    }
+    CHECK(fs::exists(run + "/train.interrupted.log"));
+    CHECK(handscs::read_file(out + ".log").find("was stopped half-way; continuing it") != std::string::npos);
+  }
+  SECTION("a folder started by another command is trained afresh") {
+    const std::string out = dir + "/other";
+    const std::string run = stopped_copy(out);
+    std::string identity = handscs::read_file(run + "/sweep_run.json");
+    const auto at = identity.find("train.checkpoint_every=10");
+    REQUIRE(at != std::string::npos);
+    identity.replace(at, std::string("train.checkpoint_every=10").size(), "train.checkpoint_every=5");
+    handscs::write_file_atomic(run + "/sweep_run.json", identity);
+    REQUIRE(bench(out) == 0);
+    const handscs::CsvTable fresh = handscs::read_csv(out + "/results.csv");
+    REQUIRE(fresh.rows.size() == 1);
+    CHECK(fresh.at(0, "status") == "ok");
+    CHECK(fresh.at(0, "resumed_from_step").empty());
+    CHECK_FALSE(fresh.at(0, "train_wall_s").empty());
+    CHECK_FALSE(fs::exists(run + "/train.interrupted.log"));
+    CHECK(handscs::read_file(run + "/sweep_run.json") == handscs::read_file(straight + "/runs/p_20/sweep_run.json"));
+  }
+  SECTION("a results.csv written before resumed_from_step existed is read, and gains the column") {
+    const std::string out = dir + "/earlier";
+    fs::create_directories(out);
+    handscs::CsvTable earlier = done;
+    const auto column = static_cast<size_t>(earlier.column("resumed_from_step"));
+    REQUIRE(column == earlier.header.size() - 1);
+    earlier.header.pop_back();
+    for (auto& row : earlier.rows) row.pop_back();
+    earlier.rows[0][0] = "older";  // a finished run of an earlier version, not in this sweep
+    handscs::write_csv_atomic(out + "/results.csv", earlier);
+    REQUIRE(bench(out) == 0);  // p trains and its row is added
+    const handscs::CsvTable read = handscs::read_csv(out + "/results.csv");
+    CHECK(read.header == done.header);
+    REQUIRE(read.rows.size() == 2);
+    auto older = earlier.rows[0];
+    older.push_back("");
+    CHECK(read.rows[0] == older);
+    CHECK(read.at(1, "point") == "p");
+    CHECK(read.at(1, "psnr") == done.at(0, "psnr"));
+  }
 }
