@@ -156,7 +156,8 @@ std::vector<std::string> run_point(const SweepConfig& config, const SweepOptions
     fs::remove_all(run + "/eval", ec);  // a scoring that never finished
     trained = run_process({train.front(), "--resume", "--out", run, "--threads", std::to_string(threads)},
                           run + "/train.log");
-    if (trained.exit_code != 0) {
+    // An error (not a signal: Ctrl-C again is a stop, reported below) means it cannot continue.
+    if (trained.exit_code != 0 && trained.exit_code < 128) {
       spdlog::warn("sweep {}@{}: the stopped run cannot be continued (handscs-train exited with {}: "
                    "{}); training it afresh", point.name, budget, trained.exit_code,
                    tail_of(run + "/train.log"));

@@ -149,6 +149,19 @@ TEST_CASE("sweep run: a run stopped half-way continues from its checkpoint and s
     CHECK_FALSE(fs::exists(run + "/train.interrupted.log"));
     CHECK(handscs::read_file(run + "/sweep_run.json") == handscs::read_file(straight + "/runs/p_20/sweep_run.json"));
   }
+  SECTION("a stopped run whose checkpoint cannot be loaded is trained afresh") {
+    const std::string out = dir + "/damaged";
+    const std::string run = stopped_copy(out);
+    fs::resize_file(run + "/checkpoints/step_00000010.ckpt", 100);  // torn
+    REQUIRE(bench(out) == 0);
+    const handscs::CsvTable fresh = handscs::read_csv(out + "/results.csv");
+    REQUIRE(fresh.rows.size() == 1);
+    CHECK(fresh.at(0, "status") == "ok");
+    CHECK(fresh.at(0, "resumed_from_step").empty());
+    CHECK_FALSE(fresh.at(0, "train_wall_s").empty());
+    CHECK(fresh.at(0, "psnr") == done.at(0, "psnr"));
+    CHECK(handscs::read_file(out + ".log").find("the stopped run cannot be continued") != std::string::npos);
+  }
   SECTION("a results.csv written before resumed_from_step existed is read, and gains the column") {
     const std::string out = dir + "/earlier";
     fs::create_directories(out);
