@@ -115,6 +115,17 @@ TEST_CASE("sweep run: a run stopped half-way continues from its checkpoint and s
     return out + "/runs/p_20";
   };
 
+  // The sweep into `out` trains its one run from step 0, to the scores of the straight run.
+  const auto trained_afresh = [&](const std::string& out) {
+    REQUIRE(bench(out) == 0);
+    const handscs::CsvTable fresh = handscs::read_csv(out + "/results.csv");
+    REQUIRE(fresh.rows.size() == 1);
+    CHECK(fresh.at(0, "status") == "ok");
+    CHECK(fresh.at(0, "resumed_from_step").empty());
+    CHECK_FALSE(fresh.at(0, "train_wall_s").empty());
+    CHECK(fresh.at(0, "psnr") == done.at(0, "psnr"));
+  };
+
   SECTION("the same command continues from step 10 to the same scores") {
     const std::string out = dir + "/continued";
     const std::string run = stopped_copy(out);
@@ -140,12 +151,7 @@ TEST_CASE("sweep run: a run stopped half-way continues from its checkpoint and s
     REQUIRE(at != std::string::npos);
     identity.replace(at, std::string("train.checkpoint_every=10").size(), "train.checkpoint_every=5");
     handscs::write_file_atomic(run + "/sweep_run.json", identity);
-    REQUIRE(bench(out) == 0);
-    const handscs::CsvTable fresh = handscs::read_csv(out + "/results.csv");
-    REQUIRE(fresh.rows.size() == 1);
-    CHECK(fresh.at(0, "status") == "ok");
-    CHECK(fresh.at(0, "resumed_from_step").empty());
-    CHECK_FALSE(fresh.at(0, "train_wall_s").empty());
+    trained_afresh(out);
     CHECK_FALSE(fs::exists(run + "/train.interrupted.log"));
     CHECK(handscs::read_file(run + "/sweep_run.json") == handscs::read_file(straight + "/runs/p_20/sweep_run.json"));
   }
@@ -153,13 +159,7 @@ TEST_CASE("sweep run: a run stopped half-way continues from its checkpoint and s
     const std::string out = dir + "/damaged";
     const std::string run = stopped_copy(out);
     fs::resize_file(run + "/checkpoints/step_00000010.ckpt", 100);  // torn
-    REQUIRE(bench(out) == 0);
-    const handscs::CsvTable fresh = handscs::read_csv(out + "/results.csv");
-    REQUIRE(fresh.rows.size() == 1);
-    CHECK(fresh.at(0, "status") == "ok");
-    CHECK(fresh.at(0, "resumed_from_step").empty());
-    CHECK_FALSE(fresh.at(0, "train_wall_s").empty());
-    CHECK(fresh.at(0, "psnr") == done.at(0, "psnr"));
+    trained_afresh(out);
     CHECK(handscs::read_file(out + ".log").find("the stopped run cannot be continued") != std::string::npos);
   }
   SECTION("a results.csv written before resumed_from_step existed is read, and gains the column") {
