@@ -8,6 +8,7 @@
 #include <regex>
 
 #include "core/atomic_file.h"
+#include "core/config.h"
 
 namespace handscs {
 
@@ -15,27 +16,47 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const char kIdentityFile[] = "/sweep_run.json";
+std::string identity_path(const std::string& run_dir) {
+  return (fs::path(run_dir) / "sweep_run.json").string();
+}
+
+// The first line of the log that matches `pattern`, with its groups; false when none does.
+bool search_log(const std::string& train_log, const std::regex& pattern, std::smatch& match,
+                std::string& line) {
+  std::ifstream in(train_log);
+  while (std::getline(in, line))
+    if (std::regex_search(line, match, pattern)) return true;
+  return false;
+}
 
 }  // namespace
 
-std::string sweep_run_identity(const std::vector<std::string>& train_argv, const std::string& run_dir) {
+std::string sweep_run_identity(const std::vector<std::string>& train_argv, const std::string& run_dir,
+                               const std::string& run_config) {
   nlohmann::json command = nlohmann::json::array();
   for (const auto& arg : train_argv) command.push_back(arg == run_dir ? std::string("RUN") : arg);
+  nlohmann::json config;
+  try {
+    config = load_json_file(run_config);
+  } catch (const std::exception& e) {
+    config = std::string("unreadable: ") + e.what();  // the training attempt reports it
+  }
   nlohmann::json binary = nullptr;
   struct stat info {};
   if (!train_argv.empty() && ::stat(train_argv.front().c_str(), &info) == 0)
     binary = {{"bytes", static_cast<long long>(info.st_size)},
               {"modified_ns", static_cast<long long>(info.st_mtim.tv_sec) * 1000000000LL +
                                   info.st_mtim.tv_nsec}};
-  return nlohmann::json{{"train_command", command}, {"train_binary", binary}}.dump(1) + "\n";
+  return nlohmann::json{{"train_command", command}, {"run_config", config}, {"train_binary", binary}}
+             .dump(1) +
+         "\n";
 }
 
 bool sweep_run_resumable(const std::string& run_dir, const std::string& identity) {
   std::error_code ec;
-  if (!fs::is_regular_file(run_dir + kIdentityFile, ec)) return false;
+  if (!fs::is_regular_file(identity_path(run_dir), ec)) return false;
   try {
-    if (read_file(run_dir + kIdentityFile) != identity) return false;
+    if (read_file(identity_path(run_dir)) != identity) return false;
   } catch (const std::exception&) {
     return false;  // unreadable: the run is started afresh, as one without the file
   }
@@ -49,17 +70,33 @@ bool sweep_run_resumable(const std::string& run_dir, const std::string& identity
 }
 
 void record_sweep_run(const std::string& run_dir, const std::string& identity) {
-  write_file_atomic(run_dir + kIdentityFile, identity);
+  write_file_atomic(identity_path(run_dir), identity);
+}
+
+void keep_interrupted_log(const std::string& run_dir) {
+  const fs::path log = fs::path(run_dir) / "train.log";
+  std::error_code ec;
+  if (!fs::exists(log, ec)) return;
+  for (int n = 1;; ++n) {
+    const fs::path kept = fs::path(run_dir) / ("train.interrupted." + std::to_string(n) + ".log");
+    if (fs::exists(kept, ec)) continue;
+    fs::rename(log, kept, ec);
+    return;
+  }
 }
 
 long long resumed_step_in_log(const std::string& train_log) {
-  std::ifstream in(train_log);
-  const std::regex resumed("resumed from .* at step ([0-9]+)");
-  std::string line;
   std::smatch match;
-  while (std::getline(in, line))
-    if (std::regex_search(line, match, resumed)) return std::stoll(match[1].str());
-  return -1;
+  std::string line;
+  return search_log(train_log, std::regex("resumed from .* at step ([0-9]+)"), match, line)
+             ? std::stoll(match[1].str())
+             : -1;
+}
+
+bool checkpoints_refused_in_log(const std::string& train_log) {
+  std::smatch match;
+  std::string line;
+  return search_log(train_log, std::regex("be resumed; nothing was changed"), match, line);
 }
 
 }  // namespace handscs

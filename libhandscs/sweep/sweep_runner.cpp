@@ -16,6 +16,7 @@
 #include "core/progress.h"
 #include "core/csv_table.h"
 #include "sweep/pareto.h"
+#include "sweep/results_table.h"
 #include "sweep/run_resume.h"
 #include "sweep/subprocess.h"
 
@@ -25,11 +26,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::vector<std::string> kResultColumns = {
-    "point",     "budget",      "threads",  "settings",     "status",      "train_wall_s",
-    "loop_s",    "ms_per_step", "peak_rss_mb", "gaussians", "skipped_steps", "rollbacks",
-    "eval_images", "psnr",      "ssim",     "lpips",        "eval_wall_s", "render_fps",
-    "data_ms",   "forward_ms",  "losses_ms", "backward_ms", "optimizer_ms", "resumed_from_step"};
 // Step stages logged by the trainer (metrics.csv), reported as medians over the run's second half.
 const std::vector<std::string> kStageColumns = {"data_ms", "forward_ms", "losses_ms",
                                                 "backward_ms", "optimizer_ms"};
@@ -57,22 +53,12 @@ double number(const std::string& cell) {
   }
 }
 
-// A file written before this version's last columns existed (its header a prefix of `columns`) is
-// read with those columns empty, so a sweep resumes from a CSV of an earlier version.
 CsvTable load_or_start(const std::string& path, const std::vector<std::string>& columns) {
   if (!fs::exists(path)) return CsvTable{columns, {}};
   CsvTable table = read_csv(path);
-  const bool earlier = table.header.size() < columns.size() &&
-                       std::equal(table.header.begin(), table.header.end(), columns.begin());
-  if (table.header != columns && !earlier)
+  if (table.header != columns)
     throw Error(path + ": columns differ from this version's (" + join(columns, ",") +
                 "); move the file away to start a new sweep");
-  if (earlier) {
-    spdlog::info("{}: written before the column(s) {}; they are left empty in its rows", path,
-                 join(std::vector<std::string>(columns.begin() + table.header.size(), columns.end()), ","));
-    for (auto& row : table.rows) row.resize(columns.size());
-    table.header = columns;
-  }
   return table;
 }
 
@@ -133,48 +119,47 @@ std::vector<std::string> run_point(const SweepConfig& config, const SweepOptions
   auto finish = [&](const std::string& status) {
     cells["status"] = status;
     std::vector<std::string> row;
-    for (const auto& c : kResultColumns) row.push_back(cells.count(c) ? cells[c] : "");
+    for (const auto& c : result_columns()) row.push_back(cells.count(c) ? cells[c] : "");
     return row;
   };
 
   // A run stopped half-way by the same command continues from its newest checkpoint
   // (sweep/run_resume.h); anything else in the folder is replaced by a fresh start.
-  const std::string identity = sweep_run_identity(train, run);
+  const std::string identity = sweep_run_identity(train, run, config.run_config);
   auto start_afresh = [&] {
     fs::remove_all(run);
     ensure_directory(run);
     record_sweep_run(run, identity);
   };
   bool resuming = sweep_run_resumable(run, identity);
-  if (!resuming) start_afresh();
   ProcessResult trained;
   if (resuming) {
     spdlog::info("sweep {}@{}: {} was stopped half-way; continuing it from its newest checkpoint",
                  point.name, budget, run);
+    keep_interrupted_log(run);
     std::error_code ec;
-    fs::rename(run + "/train.log", run + "/train.interrupted.log", ec);  // the stopped attempt's
     fs::remove_all(run + "/eval", ec);  // a scoring that never finished
     trained = run_process({train.front(), "--resume", "--out", run, "--threads", std::to_string(threads)},
                           run + "/train.log");
-    // An error (not a signal: Ctrl-C again is a stop, reported below) means it cannot continue.
-    if (trained.exit_code != 0 && trained.exit_code < 128) {
-      spdlog::warn("sweep {}@{}: the stopped run cannot be continued (handscs-train exited with {}: "
-                   "{}); training it afresh", point.name, budget, trained.exit_code,
-                   tail_of(run + "/train.log"));
+    if (trained.exit_code != 0 && checkpoints_refused_in_log(run + "/train.log")) {
+      spdlog::warn("sweep {}@{}: none of the stopped run's checkpoints loads ({}); training it afresh",
+                   point.name, budget, tail_of(run + "/train.log"));
       resuming = false;
-      start_afresh();
     }
   }
-  if (!resuming) trained = run_process(train, run + "/train.log");
+  if (!resuming) {
+    start_afresh();
+    trained = run_process(train, run + "/train.log");
+  }
   const long long resumed_from = resuming ? resumed_step_in_log(run + "/train.log") : -1;
-  // A continued run's wall time covers its last attempt only: left empty (loop_s, the trainer's own
-  // clock, which a checkpoint carries, counts every attempt's steps); its peak memory is the last
-  // attempt's.
-  if (resumed_from >= 0)
+  // A continued run leaves wall time and peak memory empty (sweep/run_resume.h); loop_s, the
+  // trainer's own clock, which its checkpoints carry, counts the steps of every attempt.
+  if (resumed_from >= 0) {
     cells["resumed_from_step"] = std::to_string(resumed_from);
-  else
+  } else {
     cells["train_wall_s"] = fixed(trained.wall_seconds, 1);
-  cells["peak_rss_mb"] = fixed(trained.peak_rss_mb, 0);
+    cells["peak_rss_mb"] = fixed(trained.peak_rss_mb, 0);
+  }
   if (trained.exit_code != 0) {
     spdlog::error("sweep {}@{}: handscs-train exited with {}: {}", point.name, budget,
                   trained.exit_code, tail_of(run + "/train.log"));
@@ -282,7 +267,8 @@ SweepOutcome run_sweep(const SweepConfig& config, const SweepOptions& options) {
   }
 
   const std::string results_path = options.out_dir + "/results.csv";
-  CsvTable results = load_or_start(results_path, kResultColumns);
+  CsvTable results =
+      fs::exists(results_path) ? read_results(results_path) : CsvTable{result_columns(), {}};
   const auto runs = shard_runs(sweep_runs(config, options.only_points), options.shard);
   if (options.shard.count > 1)
     spdlog::info("sweep: shard {} of {} (counted from 0): {} of the sweep's runs", options.shard.index,
@@ -333,7 +319,12 @@ void draw_sweep_plots(const std::string& out_dir) {
   std::ostringstream md;
   CsvTable pareto{{"metric", "point", "budget"}, {}};
   if (fs::exists(results_path)) {
-    const CsvTable results = read_csv(results_path);
+    const CsvTable results = read_csv(results_path);  // any table with the columns read below
+    // A continued run's start step; "" for other runs and for tables without the column.
+    const int resumed_column = results.column("resumed_from_step");
+    auto resumed_from = [&](size_t r) -> std::string {
+      return resumed_column < 0 ? std::string() : results.rows[r][resumed_column];
+    };
     std::map<size_t, std::string> fronts;  // result row -> the fronts it is on, e.g. "PSNR, LPIPS"
     for (const auto& [metric, maximize] :
          std::vector<std::pair<std::string, bool>>{{"psnr", true}, {"lpips", false}}) {
@@ -356,7 +347,10 @@ void draw_sweep_plots(const std::string& out_dir) {
           "LPIPS | Pareto front | settings |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (size_t r = 0; r < results.rows.size(); ++r) {
       md << "| " << results.at(r, "point") << " | " << results.at(r, "budget") << " | "
-         << results.at(r, "threads") << " | " << results.at(r, "train_wall_s") << " | "
+         << results.at(r, "threads") << " | "
+         << (resumed_from(r).empty() ? results.at(r, "train_wall_s")
+                                     : "continued from step " + resumed_from(r))
+         << " | "
          << results.at(r, "ms_per_step") << " | " << results.at(r, "peak_rss_mb") << " | "
          << results.at(r, "gaussians") << " | " << results.at(r, "skipped_steps") << " | "
          << results.at(r, "psnr") << " | " << results.at(r, "ssim") << " | "
@@ -365,6 +359,12 @@ void draw_sweep_plots(const std::string& out_dir) {
                                              : results.at(r, "status"))
          << " |\n";
     }
+    for (size_t r = 0; r < results.rows.size(); ++r)
+      if (!resumed_from(r).empty()) {
+        md << "\nA run continued after a stop has no wall time or peak memory: it is left out of "
+              "the Pareto fronts and the time charts (delete its folder and rerun it for them).\n";
+        break;
+      }
   }
   const std::string raster_path = out_dir + "/raster.csv";
   if (fs::exists(raster_path)) {

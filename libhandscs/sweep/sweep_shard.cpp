@@ -10,6 +10,7 @@
 #include "core/error.h"
 #include "core/text.h"
 #include "core/csv_table.h"
+#include "sweep/results_table.h"
 #include "sweep/sweep_runner.h"
 
 namespace handscs {
@@ -100,11 +101,8 @@ void merge_sweep_shards(const std::string& out_dir, const std::vector<std::strin
   for (const auto& dir : shard_dirs) {
     const std::string path = dir + "/results.csv";
     if (!fs::exists(path)) throw Error(path + ": not found (is " + dir + " a shard's --out folder?)");
-    const CsvTable table = read_csv(path);
-    if (merged.header.empty()) merged.header = table.header;
-    if (table.header != merged.header)
-      throw Error(path + ": its columns differ from " + shard_dirs.front() +
-                  "/results.csv's (shards of different versions?)");
+    const CsvTable table = read_results(path);
+    merged.header = table.header;  // read_results gives every shard this version's columns
     for (size_t r = 0; r < table.rows.size(); ++r) {
       const auto key = std::make_pair(table.at(r, "point"), table.at(r, "budget"));
       const bool ok = table.at(r, "status") == "ok";

@@ -22,7 +22,8 @@ namespace {
 
 using handscs_test::kSource;
 using handscs_test::ScopedEnv;
-// The columns of results.csv as handscs-bench writes them (sweep_runner.cpp).
+// The columns of results.csv as the version before resumed_from_step wrote them
+// (sweep/results_table.cpp; the shards below are of that version unless they say otherwise).
 const std::string kHeader =
     "point,budget,threads,settings,status,train_wall_s,loop_s,ms_per_step,peak_rss_mb,gaussians,"
     "skipped_steps,rollbacks,eval_images,psnr,ssim,lpips,eval_wall_s,render_fps,data_ms,forward_ms,"
@@ -127,6 +128,22 @@ TEST_CASE("sweep shard: merging gives one row per run, finished rows over failed
   CHECK(handscs::read_csv(a + "/results.csv").rows.size() == 3);
 }
 
+TEST_CASE("sweep shard: a shard of the version before resumed_from_step merges with one of today's") {
+  const std::string a = shard_dir("before", {row("p.s0", "ok", "30.1")});
+  const std::string b = shard_dir("today", {row("q.s0", "ok", "29.5") + ",2000"},
+                                  kHeader + ",resumed_from_step");
+  const std::string out = handscs_test::scratch_path("handscs_test_shard", "versions");
+  fs::remove_all(out);
+  handscs::merge_sweep_shards(out, {a, b});
+  const auto merged = handscs::read_csv(out + "/results.csv");
+  CHECK(merged.header.back() == "resumed_from_step");
+  REQUIRE(merged.rows.size() == 2);
+  CHECK(merged.at(0, "point") == "p.s0");
+  CHECK(merged.at(0, "resumed_from_step").empty());
+  CHECK(merged.at(1, "resumed_from_step") == "2000");
+  CHECK(merged.at(1, "psnr") == "29.5");
+}
+
 TEST_CASE("sweep shard: duplicate finished runs and other columns are refused") {
   const std::string a = shard_dir("dup_a", {row("p.s0", "ok", "30.1")});
   const std::string b = shard_dir("dup_b", {row("p.s0", "ok", "30.2")});
@@ -137,8 +154,8 @@ TEST_CASE("sweep shard: duplicate finished runs and other columns are refused") 
             "were two shards given the same --shard?");
   const std::string other = shard_dir("dup_other", {"p.s0,400"}, "point,budget");
   CHECK(error_of([&] { handscs::merge_sweep_shards(out, {a, other}); }) ==
-        other + "/results.csv: its columns differ from " + a +
-            "/results.csv's (shards of different versions?)");
+        other + "/results.csv: not a results.csv of this version or the one before; its columns "
+                "differ from " + kHeader + ",resumed_from_step");
   CHECK(error_of([&] { handscs::merge_sweep_shards(out, {a, out + "_missing"}); }) ==
         out + "_missing/results.csv: not found (is " + out + "_missing a shard's --out folder?)");
   CHECK_FALSE(fs::exists(out + "/results.csv"));
