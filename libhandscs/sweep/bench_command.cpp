@@ -22,9 +22,10 @@ int bench_command(int argc, char** argv) {
       "writes OUT/results.csv, OUT/raster.csv, OUT/summary.md and OUT/*.png. Rerunning with the\n"
       "same OUT resumes: finished rows are kept, and a run stopped half-way continues from its\n"
       "newest checkpoint if the same command, run config and handscs-train binary began it (its\n"
-      "row: resumed_from_step, no wall time or peak memory). On several machines: --shard i/n (or a Slurm job array) on each, then --merge\n"
-      "DIR1,DIR2,... --out OUT (docs/BENCHMARKS.md, \"Sweeps on a cluster\"). Exits with 3 when\n"
-      "a run failed (its row says why; the others are kept)."};
+      "row: resumed_from_step, no wall time or peak memory). On several machines: --shard i/n\n"
+      "(or a Slurm job array) on each, then --merge DIR1,DIR2,... --out OUT (docs/BENCHMARKS.md,\n"
+      "\"Sweeps on a cluster\"). Exits with 3 when a run failed (its row says why; the others are\n"
+      "kept)."};
   std::string sweep_path;
   SweepOptions options;
   CommonOptions common;

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <regex>
 
 #include "core/atomic_file.h"
@@ -20,13 +21,14 @@ std::string identity_path(const std::string& run_dir) {
   return (fs::path(run_dir) / "sweep_run.json").string();
 }
 
-// The first line of the log that matches `pattern`, with its groups; false when none does.
-bool search_log(const std::string& train_log, const std::regex& pattern, std::smatch& match,
-                std::string& line) {
+// Of the first line of the log that matches `pattern`: its first group (the whole match when the
+// pattern has none); nothing when no line matches.
+std::optional<std::string> first_match(const std::string& train_log, const std::regex& pattern) {
   std::ifstream in(train_log);
-  while (std::getline(in, line))
-    if (std::regex_search(line, match, pattern)) return true;
-  return false;
+  std::smatch match;
+  for (std::string line; std::getline(in, line);)
+    if (std::regex_search(line, match, pattern)) return match[match.size() > 1 ? 1 : 0].str();
+  return std::nullopt;
 }
 
 }  // namespace
@@ -53,13 +55,12 @@ std::string sweep_run_identity(const std::vector<std::string>& train_argv, const
 }
 
 bool sweep_run_resumable(const std::string& run_dir, const std::string& identity) {
-  std::error_code ec;
-  if (!fs::is_regular_file(identity_path(run_dir), ec)) return false;
   try {
     if (read_file(identity_path(run_dir)) != identity) return false;
   } catch (const std::exception&) {
-    return false;  // unreadable: the run is started afresh, as one without the file
+    return false;  // missing or unreadable: the run is started afresh
   }
+  std::error_code ec;
   const fs::path checkpoints = fs::path(run_dir) / "checkpoints";
   if (!fs::is_directory(checkpoints, ec)) return false;
   for (const auto& entry : fs::directory_iterator(checkpoints, ec)) {
@@ -86,17 +87,12 @@ void keep_interrupted_log(const std::string& run_dir) {
 }
 
 long long resumed_step_in_log(const std::string& train_log) {
-  std::smatch match;
-  std::string line;
-  return search_log(train_log, std::regex("resumed from .* at step ([0-9]+)"), match, line)
-             ? std::stoll(match[1].str())
-             : -1;
+  const auto step = first_match(train_log, std::regex("resumed from .* at step ([0-9]+)"));
+  return step ? std::stoll(*step) : -1;
 }
 
 bool checkpoints_refused_in_log(const std::string& train_log) {
-  std::smatch match;
-  std::string line;
-  return search_log(train_log, std::regex("be resumed; nothing was changed"), match, line);
+  return first_match(train_log, std::regex("be resumed; nothing was changed")).has_value();
 }
 
 }  // namespace handscs

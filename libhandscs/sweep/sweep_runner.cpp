@@ -126,11 +126,6 @@ std::vector<std::string> run_point(const SweepConfig& config, const SweepOptions
   // A run stopped half-way by the same command continues from its newest checkpoint
   // (sweep/run_resume.h); anything else in the folder is replaced by a fresh start.
   const std::string identity = sweep_run_identity(train, run, config.run_config);
-  auto start_afresh = [&] {
-    fs::remove_all(run);
-    ensure_directory(run);
-    record_sweep_run(run, identity);
-  };
   bool resuming = sweep_run_resumable(run, identity);
   ProcessResult trained;
   if (resuming) {
@@ -148,7 +143,9 @@ std::vector<std::string> run_point(const SweepConfig& config, const SweepOptions
     }
   }
   if (!resuming) {
-    start_afresh();
+    fs::remove_all(run);
+    ensure_directory(run);
+    record_sweep_run(run, identity);
     trained = run_process(train, run + "/train.log");
   }
   const long long resumed_from = resuming ? resumed_step_in_log(run + "/train.log") : -1;
@@ -345,7 +342,9 @@ void draw_sweep_plots(const std::string& out_dir) {
     }
     md << "| point | budget | threads | wall s | ms/step | peak MB | N | skipped | PSNR | SSIM | "
           "LPIPS | Pareto front | settings |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    bool any_continued = false;
     for (size_t r = 0; r < results.rows.size(); ++r) {
+      any_continued |= !resumed_from(r).empty();
       md << "| " << results.at(r, "point") << " | " << results.at(r, "budget") << " | "
          << results.at(r, "threads") << " | "
          << (resumed_from(r).empty() ? results.at(r, "train_wall_s")
@@ -359,12 +358,9 @@ void draw_sweep_plots(const std::string& out_dir) {
                                              : results.at(r, "status"))
          << " |\n";
     }
-    for (size_t r = 0; r < results.rows.size(); ++r)
-      if (!resumed_from(r).empty()) {
-        md << "\nA run continued after a stop has no wall time or peak memory: it is left out of "
-              "the Pareto fronts and the time charts (delete its folder and rerun it for them).\n";
-        break;
-      }
+    if (any_continued)
+      md << "\nA run continued after a stop has no wall time or peak memory: it is left out of "
+            "the Pareto fronts and the time charts (delete its folder and rerun it for them).\n";
   }
   const std::string raster_path = out_dir + "/raster.csv";
   if (fs::exists(raster_path)) {

@@ -94,15 +94,14 @@ void merge_sweep_shards(const std::string& out_dir, const std::vector<std::strin
                 "folder (nothing is overwritten or mixed without being asked)");
 
   // results.csv: one row per (point, budget); "ok" wins over a failed attempt.
-  CsvTable merged;
+  CsvTable merged{result_columns(), {}};
   std::map<std::pair<std::string, std::string>, std::pair<size_t, std::string>> seen;  // -> row, file
   CsvTable raster;
   std::map<std::pair<std::string, std::string>, bool> raster_seen;
   for (const auto& dir : shard_dirs) {
     const std::string path = dir + "/results.csv";
     if (!fs::exists(path)) throw Error(path + ": not found (is " + dir + " a shard's --out folder?)");
-    const CsvTable table = read_results(path);
-    merged.header = table.header;  // read_results gives every shard this version's columns
+    const CsvTable table = read_results(path);  // in this version's columns, whatever wrote it
     for (size_t r = 0; r < table.rows.size(); ++r) {
       const auto key = std::make_pair(table.at(r, "point"), table.at(r, "budget"));
       const bool ok = table.at(r, "status") == "ok";
