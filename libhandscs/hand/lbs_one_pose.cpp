@@ -6,33 +6,14 @@
 
 #include <ATen/Parallel.h>
 
+#include "hand/so3.h"
+
 
 namespace handscs {
 
 namespace {
 
-using Mat3 = std::array<double, 9>;   // row-major
 using Mat4 = std::array<double, 16>;  // row-major
-
-// Rotation of an axis-angle vector: R = I + a K + b K^2, K = [v]_x, a = sin t / t, b = (1 - cos t) /
-// t^2, with the Taylor series below t^2 = 1e-4 (lbs.cpp's rodrigues in double, same formulas).
-Mat3 rodrigues_one(const double* v) {
-  const double x = v[0], y = v[1], z = v[2];
-  const double t2 = x * x + y * y + z * z;
-  double a, b;
-  if (t2 < 1e-4) {
-    a = 1.0 - t2 / 6.0 + t2 * t2 / 120.0;
-    b = 0.5 - t2 / 24.0 + t2 * t2 / 720.0;
-  } else {
-    const double t = std::sqrt(t2), half = 0.5 * t;
-    const double sinc_half = std::sin(half) / half;
-    a = std::sin(t) / t;
-    b = 0.5 * sinc_half * sinc_half;
-  }
-  return {1.0 + b * (x * x - t2), b * x * y - a * z,        b * x * z + a * y,
-          b * x * y + a * z,      1.0 + b * (y * y - t2),   b * y * z - a * x,
-          b * x * z - a * y,      b * y * z + a * x,        1.0 + b * (z * z - t2)};
-}
 
 Mat4 multiply(const Mat4& a, const Mat4& b) {
   Mat4 out{};
