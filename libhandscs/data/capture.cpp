@@ -47,7 +47,7 @@ struct Candidate {
 
 // Reason order in the summary line.
 const std::vector<std::string> kReasonOrder = {
-    "null MANO",        "no joint_3d entry", "other hand",  "interacting",       "missing image",
+    "null MANO",        "no joint_3d entry", "poor joint fit", "other hand",  "interacting",       "missing image",
     "damaged JPEG",     "unreadable image", "wrong image size",  "black image", "hand outside image"};
 
 // Damaged JPEGs are each logged with what is wrong, up to this many lines (the summary counts all).
@@ -245,6 +245,9 @@ CaptureRecords read_capture_records(const CaptureConfig& c, const std::string& p
   const std::string layout =
       detect_capture_layout(c.root, c.layout, key_name(prefix, "root"), key_name(prefix, "layout"));
   if (layout == "interhand") return read_interhand_records(c, prefix);
+  if (c.pose_source == "joints")
+    throw Error(key_name(prefix, "pose_source") + ": joints is read from InterHand2.6M's joint_3d.json; a " + layout +
+                " capture carries its poses in capture.json (fit keypoints into one with handscs-fit)");
   CaptureRecords records =
       read_handscs_capture(c.root, layout, c.flat_hand_mean, key_name(prefix, "flat_hand_mean"));
   if (c.sequences.empty()) return records;
@@ -352,6 +355,8 @@ std::vector<Candidate> annotated_candidates(const CaptureConfig& c, const Captur
       reason = "null MANO";
     } else if (!m->second.has_joint_entry) {
       reason = "no joint_3d entry";
+    } else if (!hand->fit_problem.empty()) {
+      reason = hand->fit_problem;
     } else if (image.hand_type == other_hand) {
       reason = "other hand";
     } else if (image.hand_type == "interacting" && !c.include_interacting) {

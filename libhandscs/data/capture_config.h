@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "data/mask_refine.h"
+#include "hand/keypoint_fit.h"
 
 namespace handscs {
 
@@ -60,6 +61,14 @@ struct CaptureConfig {
   // supplement we do not have). Counted before monochrome cameras are dropped.
   int novel_view_train_views = 10;
   int novel_view_test_views = 15;
+  // Where each frame's hand pose comes from (InterHand2.6M layout): "mano", the MANO_NeuralAnnot
+  // file; "joints", the rig fitted to joint_3d.json (no MANO file or licence needed; docs/FIT.md).
+  std::string pose_source = "mano";
+  KeypointFitConfig joint_fit;  // pose_source = joints: the fit's settings
+  // pose_source = joints: a hand whose mean joint residual exceeds this (mm) is skipped as "poor
+  // joint fit". Real InterHand2.6M joints fit the built-in hand to 2-3 mm on average (docs/FIT.md);
+  // 15 mm means mislabelled joints, never a usable pose.
+  double poor_joint_fit_mm = 15.0;
   std::string rig = "builtin";             // rig source for the masks: "builtin" or a rig file
   bool flat_hand_mean = false;  // false: annotated poses are relative to hands_mean (InterHand)
   int roi_margin = 16;          // pixels added around the mask's bounding box
@@ -108,6 +117,11 @@ struct CaptureConfig {
             "novel_view without camera lists: number of training cameras chosen", 1, 100000);
     v.field("novel_view_test_views", novel_view_test_views,
             "novel_view without camera lists: number of test cameras chosen", 1, 100000);
+    v.choice("pose_source", pose_source, {"mano", "joints"},
+             "InterHand2.6M: hand poses from MANO_NeuralAnnot (mano) or fitted to joint_3d.json (joints)");
+    v.section("joint_fit", joint_fit, "pose_source joints: the rig fitted to each frame's joints");
+    v.field("poor_joint_fit_mm", poor_joint_fit_mm,
+            "pose_source joints: skip a hand whose mean joint residual (mm) exceeds this", 0.1, 1e6);
     v.field("rig", rig, "rig for the masks: builtin or a rig file (hand must match)");
     v.field("flat_hand_mean", flat_hand_mean,
             "poses are absolute (true) or relative to hands_mean");

@@ -43,6 +43,7 @@ struct RecordHand {
   bool has_joints = false;
   std::array<double, 63> joints{};
   std::array<uint8_t, 21> joint_valid{};
+  std::string fit_problem;  // pose fitted to the joints: why it is not used ("" when it is)
 };
 
 // One frame: a hand without parameters is absent.

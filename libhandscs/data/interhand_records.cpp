@@ -6,6 +6,7 @@
 #include "core/text.h"
 #include "data/annotation_cache.h"
 #include "data/capture_layout.h"
+#include "data/joint_pose_fit.h"
 #include "hand/lbs.h"  // kInterHandFromMano21
 
 namespace handscs {
@@ -31,7 +32,9 @@ CaptureRecords read_interhand_records(const CaptureConfig& c, const std::string&
       read_interhand_cameras(layout.camera_json, c.capture);
   const std::map<int64_t, InterHandJoints> joints =
       annotation_cache.joints(layout.joint_3d_json, c.capture);
-  const std::map<int64_t, InterHandMano> mano = annotation_cache.mano(layout.mano_json, c.capture);
+  const bool from_joints = c.pose_source == "joints";
+  const std::map<int64_t, InterHandMano> mano =
+      from_joints ? std::map<int64_t, InterHandMano>{} : annotation_cache.mano(layout.mano_json, c.capture);
 
   CaptureRecords records;
   records.layout = "interhand";
@@ -39,7 +42,8 @@ CaptureRecords read_interhand_records(const CaptureConfig& c, const std::string&
   records.index_file = layout.data_json;
   records.scope = "capture " + std::to_string(c.capture) + " of " + layout.data_json;
   // The MANO file by path and stamp, the camera file by stamp: the mask cache's key as it always was.
-  records.source_files = {layout.mano_json, layout.camera_json};
+  // With poses fitted to the joints, the joint file stands in for the MANO file.
+  records.source_files = {from_joints ? layout.joint_3d_json : layout.mano_json, layout.camera_json};
   const std::set<std::string> sequences(c.sequences.begin(), c.sequences.end());
   for (auto& image : capture_images.images) {
     if (!sequences.empty() && !sequences.count(image.seq_name)) continue;
@@ -65,6 +69,10 @@ CaptureRecords read_interhand_records(const CaptureConfig& c, const std::string&
     record.camera = camera_from_interhand(camera, 0, 0);  // size: each image's
     record.where = layout.camera_json + ": " + std::to_string(c.capture) + ": camera " + id;
     records.cameras[id] = record;
+  }
+  if (from_joints) {
+    records.frames = fit_joint_frames(joints, layout.joint_3d_json, c);
+    return records;
   }
   // A frame without a MANO entry has no hands ("null MANO"); joint_3d.json must hold every frame.
   for (const auto& [frame, params] : mano) {

@@ -90,7 +90,8 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
               std::to_string(kMaxPlyShDegree));
   TrainedAvatar trained = open_trained_avatar(options.checkpoint);
   Avatar& avatar = trained.avatar;
-  const std::vector<PoseFrame> poses = read_pose_source(options.poses);
+  const std::vector<PoseFrame> poses =
+      read_pose_source(options.poses, {&avatar.rig(), trained.config.model.flat_hand_mean});
 
   std::vector<Camera> cameras;
   if (!options.camera.empty()) {

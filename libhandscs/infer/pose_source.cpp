@@ -5,12 +5,16 @@
 #include <cstdio>
 
 #include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
 
 #include "core/atomic_file.h"
 #include "core/config.h"
 #include "core/error.h"
 #include "data/capture.h"
 #include "data/interhand_annotations.h"
+#include "fit/keypoint_file.h"
+#include "hand/joint_model.h"
+#include "hand/keypoint_fit.h"
 
 namespace handscs {
 
@@ -212,10 +216,50 @@ std::vector<PoseFrame> read_pose_source_json(const json& root, const std::string
   return frames;
 }
 
+// A keypoint file's hand (the rig's side) fitted with the rig, one frame per frame that has it.
+std::vector<PoseFrame> poses_from_keypoints(const std::string& path, const Rig& rig, bool flat_hand_mean) {
+  const bool right = rig.handedness == Handedness::right;
+  std::vector<std::string> names;
+  std::vector<HandKeypoints> hands;
+  for (const KeypointFrame& f : read_keypoint_file(path)) {
+    const auto& hand = right ? f.right : f.left;
+    if (hand && hand->num_valid() >= kMinFitKeypoints) {
+      names.push_back(f.name);
+      hands.push_back(*hand);
+    }
+  }
+  const std::string side = right ? "right" : "left";
+  require(!hands.empty(), path + ": no frame holds the " + side + " hand (with 5 or more keypoints) that the avatar's " +
+                              side + "-hand rig can be fitted to");
+  const JointModel model = make_joint_model(rig);
+  const std::vector<HandFit> fits = fit_keypoint_sequence(model, hands, KeypointFitConfig{});
+  std::vector<PoseFrame> frames;
+  double worst = 0;
+  for (size_t i = 0; i < fits.size(); ++i) {
+    PoseFrame frame;
+    const auto pose = rig_pose(model, fits[i].params, flat_hand_mean);
+    for (int k = 0; k < kPoseDim; ++k) frame.pose[k] = static_cast<float>(pose[k]);
+    for (int k = 0; k < kShapeDim; ++k) frame.shape[k] = static_cast<float>(fits[i].params.shape[k]);
+    for (int k = 0; k < 3; ++k) frame.trans[k] = static_cast<float>(fits[i].params.trans[k]);
+    frame.name = names[i];
+    worst = std::max(worst, fits[i].mean_mm);
+    frames.push_back(frame);
+  }
+  spdlog::info("{}: {} frames of the {} hand fitted (largest mean residual {:.2f} mm)", path, frames.size(), side,
+               worst);
+  return frames;
+}
+
 }  // namespace
 
-std::vector<PoseFrame> read_pose_source(const std::string& path) {
+std::vector<PoseFrame> read_pose_source(const std::string& path, const KeypointTarget& target) {
   const json root = parse_json_file(path);
+  if (root.is_object() && root.value("format", "") == "handscs-keypoints") {
+    require(target.rig != nullptr,
+            path + ": a keypoint file, which needs an avatar's rig to fit (use it with handscs-render or handscs-view, "
+                   "or turn it into poses with handscs-fit)");
+    return poses_from_keypoints(path, *target.rig, target.flat_hand_mean);
+  }
   try {
     return read_pose_source_json(root, path);
   } catch (const json::exception& e) {  // a value of another type than the key needs

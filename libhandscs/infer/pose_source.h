@@ -2,6 +2,8 @@
 //   {"poses": [{"pose": [48], "shape": [10], "trans": [3]}, ...]}      (a bare list works too)
 //   {"interpolate": {"from": {pose...}, "to": {pose...}, "steps": N}}  (per-joint slerp, linear trans/shape)
 //   {"capture": {CaptureConfig keys}, "frames": "test"|"train"|"all", "camera": "id", "max_frames": N}
+//   a keypoint file (fit/keypoint_file.h: "format": "handscs-keypoints"): the avatar's rig fitted to
+//   the hand it is (right or left) in every frame that has it (docs/FIT.md)
 // Poses are MANO axis-angle (relative to hands_mean unless the model is flat_hand_mean); shape and
 // trans default to zeros. A capture selection also provides each frame's camera.
 #pragma once
@@ -13,6 +15,7 @@
 
 #include "core/camera.h"
 #include "core/config.h"
+#include "hand/rig.h"
 
 namespace handscs {
 
@@ -25,9 +28,16 @@ struct PoseFrame {
   std::string name;              // e.g. "pose_0003" or the capture image's name
 };
 
+// What a keypoint file is fitted for: the avatar's rig (its handedness picks the file's hand) and
+// pose convention.
+struct KeypointTarget {
+  const Rig* rig = nullptr;
+  bool flat_hand_mean = false;
+};
+
 // Reads a POSES file; errors name the file and the key path (e.g. "poses[2].pose: expected 48
-// numbers, got 45").
-std::vector<PoseFrame> read_pose_source(const std::string& path);
+// numbers, got 45"). A keypoint file needs `target`.
+std::vector<PoseFrame> read_pose_source(const std::string& path, const KeypointTarget& target = {});
 
 // One pose object {"pose": [48], "shape": [10], "trans": [3], "name": "..."} with the checks every
 // POSES file gets (numbers finite, within the MANO annotations' plausibility bounds, mano_problem);

@@ -5,6 +5,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "data/capture_json.h"
 #include "data/capture_layout.h"
 #include "data/easymocap_cameras.h"
 #include "data/handscs_capture.h"
@@ -14,22 +15,6 @@ namespace handscs {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
-
-namespace {
-
-json number_array(const double* values, int n) {
-  json out = json::array();
-  for (int i = 0; i < n; ++i) out.push_back(values[i]);
-  return out;
-}
-
-json matrix_rows(const double* values, int rows, int cols) {
-  json out = json::array();
-  for (int r = 0; r < rows; ++r) out.push_back(number_array(values + r * cols, cols));
-  return out;
-}
-
-}  // namespace
 
 LensDistortion synth_lens_distortion(const std::string& layout) {
   return layout == "easymocap" ? kSynthLensDistortion : LensDistortion{};
@@ -69,12 +54,7 @@ int64_t write_own_layout_annotations(const SynthScene& scene, const std::string&
   } else {
     json out = json::object();
     for (const auto& [id, record] : cameras) {
-      const Camera& camera = record.camera;
-      out[id] = {{"K", matrix_rows(camera.K.data(), 3, 3)},
-                 {"R", matrix_rows(camera.R.data(), 3, 3)},
-                 {"t", number_array(camera.t.data(), 3)},
-                 {"width", camera.width},
-                 {"height", camera.height}};
+      out[id] = capture_camera_json(record.camera);
     }
     document["cameras"] = out;
   }
@@ -88,10 +68,8 @@ int64_t write_own_layout_annotations(const SynthScene& scene, const std::string&
     }
     const std::array<double, 48> pose = left ? mirror_mano_pose(f.annotated) : f.annotated;
     const std::array<double, 3> trans = left ? mirror_point(f.annotated_trans) : f.annotated_trans;
-    const json hand = {{"pose", number_array(pose.data(), 48)},
-                       {"shape", number_array(f.annotated_shape.data(), 10)},
-                       {"trans", number_array(trans.data(), 3)},
-                       {"joints", matrix_rows(joints.data(), 21, 3)}};
+    const json hand =
+        capture_hand_json(pose.data(), f.annotated_shape.data(), trans.data(), joints.data());
     frames.push_back({{"frame", f.frame_idx},
                       {"sequence", f.seq_name},
                       {"hand_type", c.hand},

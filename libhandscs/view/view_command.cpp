@@ -8,6 +8,9 @@ namespace handscs {
 void add_view_options(CLI::App& app, ViewCommandLine& cli) {
   app.add_option("--checkpoint", cli.checkpoint, "checkpoint file or run folder (its latest checkpoint)")
       ->required();
+  app.add_option("--poses", cli.poses,
+                 "POSES file, or keypoint file fitted with the avatar's rig (docs/FIT.md), whose poses the page "
+                 "steps through instead of the run's held-out poses");
   app.add_option("--port", cli.server.port, "TCP port (0: any free port)")
       ->check(CLI::Range(0, 65535))
       ->capture_default_str();
@@ -23,7 +26,7 @@ void add_view_options(CLI::App& app, ViewCommandLine& cli) {
 }
 
 void run_view_command(const ViewCommandLine& cli) {
-  ViewScene scene = ViewScene::open(cli.checkpoint);
+  ViewScene scene = ViewScene::open(cli.checkpoint, cli.poses);
   ViewServer server(scene, cli.server);
   const int port = server.bind();
   if (!is_loopback_host(cli.server.host))

@@ -1,5 +1,5 @@
-// handscs-view on the command line: --checkpoint RUN [--port P] [--host H] [--save-poses FILE]
-// [--workers N]; opens the scene, binds, logs the address and serves until killed.
+// handscs-view on the command line: --checkpoint RUN [--poses FILE] [--port P] [--host H]
+// [--save-poses FILE] [--workers N]; opens the scene, binds, logs the address and serves until killed.
 #pragma once
 
 #include <string>
@@ -14,6 +14,7 @@ namespace handscs {
 
 struct ViewCommandLine {
   std::string checkpoint;  // checkpoint file or run folder
+  std::string poses;       // POSES or keypoint file to step through ("" = the run's held-out poses)
   ViewServerConfig server;
 };
 

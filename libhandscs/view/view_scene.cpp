@@ -60,9 +60,11 @@ ViewScene::ViewScene(TrainedAvatar trained, std::vector<PoseFrame> held_out)
   default_view_.distance = fitting_distance(extent, default_view_.width, default_view_.height);
 }
 
-ViewScene ViewScene::open(const std::string& checkpoint) {
+ViewScene ViewScene::open(const std::string& checkpoint, const std::string& poses) {
   TrainedAvatar trained = open_trained_avatar(checkpoint);
-  std::vector<PoseFrame> held_out = held_out_poses(trained.config);
+  std::vector<PoseFrame> held_out =
+      poses.empty() ? held_out_poses(trained.config)
+                    : read_pose_source(poses, {&trained.avatar.rig(), trained.config.model.flat_hand_mean});
   return ViewScene(std::move(trained), std::move(held_out));
 }
 

@@ -32,7 +32,9 @@ class ViewScene {
 
   // Opens a checkpoint file or run folder and its capture's held-out poses (one per pose, first
   // camera's annotation); a capture that cannot be opened leaves the list empty, with a warning.
-  static ViewScene open(const std::string& checkpoint);
+  // With `poses` (a POSES or keypoint file, infer/pose_source.h) the page steps through its poses
+  // instead.
+  static ViewScene open(const std::string& checkpoint, const std::string& poses = "");
 
   // The page's start-up data: Gaussian count, controls, gestures, held-out pose names, default view.
   json info() const;

@@ -1,0 +1,143 @@
+// handscs-fit on keypoint files: a round trip through the file (order and units as written), and
+// every bad input named: units, order, missing points, a swapped hand, an occupied output folder.
+#include <catch2/catch.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include <nlohmann/json.hpp>
+
+#include "fit/fit_command.h"
+#include "hand/keypoint_order.h"
+#include "hand/lbs_one_pose.h"
+#include "hand/procedural_hand.h"
+#include "test_support.h"
+
+using namespace handscs;
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+namespace {
+
+// Joints of the built-in hand at its mean pose bent a little further, per side, moved by `shift`.
+std::array<double, 63> posed_joints(Handedness side, double bend, double shift) {
+  const JointModel model = make_joint_model(make_procedural_hand(side));
+  JointParams p;
+  for (int k = 1; k < kRigJoints; ++k)
+    for (int i = 0; i < 3; ++i) p.pose[3 * k + i] = (1.0 + bend) * model.hands_mean[3 * (k - 1) + i];
+  p.pose[2] = 0.5;
+  p.trans = {shift, 0.05, 0.9};
+  std::array<double, 63> x;
+  joint_positions(model, p, x.data());
+  return x;
+}
+
+// The MANO21 joints written in `order`, scaled by `scale`, as a file's hand entry.
+json hand_entry(const std::array<double, 63>& mano21, KeypointOrder order, double scale) {
+  const auto index = mano21_from_order(order);
+  std::vector<json> rows(21);
+  for (int j = 0; j < 21; ++j)
+    rows[index[j]] = json::array({mano21[3 * j] * scale, mano21[3 * j + 1] * scale, mano21[3 * j + 2] * scale});
+  return rows;
+}
+
+std::string write_keypoints(const std::string& name, const json& doc) {
+  return handscs_test::scratch_file("fit_command", name, doc.dump());
+}
+
+FitCommandOptions options_for(const std::string& keypoints, const std::string& out_name) {
+  FitCommandOptions o;
+  o.keypoints = keypoints;
+  o.out = handscs_test::scratch_path("fit_command", out_name);
+  fs::remove_all(o.out);
+  return o;
+}
+
+}  // namespace
+
+TEST_CASE("handscs-fit: keypoints in MediaPipe order and millimetres come back through the POSES file") {
+  const auto right = posed_joints(Handedness::right, 0.5, -0.1);
+  const auto left = posed_joints(Handedness::left, 0.2, 0.1);
+  json frames = json::array();
+  for (int f = 0; f < 3; ++f)
+    frames.push_back({{"name", "f" + std::to_string(f)},
+                      {"right", hand_entry(right, KeypointOrder::mediapipe, 1000.0)},
+                      {"left", f == 1 ? json(nullptr) : hand_entry(left, KeypointOrder::mediapipe, 1000.0)}});
+  const json doc = {{"format", "handscs-keypoints"}, {"order", "mediapipe"}, {"units", "mm"}, {"frames", frames}};
+  FitCommandOptions o = options_for(write_keypoints("mm.json", doc), "roundtrip");
+  run_fit_command(o);
+  for (const auto& [side, joints, count] :
+       {std::tuple{"right", right, 3}, std::tuple{"left", left, 2}}) {
+    std::ifstream in(o.out + "/poses_" + side + ".json");
+    const json poses = json::parse(in)["poses"];
+    REQUIRE(static_cast<int>(poses.size()) == count);
+    const Rig rig = make_procedural_hand(std::string(side) == "right" ? Handedness::right : Handedness::left);
+    auto tensor = [](const json& values) { return torch::tensor(values.get<std::vector<double>>(), torch::kFloat64); };
+    const LbsOutput out = lbs_one_pose(rig, tensor(poses[0]["pose"]), tensor(poses[0]["shape"]),
+                                       tensor(poses[0]["trans"]), LbsOptions{false});
+    const auto got = out.joints.reshape({63}).contiguous();
+    double worst = 0;
+    for (int i = 0; i < 63; ++i) worst = std::max(worst, std::fabs(got[i].item<double>() - joints[i]));
+    INFO(side);
+    CHECK(worst < 1e-3);
+  }
+  std::ifstream report_in(o.out + "/report.json");
+  const json report = json::parse(report_in);
+  CHECK(report["hands"]["right"]["fitted"] == 3);
+  CHECK(report["hands"]["right"]["mean_mm"].get<double>() < 0.5);
+  // The folder now holds a fit: a second run does not replace it unless asked.
+  CHECK(handscs_test::error_of([&] { run_fit_command(o); }) ==
+        o.out + ": not empty; pass --overwrite to replace the fit in it, or name a new folder");
+  o.overwrite = true;
+  run_fit_command(o);
+}
+
+TEST_CASE("handscs-fit: bad keypoint files are refused with the file and key named") {
+  const auto right = posed_joints(Handedness::right, 0.3, 0.0);
+  auto doc_with = [&](const std::string& order, const std::string& units, double scale) {
+    return json{{"format", "handscs-keypoints"}, {"order", order}, {"units", units},
+                {"frames", json::array({{{"name", "a"}, {"right", hand_entry(right, KeypointOrder::mano21, scale)}}})}};
+  };
+  // Millimetres declared as metres.
+  std::string path = write_keypoints("units.json", doc_with("mano21", "m", 1000.0));
+  CHECK_THAT(handscs_test::error_of([&] { run_fit_command(options_for(path, "units")); }),
+             Catch::Contains(path + ": frames[0].right: the hand's median bone is") &&
+                 Catch::Contains("look like millimetres (set \"units\": \"mm\")"));
+  // No order: never guessed.
+  json no_order = doc_with("mano21", "m", 1.0);
+  no_order.erase("order");
+  path = write_keypoints("order.json", no_order);
+  CHECK_THAT(handscs_test::error_of([&] { run_fit_command(options_for(path, "order")); }),
+             Catch::Contains(path + ": order: missing"));
+  path = write_keypoints("coco.json", doc_with("coco", "m", 1.0));
+  CHECK_THAT(handscs_test::error_of([&] { run_fit_command(options_for(path, "coco")); }),
+             Catch::Contains("unknown keypoint order \"coco\""));
+  // A malformed point.
+  json bad_point = doc_with("mano21", "m", 1.0);
+  bad_point["frames"][0]["right"][4] = json::array({1, 2});
+  path = write_keypoints("point.json", bad_point);
+  CHECK_THAT(handscs_test::error_of([&] { run_fit_command(options_for(path, "point")); }),
+             Catch::Contains(path + ": frames[0].right[4]: expected [x, y, z] or null"));
+  // A left hand's keypoints given as the right hand.
+  json swapped = {{"format", "handscs-keypoints"}, {"order", "mano21"}, {"units", "m"},
+                  {"frames", json::array({{{"name", "a"},
+                                           {"right", hand_entry(posed_joints(Handedness::left, 0.6, 0.0),
+                                                                KeypointOrder::mano21, 1.0)}}})}};
+  path = write_keypoints("swapped.json", swapped);
+  CHECK_THAT(handscs_test::error_of([&] { run_fit_command(options_for(path, "swapped")); }),
+             Catch::Contains("the right hand's keypoints fit the other hand's rig far better"));
+  // Missing points: a frame with only four is skipped with its reason, the others fitted.
+  json sparse = doc_with("mano21", "m", 1.0);
+  json few = sparse["frames"][0];
+  few["name"] = "b";
+  for (int j = 4; j < 21; ++j) few["right"][j] = nullptr;
+  sparse["frames"].push_back(few);
+  path = write_keypoints("sparse.json", sparse);
+  FitCommandOptions o = options_for(path, "sparse");
+  run_fit_command(o);
+  std::ifstream in(o.out + "/report.json");
+  const json report = json::parse(in);
+  CHECK(report["hands"]["right"]["fitted"] == 1);
+  CHECK(report["frames"][1]["status"] == "skipped: too few keypoints (4 of 21)");
+}

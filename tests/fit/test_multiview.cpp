@@ -1,0 +1,139 @@
+// Multi-view hands: grouping detections whose labels cannot be trusted, the NeuS/IDR camera
+// archive (read against FMHR's own int_i / ext_i), and the real FMHR capture end to end.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "fit/fit_command.h"
+#include "fit/multiview_capture.h"
+#include "hand/procedural_hand.h"
+#include "io/npz.h"
+#include "fit_fixtures.h"
+#include "test_support.h"
+
+using namespace handscs;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kFmhr = std::string(HANDSCS_SHARED_DIR) + "/testdata/fmhr_demo";
+
+// Joints of the built-in hand (right or left) at a bent pose, moved to `offset`.
+std::array<double, 63> hand_joints(Handedness side, const Vec3& offset) {
+  const JointModel model = make_joint_model(make_procedural_hand(side));
+  JointParams p;
+  for (int k = 1; k < kRigJoints; ++k)
+    for (int i = 0; i < 3; ++i) p.pose[3 * k + i] = model.hands_mean[3 * (k - 1) + i];
+  p.pose[0] = 0.4;
+  p.pose[1] = side == Handedness::right ? 0.3 : -0.3;
+  for (int i = 0; i < 3; ++i) p.trans[i] = offset[i];
+  std::array<double, 63> x;
+  joint_positions(model, p, x.data());
+  return x;
+}
+
+}  // namespace
+
+TEST_CASE("find_hands: two hands from detections with swapped labels, a missed hand and bad views") {
+  const auto cameras = test::camera_ring(10);
+  std::mt19937 rng(7);
+  const auto right = hand_joints(Handedness::right, {-0.12, 0, 0});
+  const auto left = hand_joints(Handedness::left, {0.12, 0, 0});
+  std::vector<Detection> detections;
+  std::vector<int> truth;  // 0 right, 1 left, -1 garbage
+  for (int v = 0; v < 10; ++v) {
+    const bool swap = v % 3 == 0;  // the detector calls the hands the other way in these views
+    if (v != 4) {                  // view 4 misses the right hand
+      detections.push_back(test::project_hand(cameras, v, right.data(), 2.0, rng, swap ? "Left" : "Right"));
+      truth.push_back(0);
+    }
+    detections.push_back(test::project_hand(cameras, v, left.data(), 2.0, rng, swap ? "Right" : "Left"));
+    truth.push_back(1);
+  }
+  // View 7's left detection has three index-finger landmarks 60 px off (a mislabelled finger).
+  for (size_t d = 0; d < detections.size(); ++d)
+    if (detections[d].view == 7 && truth[d] == 1)
+      for (int j : {2, 3, 17}) detections[d].pixels[j][0] += 60.0;
+  const auto hands = find_hands(cameras, detections, MultiviewConfig{});
+  REQUIRE(hands.size() == 2);
+  for (const TriangulatedHand& h : hands) {
+    const int who = truth[h.detections[0]];
+    for (int d : h.detections) CHECK(truth[d] == who);  // no detection of the other hand
+    CHECK(h.detections.size() == (who == 0 ? 9u : 10u));
+    const auto& joints = who == 0 ? right : left;
+    for (int j = 0; j < 21; ++j) {
+      REQUIRE(h.keypoints.valid[j]);
+      const Vec3 a{h.keypoints.joints[3 * j], h.keypoints.joints[3 * j + 1], h.keypoints.joints[3 * j + 2]};
+      const Vec3 b{joints[3 * j], joints[3 * j + 1], joints[3 * j + 2]};
+      CHECK(norm(a - b) < 2e-3);  // 2 px of noise at 1 m and 1800 px focal: ~1 mm
+    }
+    if (who == 1)  // the moved landmarks of view 7 are dropped, the rest of view 7 kept
+      for (int j : {2, 3, 17}) CHECK(std::count(h.dropped_views[j].begin(), h.dropped_views[j].end(), 7) == 1);
+  }
+}
+
+TEST_CASE("npz: FMHR's camera archive reads as numpy wrote it") {
+  const auto arrays = read_npz(kFmhr + "/camera/param.npz");
+  CHECK(arrays.size() == 64);  // int, ext, world_mat, scale_mat for 16 views
+  const NpyArray& k0 = arrays.at("int_0");
+  REQUIRE(k0.shape == std::vector<int64_t>{4, 4});
+  // Values numpy prints for int_0.
+  CHECK(k0.values[0] == Approx(2342.95610).epsilon(1e-8));
+  CHECK(k0.values[2] == Approx(673.368735).epsilon(1e-8));
+  CHECK(k0.values[5] == Approx(2348.24172).epsilon(1e-8));
+  CHECK(arrays.at("ext_1").values[3] == Approx(0.26338636).epsilon(1e-7));
+  CHECK_THROWS_WITH(read_npz(kFmhr + "/img/00.png"), Catch::Contains("not a ZIP archive"));
+}
+
+TEST_CASE("camera_from_projection: FMHR's world_mat_i decomposes into its int_i and ext_i") {
+  const auto arrays = read_npz(kFmhr + "/camera/param.npz");
+  for (int i = 0; i < 16; ++i) {
+    const auto& W = arrays.at("world_mat_" + std::to_string(i)).values;
+    const auto& K = arrays.at("int_" + std::to_string(i)).values;
+    const auto& E = arrays.at("ext_" + std::to_string(i)).values;
+    double P[12];
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c) P[4 * r + c] = -2.5 * W[4 * r + c];  // any scale, either sign
+    const Camera cam = camera_from_projection(P, 1280, 1024, "test");
+    INFO("view " << i);
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) {
+        CHECK(cam.K[3 * r + c] == Approx(K[4 * r + c]).margin(1e-6 * K[0]));
+        CHECK(cam.R[3 * r + c] == Approx(E[4 * r + c]).margin(1e-6));
+      }
+      CHECK(cam.t[r] == Approx(E[4 * r + 3]).margin(1e-6));
+    }
+  }
+  const double flat[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0};  // rows 2 and 3 equal: singular
+  CHECK_THROWS_WITH(camera_from_projection(flat, 100, 100, "cameras.npz: view 3"),
+                    Catch::Contains("cameras.npz: view 3: the projection's left 3x3 block is singular"));
+}
+
+TEST_CASE("FMHR: both hands fitted from the 16 views' landmarks, closer to them than plain DLT") {
+  const MultiviewCapture cap = read_multiview_capture(kFmhr);
+  REQUIRE(cap.cameras.size() == 16);
+  CHECK(cap.detections.size() >= 16);
+  FitCommandOptions o;
+  o.multiview = kFmhr;
+  o.out = handscs_test::scratch_path("fit_fmhr", "out");
+  o.overwrite = true;
+  o.overlay_views = {0};
+  run_fit_command(o);
+  std::ifstream in(o.out + "/reprojection.json");
+  const auto r = nlohmann::json::parse(in);
+  for (const char* side : {"right", "left"}) {
+    INFO(side);
+    REQUIRE(r.contains(side));
+    CHECK(r[side]["views"].size() >= 8);
+    // The shared README measures plain DLT over every detection at a median of 16-21 px.
+    CHECK(r[side]["triangulated_median_px"].get<double>() < 16.0);
+    CHECK(r[side]["fitted_median_px"].get<double>() < 16.0);
+  }
+  CHECK(fs::exists(o.out + "/capture.json"));
+  CHECK(fs::exists(o.out + "/overlay/view00.png"));
+  CHECK(fs::is_symlink(o.out + "/images/view00/000000.png"));
+}
