@@ -247,7 +247,7 @@ TEST_CASE("synth: SIGTERM drops the unfinished capture and leaves the folder as 
   kill(child, SIGTERM);
   CHECK(handscs_test::exit_code_of(child) == 1);
   const std::string log = handscs::read_file(dir + "/synth.log");
-  CHECK(log.find("synth: interrupted (SIGINT or SIGTERM) after ") != std::string::npos);
+  CHECK(log.find("synth: interrupted (SIGINT, SIGTERM or SIGHUP) after ") != std::string::npos);
   CHECK(log.find("images, before the capture was complete") != std::string::npos);
   CHECK_FALSE(fs::exists(staging));
   int entries = 0;

@@ -205,6 +205,41 @@ TEST_CASE("cli: SIGTERM stops training with a checkpoint of the step reached and
                                                   ": checkpoint " + latest + " saved") != std::string::npos);
 }
 
+TEST_CASE("cli: SIGHUP stops training as SIGTERM does, unless nohup ignores it") {
+  const auto run_dir = fresh_dir("cli_sighup");
+  const std::string train = kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
+                            " --threads 1 --set data.root=" + tiny_capture_dir() +
+                            " train.iterations=100000 train.checkpoint_every=100000";
+  const auto metrics_rows = [&] {
+    const std::string text = handscs::read_file(run_dir + "/metrics.csv");
+    return std::count(text.begin(), text.end(), '\n');
+  };
+  // The terminal closed: a checkpoint of the step reached, exit 130, the same line as for SIGTERM.
+  pid_t pid = handscs_test::spawn(train + " > " + run_dir + ".log 2>&1");
+  REQUIRE(pid > 0);
+  handscs_test::wait_until([&] { return std::filesystem::exists(run_dir + "/metrics.csv"); });
+  kill(pid, SIGHUP);
+  CHECK(handscs_test::exit_code_of(pid) == 130);
+  const auto latest = handscs::latest_checkpoint(run_dir);
+  REQUIRE_FALSE(latest.empty());
+  const auto step = handscs::load_checkpoint(latest).meta["iteration"].get<int64_t>();
+  CHECK(handscs::read_file(run_dir + ".log").find("interrupted at step " + std::to_string(step) +
+                                                  ": checkpoint " + latest + " saved") != std::string::npos);
+
+  // Under nohup the run outlives its terminal: it keeps logging steps after the SIGHUP.
+  pid = handscs_test::spawn("nohup " + train + " --resume > " + run_dir + ".nohup.log 2>&1");
+  REQUIRE(pid > 0);
+  const auto before = metrics_rows();
+  handscs_test::wait_until([&] { return metrics_rows() > before; });
+  kill(pid, SIGHUP);
+  const auto at_hangup = metrics_rows();
+  CHECK(handscs_test::wait_until([&] { return metrics_rows() > at_hangup + 1; }));
+  int status = 0;
+  CHECK(waitpid(pid, &status, WNOHANG) == 0);  // still training
+  kill(pid, SIGTERM);
+  CHECK(handscs_test::exit_code_of(pid) == 130);
+}
+
 TEST_CASE("cli: SIGTERM stops a render, keeping the frames written and no torn video") {
   const auto run_dir = fresh_dir("cli_render_stop");
   REQUIRE(run(kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
@@ -222,7 +257,7 @@ TEST_CASE("cli: SIGTERM stops a render, keeping the frames written and no torn v
   kill(pid, SIGTERM);
   CHECK(handscs_test::exit_code_of(pid) == 1);
   const std::string log = handscs::read_file(out + ".log");
-  CHECK(log.find("render interrupted (SIGINT or SIGTERM) after ") != std::string::npos);
+  CHECK(log.find("render interrupted (SIGINT, SIGTERM or SIGHUP) after ") != std::string::npos);
   CHECK(log.find(" of 100000 frames, kept in " + out + "; the video was not written") !=
         std::string::npos);
   CHECK(std::filesystem::exists(out + "/frame_0000.png"));
