@@ -19,6 +19,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 #include "core/atomic_file.h"
+#include "core/cli.h"
 #include "metrics/comparison_panel.h"
 #include "tiny_capture.h"
 #include "run/checkpoint.h"
@@ -238,6 +239,25 @@ TEST_CASE("cli: SIGHUP stops training as SIGTERM does, unless nohup ignores it")
   CHECK(waitpid(pid, &status, WNOHANG) == 0);  // still training
   kill(pid, SIGTERM);
   CHECK(handscs_test::exit_code_of(pid) == 130);
+}
+
+TEST_CASE("cli: the closing evaluate line is a command that runs as printed") {
+  // --set overrides the config file lacks (data.root), and a run folder whose name needs quoting.
+  const auto run_dir = fresh_dir("cli_evaluate_hint") + " it's";
+  REQUIRE(run(kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " +
+              handscs::shell_quote(run_dir) + " --threads 2 --set data.root=" + tiny_capture_dir() +
+              " train.iterations=2 model.embedding_dim=8") == 0);
+  const std::string log = log_text();
+  const auto start = log.find("evaluate:   handscs-eval ");
+  REQUIRE(start != std::string::npos);
+  const std::string line = log.substr(start, log.find('\n', start) - start);
+  CHECK(line == "evaluate:   handscs-eval --checkpoint " + handscs::shell_quote(run_dir) + " --out " +
+                    handscs::shell_quote(run_dir + "/eval"));
+  const std::string command = line.substr(line.find("handscs-eval"));
+  INFO(command);
+  CHECK(run(kBin + "/" + command + " --threads 2 --max-images 2") == 0);
+  INFO(log_text());
+  CHECK(std::filesystem::exists(run_dir + "/eval/summary.json"));
 }
 
 TEST_CASE("cli: SIGTERM stops a render, keeping the frames written and no torn video") {
