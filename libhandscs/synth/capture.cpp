@@ -513,12 +513,14 @@ SynthReport generate_synth_capture(const SynthConfig& config, const std::string&
   check_synth_size(config);
   const fs::path out = fs::absolute(out_dir).lexically_normal();
   std::error_code ec;
-  const bool occupied = fs::exists(out, ec) && !(fs::is_directory(out, ec) && fs::is_empty(out, ec));
+  // A file is named as one before any folder check: --overwrite replaces folders only.
+  if (fs::exists(out, ec) && !fs::is_directory(out, ec))
+    throw Error(out_dir + ": is a file, not a folder; choose another --out (--overwrite replaces "
+                          "only a folder)");
+  const bool occupied = fs::exists(out, ec) && !fs::is_empty(out, ec);
   if (occupied && !overwrite)
     throw Error(out_dir + ": not empty (" + folder_contents(out) +
                 "); choose another --out, or replace it with --overwrite");
-  if (occupied && !fs::is_directory(out, ec))
-    throw Error(out_dir + ": is a file, not a folder");
   // Written beside the old folder and swapped in only when complete: a failure or an interrupt
   // leaves whatever was there as it was (only the staging folder of a killed run stays behind).
   const std::string suffix = "." + std::to_string(::getpid());
