@@ -260,6 +260,34 @@ TEST_CASE("cli: the closing evaluate line is a command that runs as printed") {
   CHECK(std::filesystem::exists(run_dir + "/eval/summary.json"));
 }
 
+TEST_CASE("cli: handscs-eval refuses a split other than the run trained with") {
+  const auto run_dir = fresh_dir("cli_eval_split");
+  REQUIRE(run(kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
+              " --threads 2 --set data.root=" + tiny_capture_dir() +
+              " train.iterations=2 data.validation_poses=2") == 0);
+  const std::string checkpoint = run_dir + "/checkpoints/step_00000002.ckpt";
+  const std::string eval = kBin + "/handscs-eval --checkpoint " + run_dir + " --threads 2 --max-images 1 --out " +
+                           run_dir + "_eval";
+  const std::string advice = "its scores would mix two experiments (training images may score as test images): "
+                             "evaluate with the run's split (data.root may name the capture's new place)";
+  CHECK(run(eval + " --set data.held_out_poses=9") == 1);
+  CHECK(log_text().find("--set changes which images " + checkpoint + " trained and tests on (checkpoint -> "
+                        "given):\n  data.held_out_poses: 3 -> 9\n" + advice) != std::string::npos);
+  CHECK(run(eval + " --set data.validation_poses=1") == 1);
+  CHECK(log_text().find("  data.validation_poses: 2 -> 1\n") != std::string::npos);
+  // A config file is named as the source; the key it changes, not the others it shares.
+  const std::string config = run_dir + "_other_split.json";
+  std::ofstream(config) << R"({"extends": ")" << kSource << R"(/configs/tiny.json", "data": {"root": ")"
+                        << tiny_capture_dir() << R"(", "held_out_poses": 4, "validation_poses": 2}})";
+  CHECK(run(eval + " --config " + config) == 1);
+  CHECK(log_text().find(config + " changes which images " + checkpoint + " trained and tests on (checkpoint -> "
+                        "given):\n  data.held_out_poses: 3 -> 4\n" + advice) != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(run_dir + "_eval/summary.json"));
+  // Dropping the validation split scores the capture's own test poses, which the run never saw.
+  CHECK(run(eval + " --set data.validation_poses=0") == 0);
+  CHECK(std::filesystem::exists(run_dir + "_eval/summary.json"));
+}
+
 TEST_CASE("cli: SIGTERM stops a render, keeping the frames written and no torn video") {
   const auto run_dir = fresh_dir("cli_render_stop");
   REQUIRE(run(kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
