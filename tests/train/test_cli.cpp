@@ -41,6 +41,32 @@ int run(const std::string& command) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 std::string log_text() { return handscs::read_file(kLog); }
+
+// Starts handscs-train (after `prefix`, e.g. "nohup "; `extra` options after its own) on the tiny
+// capture for 100000 steps into `run_dir`, its log in run_dir.log, and returns its pid once
+// metrics.csv exists: it appears with the first logged step, after the stop handlers are installed.
+pid_t start_long_training(const std::string& run_dir, const std::string& prefix = "",
+                          const std::string& extra = "") {
+  const pid_t pid = handscs_test::spawn(
+      prefix + kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
+      " --threads 1 --set data.root=" + tiny_capture_dir() +
+      " train.iterations=100000 train.checkpoint_every=100000" + extra + " > " + run_dir + ".log 2>&1");
+  REQUIRE(pid > 0);
+  handscs_test::wait_until([&] { return std::filesystem::exists(run_dir + "/metrics.csv"); });
+  return pid;
+}
+
+// Waits for a training run stopped by a signal: exit 130, a checkpoint of the step reached and the
+// line saying so. Returns that step.
+int64_t check_stopped_with_checkpoint(pid_t pid, const std::string& run_dir) {
+  CHECK(handscs_test::exit_code_of(pid) == 130);
+  const auto latest = handscs::latest_checkpoint(run_dir);
+  REQUIRE_FALSE(latest.empty());
+  const auto step = handscs::load_checkpoint(latest).meta["iteration"].get<int64_t>();
+  CHECK(handscs::read_file(run_dir + ".log").find("interrupted at step " + std::to_string(step) +
+                                                  ": checkpoint " + latest + " saved") != std::string::npos);
+  return step;
+}
 }  // namespace
 
 TEST_CASE("cli: train, resume, evaluate and render the tiny capture") {
@@ -188,49 +214,27 @@ TEST_CASE("cli: kill -9 during checkpoint writes leaves a loadable checkpoint") 
 
 TEST_CASE("cli: SIGTERM stops training with a checkpoint of the step reached and exit 130") {
   const auto run_dir = fresh_dir("cli_sigterm");
-  const pid_t pid = handscs_test::spawn(
-      kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
-      " --threads 1 --set data.root=" + tiny_capture_dir() +
-      " train.iterations=100000 train.checkpoint_every=100000 > " + run_dir + ".log 2>&1");
-  REQUIRE(pid > 0);
-  // metrics.csv appears with the first logged step, after the handlers are installed.
-  handscs_test::wait_until([&] { return std::filesystem::exists(run_dir + "/metrics.csv"); });
+  const pid_t pid = start_long_training(run_dir);
   kill(pid, SIGTERM);
-  CHECK(handscs_test::exit_code_of(pid) == 130);
-  const auto latest = handscs::latest_checkpoint(run_dir);
-  REQUIRE_FALSE(latest.empty());
-  const auto step = handscs::load_checkpoint(latest).meta["iteration"].get<int64_t>();
+  const int64_t step = check_stopped_with_checkpoint(pid, run_dir);
   CHECK(step > 0);
   CHECK(step < 100000);
-  CHECK(handscs::read_file(run_dir + ".log").find("interrupted at step " + std::to_string(step) +
-                                                  ": checkpoint " + latest + " saved") != std::string::npos);
 }
 
 TEST_CASE("cli: SIGHUP stops training as SIGTERM does, unless nohup ignores it") {
+  // The terminal closed: a checkpoint of the step reached, exit 130, the same line as for SIGTERM.
   const auto run_dir = fresh_dir("cli_sighup");
-  const std::string train = kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
-                            " --threads 1 --set data.root=" + tiny_capture_dir() +
-                            " train.iterations=100000 train.checkpoint_every=100000";
+  pid_t pid = start_long_training(run_dir);
+  kill(pid, SIGHUP);
+  check_stopped_with_checkpoint(pid, run_dir);
+
+  // Under nohup the run outlives its terminal: it keeps logging steps after the SIGHUP.
   const auto metrics_rows = [&] {
     const std::string text = handscs::read_file(run_dir + "/metrics.csv");
     return std::count(text.begin(), text.end(), '\n');
   };
-  // The terminal closed: a checkpoint of the step reached, exit 130, the same line as for SIGTERM.
-  pid_t pid = handscs_test::spawn(train + " > " + run_dir + ".log 2>&1");
-  REQUIRE(pid > 0);
-  handscs_test::wait_until([&] { return std::filesystem::exists(run_dir + "/metrics.csv"); });
-  kill(pid, SIGHUP);
-  CHECK(handscs_test::exit_code_of(pid) == 130);
-  const auto latest = handscs::latest_checkpoint(run_dir);
-  REQUIRE_FALSE(latest.empty());
-  const auto step = handscs::load_checkpoint(latest).meta["iteration"].get<int64_t>();
-  CHECK(handscs::read_file(run_dir + ".log").find("interrupted at step " + std::to_string(step) +
-                                                  ": checkpoint " + latest + " saved") != std::string::npos);
-
-  // Under nohup the run outlives its terminal: it keeps logging steps after the SIGHUP.
-  pid = handscs_test::spawn("nohup " + train + " --resume > " + run_dir + ".nohup.log 2>&1");
-  REQUIRE(pid > 0);
   const auto before = metrics_rows();
+  pid = start_long_training(run_dir, "nohup ", " --resume");
   handscs_test::wait_until([&] { return metrics_rows() > before; });
   kill(pid, SIGHUP);
   const auto at_hangup = metrics_rows();
@@ -238,7 +242,7 @@ TEST_CASE("cli: SIGHUP stops training as SIGTERM does, unless nohup ignores it")
   int status = 0;
   CHECK(waitpid(pid, &status, WNOHANG) == 0);  // still training
   kill(pid, SIGTERM);
-  CHECK(handscs_test::exit_code_of(pid) == 130);
+  check_stopped_with_checkpoint(pid, run_dir);
 }
 
 TEST_CASE("cli: the closing evaluate line is a command that runs as printed") {
