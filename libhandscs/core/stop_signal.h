@@ -1,6 +1,7 @@
-// Ctrl-C (SIGINT) and SIGTERM as a request to stop that long loops poll, while a StopSignal lives:
-// training saves a checkpoint and ends, synthesis drops its unfinished capture. The previous
-// handlers come back when it goes, also when the loop ends by an exception.
+// Ctrl-C (SIGINT), SIGTERM and SIGHUP (the terminal closed, an ssh session dropped) as a request to
+// stop that long loops poll, while a StopSignal lives: training saves a checkpoint and ends,
+// synthesis drops its unfinished capture. A SIGHUP ignored when it is installed (nohup) stays
+// ignored. The previous handlers come back when it goes, also when the loop ends by an exception.
 #pragma once
 
 #include <csignal>
@@ -14,12 +15,12 @@ class StopSignal {
   StopSignal(const StopSignal&) = delete;
   StopSignal& operator=(const StopSignal&) = delete;
 
-  // True once SIGINT or SIGTERM arrived while a StopSignal was installed.
+  // True once SIGINT, SIGTERM or SIGHUP arrived while a StopSignal was installed.
   static bool requested();
 
  private:
   using Handler = void (*)(int);
-  Handler previous_int_, previous_term_;
+  Handler previous_int_, previous_term_, previous_hup_;
 };
 
 }  // namespace handscs

@@ -445,14 +445,13 @@ ImageSelection select_usable_images(const CaptureConfig& c, const std::string& i
   for (int64_t i = 0; i < num_candidates; ++i) {
     const Candidate& cand = candidates[i];
     std::string reason;
-    const int expected_w = (cand.image->width + 7) / 8, expected_h = (cand.image->height + 7) / 8;
     if (!scans[i].damage.empty()) {
       reason = "damaged JPEG";
       if (++damaged <= kDamageLines) spdlog::warn("{}: damaged JPEG ({}): skipped", cand.path, scans[i].damage);
     } else if (!scans[i].readable) {
       reason = "unreadable image";
-    } else if (scans[i].scaled_width != expected_w || scans[i].scaled_height != expected_h) {
-      reason = "wrong image size";  // the JPEG's size differs from data.json's width x height
+    } else if (scans[i].width != cand.image->width || scans[i].height != cand.image->height) {
+      reason = "wrong image size";  // its pixels differ from its camera's width x height
     } else if (scans[i].black && c.skip_black_images) {
       reason = "black image";
     } else if (!in_view[i]) {

@@ -4,7 +4,9 @@
 #include <cstdlib>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
+#include "core/image_header.h"
 #include "core/jpeg_damage.h"
 
 namespace handscs {
@@ -38,15 +40,26 @@ ImageScan scan_image(const std::string& path) {
     JpegThumbnail thumbnail;  // the damage check's own 1/8 decode: a JPEG is decoded once
     const std::string bytes = read_image_file(path, scan.damage, &thumbnail);
     if (!scan.damage.empty()) return scan;
-    const cv::Mat encoded(1, static_cast<int>(bytes.size()), CV_8UC1,
-                          const_cast<char*>(bytes.data()));
-    const cv::Mat small = thumbnail.bgr.empty()
-                              ? cv::imdecode(encoded, cv::IMREAD_REDUCED_COLOR_8)
-                              : cv::Mat(thumbnail.height, thumbnail.width, CV_8UC3, thumbnail.bgr.data());
+    cv::Mat small;
+    if (!thumbnail.bgr.empty()) {
+      // A JPEG without Exif data: its header states the size a full decode gives.
+      const ImageHeaderSize size = image_header_size(bytes);
+      scan.width = static_cast<int>(size.width);
+      scan.height = static_cast<int>(size.height);
+      small = cv::Mat(thumbnail.height, thumbnail.width, CV_8UC3, thumbnail.bgr.data());
+    } else {
+      // The full decode a capture load makes (Exif orientation applied), reduced here: OpenCV's
+      // 1/8 decode of a PNG is a full decode too, resized to floor(side / 8), so its size could
+      // not be compared with a JPEG's ceil(side / 8) (167 px: 20 against 21).
+      const cv::Mat encoded(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data()));
+      const cv::Mat full = cv::imdecode(encoded, cv::IMREAD_COLOR);
+      if (full.empty()) return scan;
+      scan.width = full.cols;
+      scan.height = full.rows;
+      cv::resize(full, small, cv::Size((full.cols + 7) / 8, (full.rows + 7) / 8), 0, 0, cv::INTER_AREA);
+    }
     if (small.empty()) return scan;
     scan.readable = true;
-    scan.scaled_width = small.cols;
-    scan.scaled_height = small.rows;
     scan.black = is_black(small);
     scan.monochrome = !scan.black && is_monochrome(small);
   } catch (const std::exception&) {

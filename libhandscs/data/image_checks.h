@@ -1,5 +1,6 @@
-// Cheap per-image checks run when a capture is opened: readable, black (camera dropout) and
-// monochrome (R = G = B cameras), from a 1/8-scale JPEG decode (DCT scaling: ~4x faster than full).
+// Cheap per-image checks run when a capture is opened: readable, its size, black (camera dropout)
+// and monochrome (R = G = B cameras), from a 1/8-scale JPEG decode (DCT scaling: ~4x faster than
+// full); other images (PNG) are decoded in full, as OpenCV's own 1/8 decode of them does too.
 #pragma once
 
 #include <opencv2/core/mat.hpp>
@@ -12,13 +13,13 @@ struct ImageScan {
   std::string damage;       // a .jpg/.jpeg found damaged (core/jpeg_damage.h): what is wrong (else "")
   bool black = false;       // brightest (8x8-averaged) value <= kBlackLevel
   bool monochrome = false;  // fewer than kMonochromeFraction of pixels have a channel spread > 4
-  int scaled_width = 0, scaled_height = 0;  // size of the 1/8 decode: ceil(width / 8) for JPEG
+  int width = 0, height = 0;  // pixels, as a full decode gives them (capture loads compare them exactly)
 };
 
 // Version of scan_image's checks: bump whenever what it reports for a file can change (a check added
 // or altered, a constant below changed), so that scans cached by an earlier version are redone
 // (data/scan_cache.h).
-constexpr int kImageChecksVersion = 2;
+constexpr int kImageChecksVersion = 3;
 // Brightest 8x8-block average of a black (dropped-out) frame: JPEG noise on a black frame stays a
 // few levels above 0, a lit hand or body is several tens of levels brighter.
 constexpr int kBlackLevel = 16;
@@ -35,7 +36,8 @@ bool is_monochrome(const cv::Mat& bgr);
 bool is_black(const cv::Mat& image, int level = kBlackLevel);
 
 // Reads `path`, checks a JPEG for damage (core/jpeg_damage.h, whose 1/8-scale decode it reuses;
-// other files are decoded at 1/8 scale by OpenCV) and runs the checks. Never throws (unreadable
+// other files, and JPEGs OpenCV turns by their Exif orientation, are decoded in full and reduced
+// here to ceil(side / 8) as libjpeg's scaling does) and runs the checks. Never throws (unreadable
 // and damaged files report so).
 ImageScan scan_image(const std::string& path);
 

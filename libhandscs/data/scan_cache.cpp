@@ -68,8 +68,8 @@ std::string encode(const Entries& entries) {
     payload.put_string(entry.scan.damage);
     payload.put<uint8_t>(entry.scan.black);
     payload.put<uint8_t>(entry.scan.monochrome);
-    payload.put<int32_t>(entry.scan.scaled_width);
-    payload.put<int32_t>(entry.scan.scaled_height);
+    payload.put<int32_t>(entry.scan.width);
+    payload.put<int32_t>(entry.scan.height);
   }
   ByteWriter header;
   header.put_array(kMagic, sizeof(kMagic));
@@ -105,8 +105,8 @@ Entries decode(const std::string& bytes) {
       entry.scan.damage = body.get_string();
       entry.scan.black = body.get<uint8_t>() != 0;
       entry.scan.monochrome = body.get<uint8_t>() != 0;
-      entry.scan.scaled_width = body.get<int32_t>();
-      entry.scan.scaled_height = body.get<int32_t>();
+      entry.scan.width = body.get<int32_t>();
+      entry.scan.height = body.get<int32_t>();
     }
     if (body.remaining() != 0) throw CacheRejected{"bytes left after the entries", true};
     return entries;

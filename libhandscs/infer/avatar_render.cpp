@@ -133,14 +133,14 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
   // own colours. PLYs always hold the avatar's own colours.
   int64_t transformed = 0;
   ProgressBar bar("render", count);
-  // Ctrl-C / SIGTERM: the frames written so far stay (each PNG is whole), the video is dropped
-  // (Mp4Writer removes its temporary file) and the render ends with an error saying where.
+  // Ctrl-C, SIGTERM or SIGHUP: the frames written so far stay (each PNG is whole), the video is
+  // dropped (Mp4Writer removes its temporary file) and the render ends with an error saying where.
   const StopSignal stop_signal;
   c10::InferenceMode guard;
   PoseMemo memo(avatar);
   for (int64_t k = 0; k < count; ++k) {
     if (StopSignal::requested())
-      throw Error("render interrupted (SIGINT or SIGTERM) after " + std::to_string(k) + " of " +
+      throw Error("render interrupted (SIGINT, SIGTERM or SIGHUP) after " + std::to_string(k) + " of " +
                   std::to_string(count) + " frames, kept in " + options.out_dir +
                   (video ? "; the video was not written" : ""));
     const PoseFrame& f = poses[k % poses.size()];

@@ -15,6 +15,29 @@
 
 namespace handscs {
 
+namespace {
+
+// Test scores mean something only on images the run never trained on: a config that changes the
+// split the run trained with (experiment_differences, the trainer's resume check) is refused.
+// Two changes keep that true and stay allowed: data.root (the capture found in another place) and
+// a validation split dropped (validation_poses 0, validation_cameras []), which scores the
+// capture's own test split, as scripts/early_stopping.py does. `source` names the config given.
+void refuse_changed_split(const TrainedAvatar& trained, const RunConfig& given, const std::string& source) {
+  const CaptureConfig& was = trained.trained_config.data;
+  RunConfig kept = given;
+  kept.data.root = was.root;
+  if (kept.data.validation_poses == 0) kept.data.validation_poses = was.validation_poses;
+  if (kept.data.validation_cameras.empty()) kept.data.validation_cameras = was.validation_cameras;
+  const auto changes = experiment_differences(trained.trained_config, kept);
+  if (changes.empty()) return;
+  throw Error(source + " changes which images " + trained.path +
+              " trained and tests on (checkpoint -> given):\n  " + join(changes, "\n  ") +
+              "\nits scores would mix two experiments (training images may score as test images): "
+              "evaluate with the run's split (data.root may name the capture's new place)");
+}
+
+}  // namespace
+
 void add_model_eval_options(CLI::App& app, ModelEvalCommandLine& cli) {
   auto* group = app.add_option_group("Model mode", "render a capture's held-out frames with a trained avatar and score them");
   group->add_option("--checkpoint", cli.checkpoint, "checkpoint file, or a run folder (its newest checkpoint)");
@@ -73,6 +96,8 @@ int run_model_eval_command(const ModelEvalCommandLine& cli, const EvalCommandLin
   TrainedAvatar trained =
       open_trained_avatar(cli.checkpoint, cli.config.empty() ? overrides : no_overrides);
   if (cli.config.empty()) config = trained.config;
+  refuse_changed_split(trained, config,
+                       cli.config.empty() ? "--set" : cli.config + (overrides.empty() ? "" : " with --set"));
   // A value stored by an older build (training checks it now) is named where it came from.
   check_eval_background(config, cli.config.empty() ? trained.path + " (its stored config)" : cli.config);
   config.eval = resolve_eval_config(metric_flags, {}, config.eval);

@@ -34,8 +34,9 @@ void check_eval_mode_options(const ModelEvalCommandLine& model, const EvalComman
 
 // Model mode end to end: resolves the config (--config or the checkpoint's, then --set on run-config
 // keys, then the metric flags; --set model.* is refused, as evaluate_avatar always uses the
-// checkpoint's model section), evaluates, writes the outputs, prints the table. Exit status: 0 when
-// every image was scored, 2 when some failed.
+// checkpoint's model section), refuses one that changes the split the run trained with (data.root
+// and dropping a validation split aside), evaluates, writes the outputs, prints the table. Exit
+// status: 0 when every image was scored, 2 when some failed.
 int run_model_eval_command(const ModelEvalCommandLine& cli, const EvalCommandLine& metric_flags,
                            const std::vector<std::string>& overrides);
 

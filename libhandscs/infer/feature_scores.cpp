@@ -89,7 +89,7 @@ json feature_score_json(const FeatureScore& s) {
 
 std::string feature_scores_per_pose_csv(const std::string& run, const std::vector<std::string>& poses,
                                         const std::vector<FeatureScore>& scores) {
-  std::string text = "run,set,dims,pose,knn_accuracy,knn_balanced_accuracy,silhouette\n";
+  std::string text = std::string(kFeatureScoresPerPoseHeader) + "\n";
   char line[512];
   for (const auto& s : scores)
     for (size_t p = 0; p < s.knn.size(); ++p) {

@@ -30,6 +30,8 @@ std::vector<FeatureScore> score_feature_sets(const std::vector<GaussianFeatures>
 // (sample, n - 1), "min", "max"}), "knn_transfer", "knn_transfer_balanced"}.
 json feature_score_json(const FeatureScore& score);
 
+// metrics.csv's header line (without its line break).
+constexpr char kFeatureScoresPerPoseHeader[] = "run,set,dims,pose,knn_accuracy,knn_balanced_accuracy,silhouette";
 // metrics.csv: run, set, dims, pose, knn_accuracy, knn_balanced_accuracy, silhouette.
 std::string feature_scores_per_pose_csv(const std::string& run, const std::vector<std::string>& poses,
                                         const std::vector<FeatureScore>& scores);

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <map>
 #include <optional>
 #include <set>
@@ -34,6 +36,7 @@
 #include "render/camera_json.h"
 #include "render/orbit.h"
 #include "run/avatar_state_io.h"
+#include "run/checkpoint.h"
 
 namespace handscs {
 
@@ -287,9 +290,28 @@ void add_feature_structure_options(CLI::App& app, FeatureStructureOptions& o) {
                "do not run scripts/plot_features.py (t-SNE of this run, scikit-learn check of the metrics)");
 }
 
+void refuse_out_holding_training_files(const std::string& out_dir) {
+  const std::filesystem::path out(out_dir);
+  const std::string advice = "; choose another --out, e.g. " + (out / "features").string();
+  std::error_code ec;
+  if (std::filesystem::exists(out / "config.json", ec) || !list_checkpoints(out_dir).empty())
+    throw Error("--out " + out_dir + " holds a training run (config.json, checkpoints/): its metrics.csv, " +
+                "the training log, would be replaced by the k-NN table" + advice);
+  const std::filesystem::path metrics = out / "metrics.csv";
+  std::string header;
+  if (std::filesystem::is_regular_file(metrics, ec)) std::getline(std::ifstream(metrics), header);
+  // The header's start names the file well enough (a training log's names some 30 columns).
+  constexpr size_t kShownHeader = 60;
+  const std::string shown = header.size() > kShownHeader ? header.substr(0, kShownHeader) + "..." : header;
+  if (!header.empty() && header != kFeatureScoresPerPoseHeader)
+    throw Error(metrics.string() + " was not written by handscs-features (its header: \"" + shown +
+                "\") and would be replaced" + advice);
+}
+
 FeatureStructureResult run_feature_structure(const FeatureStructureOptions& options) {
   require(!options.out_dir.empty(), "--out DIR is required");
   require(options.num_poses >= 1, "--num-poses must be at least 1");
+  refuse_out_holding_training_files(options.out_dir);
   // A --camera mistake is reported before the checkpoint and capture are read.
   const std::optional<Camera> given_camera =
       options.camera.empty() ? std::nullopt : std::optional<Camera>(read_camera_json(options.camera));

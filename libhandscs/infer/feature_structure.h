@@ -46,8 +46,14 @@ struct FeatureStructureResult {
   std::string plot_command;  // how to draw the t-SNE comparison of this run with others
 };
 
-// The whole command; writes everything into options.out_dir. Throws Error naming the file or
-// option at fault.
+// handscs-features writes metrics.csv, the name of a training run's log: throws Error when
+// `out_dir` holds a run (config.json, checkpoints) or a metrics.csv it did not write, so nothing
+// trained is replaced (nor becomes the log a later --resume appends to). Nothing is read but the
+// folder's entries and that file's first line.
+void refuse_out_holding_training_files(const std::string& out_dir);
+
+// The whole command (refuse_out_holding_training_files first); writes everything into
+// options.out_dir. Throws Error naming the file or option at fault.
 FeatureStructureResult run_feature_structure(const FeatureStructureOptions& options);
 
 // The result as a plain-text table for the terminal (means and spreads over the poses).

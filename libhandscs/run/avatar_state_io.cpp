@@ -75,8 +75,10 @@ TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run,
   refuse_model_overrides(overrides);
   const OpenedCheckpoint opened = open_checkpoint(checkpoint_or_run);
   check_checkpoint_meta(opened.checkpoint.meta, opened.path);
-  // The stored config and the overrides merged once, as JSON, and read into the struct once.
+  // The stored config as trained, then with the overrides merged as JSON (read again, once).
   json stored = opened.checkpoint.meta.at("config");
+  RunConfig trained_config;
+  config_from_json(stored, opened.path + " (stored config)", trained_config);
   apply_overrides(stored, overrides);
   RunConfig config;
   config_from_json(stored, opened.path + " (stored config)" + (overrides.empty() ? "" : " + --set"),
@@ -84,7 +86,7 @@ TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run,
   Avatar avatar = restore_avatar(opened.checkpoint, config.model,
                                  load_rig_source(avatar_rig_source(config)), opened.path);
   CameraColorTable colors = CameraColorTable::from_checkpoint(opened.checkpoint, opened.path);
-  return {opened.path, std::move(config), std::move(avatar), std::move(colors)};
+  return {opened.path, std::move(config), std::move(trained_config), std::move(avatar), std::move(colors)};
 }
 
 }  // namespace handscs

@@ -20,12 +20,14 @@ Avatar restore_avatar(const Checkpoint& checkpoint, const AvatarConfig& config, 
                       const std::string& source);
 
 // A trained avatar as a checkpoint file or run folder holds it (open_checkpoint): the file's path,
-// the run config stored in it with `overrides` ("a.b=value", as --set) applied, the avatar restored
-// with that config's model and rig, and its per-camera colour transforms (train.camera_color; none
-// for an older checkpoint or with it off). A model.* override is refused: the weights fix the model.
+// the run config stored in it with `overrides` ("a.b=value", as --set) applied, the stored config
+// as trained, the avatar restored with that config's model and rig, and its per-camera colour
+// transforms (train.camera_color; none for an older checkpoint or with it off). A model.* override
+// is refused: the weights fix the model.
 struct TrainedAvatar {
   std::string path;
-  RunConfig config;
+  RunConfig config;          // stored, with the overrides
+  RunConfig trained_config;  // stored, as the run trained (no overrides)
   Avatar avatar;
   CameraColorTable colors;
 };

@@ -319,8 +319,8 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
   std::string first_error;
   ProgressBar progress("synth " + c.preset, num_images);
   int64_t done = 0;
-  // Ctrl-C / SIGTERM: the images not yet rendered are skipped and the unfinished capture dropped
-  // (generate_synth_capture removes its staging folder), instead of leaving it behind.
+  // Ctrl-C, SIGTERM or SIGHUP: the images not yet rendered are skipped and the unfinished capture
+  // dropped (generate_synth_capture removes its staging folder), instead of leaving it behind.
   const StopSignal stop_signal;
 #pragma omp parallel for schedule(dynamic, 1)
   for (int64_t i = 0; i < num_images; ++i) {
@@ -374,7 +374,7 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
   }
   progress.finish();
   if (StopSignal::requested())
-    throw Error("synth: interrupted (SIGINT or SIGTERM) after " + std::to_string(done) + " of " +
+    throw Error("synth: interrupted (SIGINT, SIGTERM or SIGHUP) after " + std::to_string(done) + " of " +
                 std::to_string(num_images) + " images, before the capture was complete");
   if (!first_error.empty()) throw Error("synth: " + first_error);
   int64_t bytes = 0;
@@ -513,12 +513,14 @@ SynthReport generate_synth_capture(const SynthConfig& config, const std::string&
   check_synth_size(config);
   const fs::path out = fs::absolute(out_dir).lexically_normal();
   std::error_code ec;
-  const bool occupied = fs::exists(out, ec) && !(fs::is_directory(out, ec) && fs::is_empty(out, ec));
+  // A file is named as one before any folder check: --overwrite replaces folders only.
+  if (fs::exists(out, ec) && !fs::is_directory(out, ec))
+    throw Error(out_dir + ": is a file, not a folder; choose another --out (--overwrite replaces "
+                          "only a folder)");
+  const bool occupied = fs::exists(out, ec) && !fs::is_empty(out, ec);
   if (occupied && !overwrite)
     throw Error(out_dir + ": not empty (" + folder_contents(out) +
                 "); choose another --out, or replace it with --overwrite");
-  if (occupied && !fs::is_directory(out, ec))
-    throw Error(out_dir + ": is a file, not a folder");
   // Written beside the old folder and swapped in only when complete: a failure or an interrupt
   // leaves whatever was there as it was (only the staging folder of a killed run stays behind).
   const std::string suffix = "." + std::to_string(::getpid());

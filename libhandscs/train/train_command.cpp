@@ -124,8 +124,9 @@ int train_command(int argc, char** argv) {
     }
     if (!root) return summary.interrupted ? 130 : 0;
     spdlog::info("checkpoint: {}", summary.checkpoint);
-    spdlog::info("evaluate:   handscs-eval --config {} --checkpoint {} --out {}",
-                 shell_quote(config_path), shell_quote(run_dir),
+    // No --config: the checkpoint stores the config trained with, --set overrides applied, where
+    // the config file alone lacks them (no data.root) and model.* ones would be refused.
+    spdlog::info("evaluate:   handscs-eval --checkpoint {} --out {}", shell_quote(run_dir),
                  shell_quote(run_dir + "/eval"));
     return summary.interrupted ? 130 : 0;  // 130: stopped by a signal (shell convention)
   } catch (const std::exception& e) {

@@ -994,7 +994,7 @@ void Trainer::log_step(const StepResult& r) {
 }
 
 TrainSummary Trainer::run() {
-  const StopSignal stop_signal;  // Ctrl-C / SIGTERM: save a checkpoint and end
+  const StopSignal stop_signal;  // Ctrl-C, SIGTERM or SIGHUP: save a checkpoint and end
   stop_agreed_ = false;
   // Every rank starts from rank 0's state: its initialisation, or the checkpoint it resumed.
   if (group_) synchronize_state(/*keep_chains=*/false);

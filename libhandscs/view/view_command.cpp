@@ -3,6 +3,8 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include "view/request_headers.h"
+
 namespace handscs {
 
 void add_view_options(CLI::App& app, ViewCommandLine& cli) {

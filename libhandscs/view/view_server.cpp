@@ -11,6 +11,7 @@
 #include "core/error.h"
 #include "render/camera_json.h"
 #include "view/pose_saver.h"
+#include "view/request_headers.h"
 #include "view/view_page.h"
 
 namespace handscs {
@@ -26,15 +27,6 @@ void send_error(httplib::Response& res, int status, const std::string& message) 
 
 void send_json(httplib::Response& res, const json& value) {
   res.set_content(value.dump(), "application/json");
-}
-
-// The host part of a Host header ("127.0.0.1:8080" -> "127.0.0.1", "[::1]:8080" -> "::1").
-std::string host_name(const std::string& header) {
-  if (!header.empty() && header.front() == '[') {
-    const auto end = header.find(']');
-    return end == std::string::npos ? header : header.substr(1, end - 1);
-  }
-  return header.substr(0, header.find(':'));
 }
 
 // Runs a POST handler on a parsed request; Error (the client's fault) -> 400, anything else -> 500.
@@ -53,10 +45,6 @@ httplib::Server::Handler post_handler(const OrbitView& default_view, F handle) {
 }
 
 }  // namespace
-
-bool is_loopback_host(const std::string& host) {
-  return host == "localhost" || host == "::1" || host.rfind("127.", 0) == 0;
-}
 
 ViewServer::ViewServer(ViewScene& scene, ViewServerConfig config)
     : scene_(scene), config_(std::move(config)), http_(std::make_unique<httplib::Server>()) {
@@ -83,11 +71,11 @@ ViewServer::~ViewServer() = default;
 void ViewServer::add_routes() {
   const bool loopback = is_loopback_host(config_.host);
   http_->set_pre_routing_handler([loopback](const httplib::Request& req, httplib::Response& res) {
-    if (loopback && !is_loopback_host(host_name(req.get_header_value("Host")))) {
+    if (loopback && !is_loopback_host_header(req.get_header_value("Host"))) {
       send_error(res, 403, "Host " + req.get_header_value("Host") + " is not this loopback server");
       return httplib::Server::HandlerResponse::Handled;
     }
-    if (req.method == "POST" && req.get_header_value("Content-Type").rfind("application/json", 0) != 0) {
+    if (req.method == "POST" && !is_json_content_type(req.get_header_value("Content-Type"))) {
       send_error(res, 415, "POST bodies must be Content-Type: application/json");
       return httplib::Server::HandlerResponse::Handled;
     }

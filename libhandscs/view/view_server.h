@@ -9,7 +9,7 @@
 // Bad requests get 4xx with {"error": "..."} naming the key at fault; POST bodies must be
 // application/json (so another site's page cannot post to the server without a CORS preflight,
 // which is never granted) and at most kMaxViewRequestBytes; on a loopback address, requests whose
-// Host header is not a loopback name are refused (DNS rebinding).
+// Host header is not a loopback name are refused (DNS rebinding; view/request_headers.h).
 #pragma once
 
 #include <memory>
@@ -55,8 +55,5 @@ class ViewServer {
   std::unique_ptr<httplib::Server> http_;
   std::mutex save_mutex_;
 };
-
-// True for "127.0.0.1" (any 127.x.y.z), "::1" and "localhost".
-bool is_loopback_host(const std::string& host);
 
 }  // namespace handscs

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <set>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -33,6 +34,35 @@ double mean_abs_difference(const cv::Mat& a, const cv::Mat& b, const cv::Mat& ma
   cv::Mat diff;
   cv::absdiff(a, b, diff);
   return cv::mean(diff, mask)[0] / 3 + cv::mean(diff, mask)[1] / 3 + cv::mean(diff, mask)[2] / 3;
+}
+
+// Copies the tiny capture in `layout` to `name` with the JPEG images of `cameras` (folder names;
+// none: every camera) rewritten as PNGs of the same pixels, as docs/CAPTURE_FORMAT.md allows; an
+// InterHand2.6M data.json names the PNGs. Returns the copy's root.
+std::string tiny_with_pngs(const std::string& layout, const std::string& name,
+                           const std::set<std::string>& cameras = {}) {
+  namespace fs = std::filesystem;
+  const std::string root = data_test::copy_of_tiny_in(layout, name);
+  std::vector<fs::path> jpegs;
+  for (const auto& entry : fs::recursive_directory_iterator(root + "/images"))
+    if (entry.path().extension() == ".jpg" &&
+        (cameras.empty() || cameras.count(entry.path().parent_path().filename().string())))
+      jpegs.push_back(entry.path());
+  for (const fs::path& jpeg : jpegs) {
+    const cv::Mat pixels = cv::imread(jpeg.string(), cv::IMREAD_COLOR);
+    REQUIRE(cv::imwrite(fs::path(jpeg).replace_extension(".png").string(), pixels));
+    fs::remove(jpeg);
+  }
+  if (layout == "interhand") {
+    const std::string data = root + "/annotations/test/InterHand2.6M_test_data.json";
+    json value = parse_json_file(data);
+    for (json& image : value["images"]) {
+      const fs::path png = fs::path(image["file_name"].get<std::string>()).replace_extension(".png");
+      if (fs::exists(root + "/images/test/" + png.string())) image["file_name"] = png.string();
+    }
+    data_test::write_text(data, value.dump());
+  }
+  return root;
 }
 
 }  // namespace
@@ -324,4 +354,48 @@ TEST_CASE("capture layouts: without H_ and W_ an EasyMocap camera takes its firs
     CHECK(capture.frames()[i].camera.width == reference.frames()[i].camera.width);
     CHECK(capture.frames()[i].camera.height == reference.frames()[i].camera.height);
   }
+}
+
+TEST_CASE("capture layouts: PNG images of an odd size open in every layout, in all cameras or one") {
+  // The tiny capture's 167 x 256 pixels: 167 is no multiple of 8, where OpenCV's 1/8 decode of a PNG
+  // (20 px wide) and libjpeg's of a JPEG (21 px) differ.
+  for (const char* layout : {"interhand", "handscs", "easymocap"}) {
+    INFO(layout);
+    const Capture reference = Capture::open(data_test::tiny_config(data_test::tiny_capture_in(layout)));
+    REQUIRE(reference.frames().size() == 48);
+    REQUIRE(reference.frames()[0].camera.width % 8 != 0);
+    const std::string first_camera =
+        std::filesystem::path(reference.frames()[0].image_path).parent_path().filename().string();
+    for (const bool one_camera : {false, true}) {
+      INFO((one_camera ? "PNGs in camera " + first_camera + " only" : "PNGs in every camera"));
+      const std::string root = tiny_with_pngs(layout, std::string("png_") + layout + (one_camera ? "_one" : "_all"),
+                                              one_camera ? std::set<std::string>{first_camera} : std::set<std::string>{});
+      Capture capture = Capture::open(data_test::tiny_config(root));
+      CHECK(capture.skip_summary().empty());
+      CHECK(capture.skipped().empty());
+      CHECK(capture.cameras() == reference.cameras());
+      REQUIRE(capture.frames().size() == reference.frames().size());
+      const FrameInfo& png = capture.frames()[0];
+      CHECK(std::filesystem::path(png.image_path).extension() == ".png");
+      CHECK(capture.decode_image(png).cols == png.camera.width);
+      if (one_camera) CHECK(std::filesystem::path(capture.frames().back().image_path).extension() == ".jpg");
+    }
+  }
+  // The check is exact: a PNG, or a JPEG, one pixel narrower than its camera is skipped (the JPEG's
+  // 1/8 decode has the camera's width in blocks), not refused later when training loads it.
+  const std::string root = tiny_with_pngs("handscs", "png_narrow");
+  Capture reference = Capture::open(data_test::tiny_config(root));
+  const FrameInfo& png = reference.frames()[0];
+  const FrameInfo& next = reference.frames()[1];
+  const std::string jpeg = std::filesystem::path(next.image_path).replace_extension(".jpg").string();
+  const cv::Mat narrow(png.camera.height, png.camera.width - 1, CV_8UC3, cv::Scalar(90, 120, 160));
+  REQUIRE(cv::imwrite(png.image_path, narrow));
+  std::filesystem::remove(next.image_path);
+  REQUIRE(cv::imwrite(jpeg, narrow));
+  Capture narrowed = Capture::open(data_test::tiny_config(root));
+  REQUIRE(narrowed.skipped().size() == 2);
+  CHECK(narrowed.skipped()[0].path == png.image_path);
+  CHECK(narrowed.skipped()[0].reason == "wrong image size");
+  CHECK(narrowed.skipped()[1].path == jpeg);
+  CHECK(narrowed.skipped()[1].reason == "wrong image size");
 }

@@ -33,8 +33,8 @@ void check_same(const std::vector<handscs::ImageScan>& got, const std::vector<st
     CHECK(got[i].damage == want.damage);
     CHECK(got[i].black == want.black);
     CHECK(got[i].monochrome == want.monochrome);
-    CHECK(got[i].scaled_width == want.scaled_width);
-    CHECK(got[i].scaled_height == want.scaled_height);
+    CHECK(got[i].width == want.width);
+    CHECK(got[i].height == want.height);
   }
 }
 

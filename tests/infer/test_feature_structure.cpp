@@ -142,3 +142,39 @@ TEST_CASE("features command: grid, features and metrics of a tiny avatar; scikit
   CHECK(handscs::read_file(again.out_dir + "/metrics.csv") == handscs::read_file(options.out_dir + "/metrics.csv"));
   CHECK(handscs::read_file(again.out_dir + "/features.csv") == handscs::read_file(options.out_dir + "/features.csv"));
 }
+
+TEST_CASE("features command: an --out holding a training run or another metrics.csv is refused") {
+  handscs::set_threads(2);
+  handscs::RunConfig config = handscs_test::tiny_run_config();
+  config.train.iterations = 2;
+  config.train.log_every = 1;
+  config.train.checkpoint_every = 2;
+  const std::string run = handscs_test::fresh_dir("features_refused_run");
+  handscs::Trainer(config, run).run();
+  const std::string log = handscs::read_file(run + "/metrics.csv");
+  REQUIRE(log.rfind("iteration,", 0) == 0);
+  handscs::FeatureStructureOptions options;
+  options.checkpoint = run;
+  options.out_dir = run;
+  options.plot = false;
+  CHECK(handscs_test::error_of([&] { handscs::run_feature_structure(options); }) ==
+        "--out " + run + " holds a training run (config.json, checkpoints/): its metrics.csv, the training "
+        "log, would be replaced by the k-NN table; choose another --out, e.g. " + run + "/features");
+  CHECK(handscs::read_file(run + "/metrics.csv") == log);
+
+  // A copy of the log without its run is refused by its header.
+  const std::string copy = handscs_test::fresh_dir("features_log_copy");
+  std::filesystem::create_directories(copy);
+  std::filesystem::copy_file(run + "/metrics.csv", copy + "/metrics.csv");
+  CHECK(handscs_test::error_of([&] { handscs::refuse_out_holding_training_files(copy); }) ==
+        copy + "/metrics.csv was not written by handscs-features (its header: \"" + log.substr(0, 60) +
+            "...\") and would be replaced; choose another --out, e.g. " + copy + "/features");
+  CHECK(handscs::read_file(copy + "/metrics.csv") == log);
+
+  // A new folder, and one holding an earlier result of handscs-features, are taken.
+  CHECK_NOTHROW(handscs::refuse_out_holding_training_files(run + "/features"));
+  const std::string earlier = handscs_test::fresh_dir("features_earlier");
+  std::filesystem::create_directories(earlier);
+  handscs::write_file_atomic(earlier + "/metrics.csv", handscs::feature_scores_per_pose_csv("SCS", {}, {}));
+  CHECK_NOTHROW(handscs::refuse_out_holding_training_files(earlier));
+}

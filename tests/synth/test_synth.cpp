@@ -228,6 +228,19 @@ TEST_CASE("synth: a folder that is not empty is refused, and replaced only by a 
   CHECK_FALSE(fs::exists(dir + "_huge"));
 }
 
+TEST_CASE("synth: an --out that is a file is named as one, with or without --overwrite") {
+  const std::string file = data_test::fresh_dir("synth_file") + "/notes.txt";
+  write_file_atomic(file, "a user's file");
+  SynthConfig config = synth_preset("tiny");
+  config.num_frames = 4;
+  config.held_out_frames = 1;
+  const std::string expected =
+      file + ": is a file, not a folder; choose another --out (--overwrite replaces only a folder)";
+  CHECK(data_test::error_of([&] { generate_synth_capture(config, file); }) == expected);
+  CHECK(data_test::error_of([&] { generate_synth_capture(config, file, /*overwrite=*/true); }) == expected);
+  CHECK(read_file(file) == "a user's file");
+}
+
 TEST_CASE("synth: SIGTERM drops the unfinished capture and leaves the folder as it was") {
   const std::string dir = handscs_test::scratch_path("handscs_test_synth_stop", "case");
   fs::remove_all(dir);
@@ -247,7 +260,7 @@ TEST_CASE("synth: SIGTERM drops the unfinished capture and leaves the folder as 
   kill(child, SIGTERM);
   CHECK(handscs_test::exit_code_of(child) == 1);
   const std::string log = handscs::read_file(dir + "/synth.log");
-  CHECK(log.find("synth: interrupted (SIGINT or SIGTERM) after ") != std::string::npos);
+  CHECK(log.find("synth: interrupted (SIGINT, SIGTERM or SIGHUP) after ") != std::string::npos);
   CHECK(log.find("images, before the capture was complete") != std::string::npos);
   CHECK_FALSE(fs::exists(staging));
   int entries = 0;

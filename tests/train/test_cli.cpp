@@ -19,6 +19,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 #include "core/atomic_file.h"
+#include "core/cli.h"
 #include "metrics/comparison_panel.h"
 #include "tiny_capture.h"
 #include "run/checkpoint.h"
@@ -40,6 +41,32 @@ int run(const std::string& command) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 std::string log_text() { return handscs::read_file(kLog); }
+
+// Starts handscs-train (after `prefix`, e.g. "nohup "; `extra` options after its own) on the tiny
+// capture for 100000 steps into `run_dir`, its log in run_dir.log, and returns its pid once
+// metrics.csv exists: it appears with the first logged step, after the stop handlers are installed.
+pid_t start_long_training(const std::string& run_dir, const std::string& prefix = "",
+                          const std::string& extra = "") {
+  const pid_t pid = handscs_test::spawn(
+      prefix + kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
+      " --threads 1 --set data.root=" + tiny_capture_dir() +
+      " train.iterations=100000 train.checkpoint_every=100000" + extra + " > " + run_dir + ".log 2>&1");
+  REQUIRE(pid > 0);
+  handscs_test::wait_until([&] { return std::filesystem::exists(run_dir + "/metrics.csv"); });
+  return pid;
+}
+
+// Waits for a training run stopped by a signal: exit 130, a checkpoint of the step reached and the
+// line saying so. Returns that step.
+int64_t check_stopped_with_checkpoint(pid_t pid, const std::string& run_dir) {
+  CHECK(handscs_test::exit_code_of(pid) == 130);
+  const auto latest = handscs::latest_checkpoint(run_dir);
+  REQUIRE_FALSE(latest.empty());
+  const auto step = handscs::load_checkpoint(latest).meta["iteration"].get<int64_t>();
+  CHECK(handscs::read_file(run_dir + ".log").find("interrupted at step " + std::to_string(step) +
+                                                  ": checkpoint " + latest + " saved") != std::string::npos);
+  return step;
+}
 }  // namespace
 
 TEST_CASE("cli: train, resume, evaluate and render the tiny capture") {
@@ -187,22 +214,82 @@ TEST_CASE("cli: kill -9 during checkpoint writes leaves a loadable checkpoint") 
 
 TEST_CASE("cli: SIGTERM stops training with a checkpoint of the step reached and exit 130") {
   const auto run_dir = fresh_dir("cli_sigterm");
-  const pid_t pid = handscs_test::spawn(
-      kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
-      " --threads 1 --set data.root=" + tiny_capture_dir() +
-      " train.iterations=100000 train.checkpoint_every=100000 > " + run_dir + ".log 2>&1");
-  REQUIRE(pid > 0);
-  // metrics.csv appears with the first logged step, after the handlers are installed.
-  handscs_test::wait_until([&] { return std::filesystem::exists(run_dir + "/metrics.csv"); });
+  const pid_t pid = start_long_training(run_dir);
   kill(pid, SIGTERM);
-  CHECK(handscs_test::exit_code_of(pid) == 130);
-  const auto latest = handscs::latest_checkpoint(run_dir);
-  REQUIRE_FALSE(latest.empty());
-  const auto step = handscs::load_checkpoint(latest).meta["iteration"].get<int64_t>();
+  const int64_t step = check_stopped_with_checkpoint(pid, run_dir);
   CHECK(step > 0);
   CHECK(step < 100000);
-  CHECK(handscs::read_file(run_dir + ".log").find("interrupted at step " + std::to_string(step) +
-                                                  ": checkpoint " + latest + " saved") != std::string::npos);
+}
+
+TEST_CASE("cli: SIGHUP stops training as SIGTERM does, unless nohup ignores it") {
+  // The terminal closed: a checkpoint of the step reached, exit 130, the same line as for SIGTERM.
+  const auto run_dir = fresh_dir("cli_sighup");
+  pid_t pid = start_long_training(run_dir);
+  kill(pid, SIGHUP);
+  check_stopped_with_checkpoint(pid, run_dir);
+
+  // Under nohup the run outlives its terminal: it keeps logging steps after the SIGHUP.
+  const auto metrics_rows = [&] {
+    const std::string text = handscs::read_file(run_dir + "/metrics.csv");
+    return std::count(text.begin(), text.end(), '\n');
+  };
+  const auto before = metrics_rows();
+  pid = start_long_training(run_dir, "nohup ", " --resume");
+  handscs_test::wait_until([&] { return metrics_rows() > before; });
+  kill(pid, SIGHUP);
+  const auto at_hangup = metrics_rows();
+  CHECK(handscs_test::wait_until([&] { return metrics_rows() > at_hangup + 1; }));
+  int status = 0;
+  CHECK(waitpid(pid, &status, WNOHANG) == 0);  // still training
+  kill(pid, SIGTERM);
+  check_stopped_with_checkpoint(pid, run_dir);
+}
+
+TEST_CASE("cli: the closing evaluate line is a command that runs as printed") {
+  // --set overrides the config file lacks (data.root), and a run folder whose name needs quoting.
+  const auto run_dir = fresh_dir("cli_evaluate_hint") + " it's";
+  REQUIRE(run(kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " +
+              handscs::shell_quote(run_dir) + " --threads 2 --set data.root=" + tiny_capture_dir() +
+              " train.iterations=2 model.embedding_dim=8") == 0);
+  const std::string log = log_text();
+  const auto start = log.find("evaluate:   handscs-eval ");
+  REQUIRE(start != std::string::npos);
+  const std::string line = log.substr(start, log.find('\n', start) - start);
+  CHECK(line == "evaluate:   handscs-eval --checkpoint " + handscs::shell_quote(run_dir) + " --out " +
+                    handscs::shell_quote(run_dir + "/eval"));
+  const std::string command = line.substr(line.find("handscs-eval"));
+  INFO(command);
+  CHECK(run(kBin + "/" + command + " --threads 2 --max-images 2") == 0);
+  INFO(log_text());
+  CHECK(std::filesystem::exists(run_dir + "/eval/summary.json"));
+}
+
+TEST_CASE("cli: handscs-eval refuses a split other than the run trained with") {
+  const auto run_dir = fresh_dir("cli_eval_split");
+  REQUIRE(run(kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
+              " --threads 2 --set data.root=" + tiny_capture_dir() +
+              " train.iterations=2 data.validation_poses=2") == 0);
+  const std::string checkpoint = run_dir + "/checkpoints/step_00000002.ckpt";
+  const std::string eval = kBin + "/handscs-eval --checkpoint " + run_dir + " --threads 2 --max-images 1 --out " +
+                           run_dir + "_eval";
+  const std::string advice = "its scores would mix two experiments (training images may score as test images): "
+                             "evaluate with the run's split (data.root may name the capture's new place)";
+  CHECK(run(eval + " --set data.held_out_poses=9") == 1);
+  CHECK(log_text().find("--set changes which images " + checkpoint + " trained and tests on (checkpoint -> "
+                        "given):\n  data.held_out_poses: 3 -> 9\n" + advice) != std::string::npos);
+  CHECK(run(eval + " --set data.validation_poses=1") == 1);
+  CHECK(log_text().find("  data.validation_poses: 2 -> 1\n") != std::string::npos);
+  // A config file is named as the source; the key it changes, not the others it shares.
+  const std::string config = run_dir + "_other_split.json";
+  std::ofstream(config) << R"({"extends": ")" << kSource << R"(/configs/tiny.json", "data": {"root": ")"
+                        << tiny_capture_dir() << R"(", "held_out_poses": 4, "validation_poses": 2}})";
+  CHECK(run(eval + " --config " + config) == 1);
+  CHECK(log_text().find(config + " changes which images " + checkpoint + " trained and tests on (checkpoint -> "
+                        "given):\n  data.held_out_poses: 3 -> 4\n" + advice) != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(run_dir + "_eval/summary.json"));
+  // Dropping the validation split scores the capture's own test poses, which the run never saw.
+  CHECK(run(eval + " --set data.validation_poses=0") == 0);
+  CHECK(std::filesystem::exists(run_dir + "_eval/summary.json"));
 }
 
 TEST_CASE("cli: SIGTERM stops a render, keeping the frames written and no torn video") {
@@ -222,7 +309,7 @@ TEST_CASE("cli: SIGTERM stops a render, keeping the frames written and no torn v
   kill(pid, SIGTERM);
   CHECK(handscs_test::exit_code_of(pid) == 1);
   const std::string log = handscs::read_file(out + ".log");
-  CHECK(log.find("render interrupted (SIGINT or SIGTERM) after ") != std::string::npos);
+  CHECK(log.find("render interrupted (SIGINT, SIGTERM or SIGHUP) after ") != std::string::npos);
   CHECK(log.find(" of 100000 frames, kept in " + out + "; the video was not written") !=
         std::string::npos);
   CHECK(std::filesystem::exists(out + "/frame_0000.png"));

@@ -12,6 +12,7 @@
 
 #include "core/atomic_file.h"
 #include "infer/avatar_render.h"
+#include "raw_http.h"
 #include "render/camera_json.h"
 #include "view_fixture.h"
 
@@ -64,9 +65,25 @@ TEST_CASE("view server: a port in use is an error naming host and port") {
   CHECK(handscs_test::error_of([&] { second.bind(); }) ==
         "--host 127.0.0.1 --port " + std::to_string(s.port) +
             ": cannot listen there (the port is in use, or the host is not an address of this machine)");
-  CHECK_FALSE(handscs::is_loopback_host("0.0.0.0"));
-  CHECK(handscs::is_loopback_host("127.0.0.1"));
-  CHECK(handscs::is_loopback_host("::1"));
+}
+
+TEST_CASE("view server: a Host that only starts like loopback and a type like JSON are refused") {
+  handscs_test::RunningServer s;
+  const auto info = [&](const std::string& host) {
+    return handscs_test::raw_status(s.port, "GET /api/info HTTP/1.1\r\nHost: " + host +
+                                                "\r\nConnection: close\r\n\r\n");
+  };
+  CHECK(info("127.0.0.1:" + std::to_string(s.port)) == 200);
+  CHECK(info("127.evil.com") == 403);  // DNS rebinding: a name its owner points at 127.0.0.1
+  CHECK(info("127.0.0.1.nip.io:" + std::to_string(s.port)) == 403);
+  const std::string body = R"({"held_out": 0})";
+  const auto camera = [&](const std::string& type) {
+    return handscs_test::raw_status(s.port, "POST /api/camera HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: " +
+                                                type + "\r\nContent-Length: " + std::to_string(body.size()) +
+                                                "\r\nConnection: close\r\n\r\n" + body);
+  };
+  CHECK(camera("application/json; charset=utf-8") == 200);
+  CHECK(camera("application/jsonp-evil") == 415);
 }
 
 TEST_CASE("view server: frames equal handscs-render's for the same pose and camera") {
