@@ -60,12 +60,33 @@ double percentile(std::vector<double> values, double q) {
   return values[lo] + (values[hi] - values[lo]) * (at - lo);
 }
 
-void prepare_output(const FitCommandOptions& o) {
+// The file that marks a folder as a fit's (what --overwrite may replace).
+constexpr const char* kFitMarker = "fit_config.json";
+
+// Checks --out before any work; returns the staging folder the fit will be written into (beside
+// --out, so the final rename stays on one file system): --out is replaced only once the whole fit
+// is written.
+std::string check_output(const FitCommandOptions& o) {
   if (o.out.empty()) throw Error("--out: name the folder to write the fit into");
   if (fs::exists(o.out) && !fs::is_directory(o.out)) throw Error(o.out + ": is a file, not a folder (--out)");
-  if (fs::exists(o.out) && !fs::is_empty(o.out) && !o.overwrite)
-    throw Error(o.out + ": not empty; pass --overwrite to replace the fit in it, or name a new folder");
-  ensure_directory(o.out);
+  if (fs::exists(o.out) && !fs::is_empty(o.out)) {
+    if (!o.overwrite)
+      throw Error(o.out + ": not empty; pass --overwrite to replace the fit in it, or name a new folder");
+    if (!fs::exists(fs::path(o.out) / kFitMarker))
+      throw Error(o.out + ": holds no fit (no " + kFitMarker +
+                  "); --overwrite replaces only a folder handscs-fit wrote: name a new folder");
+  }
+  const fs::path out = fs::absolute(o.out).lexically_normal();
+  return (out.parent_path() / ("." + out.filename().string() + ".partial")).string();
+}
+
+// Puts the written fit in place of --out (the earlier fit, if any, goes only then).
+void finish_output(const FitCommandOptions& o, const std::string& stage) {
+  const std::string replaced = stage + ".replaced";
+  fs::remove_all(replaced);
+  if (fs::exists(o.out)) fs::rename(o.out, replaced);
+  fs::rename(stage, o.out);
+  fs::remove_all(replaced);
 }
 
 // Mean residual of a fit with the given model, over up to kHandednessSamples frames.
@@ -327,9 +348,6 @@ void write_multiview_outputs(const FitCommandOptions& o, const MultiviewCapture&
     drawn.push_back({&rigs[s], posed.vertices[0], fit.joints, colours[s]});
   }
   for (int v : views) {
-    if (v < 0 || v >= static_cast<int>(cap.cameras.size()))
-      throw Error("--overlay-views: view " + std::to_string(v) + " is not in the capture (0-" +
-                  std::to_string(cap.cameras.size() - 1) + ")");
     const cv::Mat photo = cv::imread(cap.images[v], cv::IMREAD_COLOR);
     if (photo.empty()) throw Error(cap.images[v] + ": cannot read the image");
     write_png((fs::path(o.out) / "overlay" / ("view" + cap.views[v] + ".png")).string(),
@@ -349,7 +367,7 @@ void run_fit_command(const FitCommandOptions& o) {
   if (rigs[0].handedness != Handedness::right) throw Error("--rig-right: " + o.rig_right + " is a left-hand rig");
   if (rigs[1].handedness != Handedness::left) throw Error("--rig-left: " + o.rig_left + " is a right-hand rig");
   const std::array<JointModel, 2> models = {make_joint_model(rigs[0]), make_joint_model(rigs[1])};
-  prepare_output(o);
+  const std::string stage = check_output(o);
 
   std::array<SideInput, 2> inputs_by_side;
   MultiviewCapture cap;
@@ -357,6 +375,10 @@ void run_fit_command(const FitCommandOptions& o) {
   std::array<int, 2> side_of_hand{-1, -1};
   if (!o.multiview.empty()) {
     cap = read_multiview_capture(o.multiview);
+    for (int v : o.overlay_views)
+      if (v < 0 || v >= static_cast<int>(cap.cameras.size()))
+        throw Error("--overlay-views: view " + std::to_string(v) + " is not in the capture (0-" +
+                    std::to_string(cap.cameras.size() - 1) + ")");
     spdlog::info("{}: {} views, {} hand detections", o.multiview, cap.cameras.size(), cap.detections.size());
     hands = find_hands(cap.cameras, cap.detections, config.multiview);
     if (hands.empty())
@@ -382,19 +404,31 @@ void run_fit_command(const FitCommandOptions& o) {
         inputs_by_side[s].frames.push_back(*hand);
       }
     if (inputs_by_side[0].frames.empty() && inputs_by_side[1].frames.empty())
-      throw Error((o.keypoints.empty() ? o.interhand_joints : o.keypoints) + ": no frame holds a hand");
+      throw Error((o.keypoints.empty() ? o.interhand_joints : o.keypoints) +
+                  ": no frame holds a hand (every hand is null or has no valid point)");
   }
   std::array<SideResult, 2> results;
   for (int s = 0; s < 2; ++s)
     results[s] = fit_side(models[s], models[1 - s], inputs_by_side[s], config, kSides[s], o.multiview.empty());
   log_summary(results);
-  for (int s = 0; s < 2; ++s)
-    if (!results[s].fits.empty())
-      write_file_atomic((fs::path(o.out) / ("poses_" + std::string(kSides[s]) + ".json")).string(),
-                        poses_json(models[s], results[s], o.flat_hand_mean).dump(1) + "\n");
-  write_reports(o.out, results);
-  if (!o.multiview.empty()) write_multiview_outputs(o, cap, hands, side_of_hand, results, rigs, models);
-  write_file_atomic((fs::path(o.out) / "fit_config.json").string(), config_to_json(config).dump(1) + "\n");
+  fs::remove_all(stage);
+  ensure_directory(stage);
+  FitCommandOptions staged = o;  // every file goes to the staging folder first
+  staged.out = stage;
+  try {
+    for (int s = 0; s < 2; ++s)
+      if (!results[s].fits.empty())
+        write_file_atomic((fs::path(stage) / ("poses_" + std::string(kSides[s]) + ".json")).string(),
+                          poses_json(models[s], results[s], o.flat_hand_mean).dump(1) + "\n");
+    write_reports(stage, results);
+    if (!o.multiview.empty()) write_multiview_outputs(staged, cap, hands, side_of_hand, results, rigs, models);
+    write_file_atomic((fs::path(stage) / kFitMarker).string(), config_to_json(config).dump(1) + "\n");
+    finish_output(o, stage);
+  } catch (...) {
+    std::error_code ignored;  // the error that brought us here is the one to report
+    fs::remove_all(stage, ignored);
+    throw;
+  }
   spdlog::info("wrote {}", o.out);
 }
 

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <fmt/format.h>
+
 #include "core/config.h"
 #include "core/vec3.h"
 #include "data/interhand_annotations.h"
@@ -14,6 +16,7 @@ namespace {
 
 constexpr double kMaxMedianBoneM = 0.5;    // a 50 cm bone is no hand's: millimetres were given
 constexpr double kMinMedianBoneM = 0.002;  // a 2 mm bone neither
+constexpr double kMaxMillimetreBoneM = 500.0;  // nor a bone of 500 mm read as metres
 
 std::optional<HandKeypoints> read_hand(const json& item, KeypointOrder order, double to_metres,
                                        const std::string& where) {
@@ -70,12 +73,15 @@ void check_keypoint_units(const HandKeypoints& hand, const std::string& where) {
   if (bones.size() < 3) return;
   std::nth_element(bones.begin(), bones.begin() + bones.size() / 2, bones.end());
   const double median = bones[bones.size() / 2];
+  const std::string length = fmt::format("{:.4g}", median);
+  if (median > kMaxMillimetreBoneM)
+    throw Error(where + ": the hand's median bone is " + length + " m long: too large for a hand in any unit");
   if (median > kMaxMedianBoneM)
-    throw Error(where + ": the hand's median bone is " + std::to_string(median) +
+    throw Error(where + ": the hand's median bone is " + length +
                 " m long: the keypoints look like millimetres (set \"units\": \"mm\")");
   if (median < kMinMedianBoneM)
-    throw Error(where + ": the hand's median bone is " + std::to_string(median) +
-                " m long: too small for a hand (are the units right?)");
+    throw Error(where + ": the hand's median bone is " + length +
+                " m long: too small for a hand (are the units right, or the points all one?)");
 }
 
 std::vector<KeypointFrame> read_keypoint_file(const std::string& path) {

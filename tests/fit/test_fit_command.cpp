@@ -91,6 +91,24 @@ TEST_CASE("handscs-fit: keypoints in MediaPipe order and millimetres come back t
         o.out + ": not empty; pass --overwrite to replace the fit in it, or name a new folder");
   o.overwrite = true;
   run_fit_command(o);
+  CHECK_FALSE(fs::exists(fs::path(o.out).parent_path() / ("." + fs::path(o.out).filename().string() + ".partial")));
+  // --overwrite replaces only a folder handscs-fit wrote: a training run's folder is kept whole.
+  FitCommandOptions into_run = o;
+  into_run.out = handscs_test::scratch_path("fit_command", "a_run");
+  fs::remove_all(into_run.out);
+  fs::create_directories(into_run.out);
+  const std::string config = into_run.out + "/config.json";
+  std::ofstream(config) << "{}";
+  CHECK(handscs_test::error_of([&] { run_fit_command(into_run); }) ==
+        into_run.out + ": holds no fit (no fit_config.json); --overwrite replaces only a folder handscs-fit wrote: "
+                       "name a new folder");
+  CHECK(fs::exists(config));
+  // A run that fails (here: its input is missing) leaves the earlier fit as it was.
+  const auto before = handscs_test::snapshot(o.out);
+  FitCommandOptions failing = o;
+  failing.keypoints = "/nonexistent/keypoints.json";
+  CHECK_FALSE(handscs_test::error_of([&] { run_fit_command(failing); }).empty());
+  CHECK(handscs_test::snapshot(o.out) == before);
 }
 
 TEST_CASE("handscs-fit: bad keypoint files are refused with the file and key named") {
