@@ -448,6 +448,7 @@ int64_t write_interhand_annotations(const SynthScene& scene,
        {{"campos", campos}, {"camrot", camrot}, {"focal", focal}, {"princpt", princpt}}}};
 
   json joint_frames = json::object(), mano_frames = json::object();
+  SynthRandom joint_noise(mix_seed(c.seed, 0x6a6f696e74));  // "joint"
   for (const auto& f : scene.frames) {
     // InterHand's 42 joints: the right hand's 21, then the left's; the other hand is absent.
     json coords = json::array(), valid = json::array();
@@ -458,6 +459,8 @@ int64_t write_interhand_annotations(const SynthScene& scene,
         const int m = kInterHandFromMano21[ih - first];
         std::array<double, 3> joint = {f.joints[m * 3], f.joints[m * 3 + 1], f.joints[m * 3 + 2]};
         if (left) joint = mirror_point(joint);
+        if (c.effects.joint_noise_mm > 0)
+          for (double& x : joint) x += joint_noise.normal() * c.effects.joint_noise_mm * 1e-3;
         coords.push_back({joint[0] * 1000.0, joint[1] * 1000.0, joint[2] * 1000.0});
       } else {
         coords.push_back({0.0, 0.0, 0.0});

@@ -25,6 +25,10 @@ struct SynthEffects {
   double fit_pose_deg = 3.0;     // RMS per joint axis-angle component
   double fit_global_deg = 1.5;   // RMS of the global orientation error
   double fit_trans_mm = 2.0;     // RMS per translation component
+  // Triangulation error of InterHand2.6M-layout joint_3d.json (what data.pose_source = joints fits):
+  // Gaussian, independent per joint and coordinate, RMS per coordinate (mm); 0 writes the rendered
+  // joints exactly. Independent of fit_error.
+  double joint_noise_mm = 0.0;
   double fit_shape = 0.15;       // RMS per shape coefficient (a fit's shape varies per frame)
   double fit_period_frames = 12; // typical period of the error's variation (5 fps frames)
 
@@ -72,6 +76,7 @@ struct SynthEffects {
     v.field("fit_pose_deg", fit_pose_deg, "RMS finger pose error per component (deg)", 0, 90);
     v.field("fit_global_deg", fit_global_deg, "RMS global orientation error (deg)", 0, 90);
     v.field("fit_trans_mm", fit_trans_mm, "RMS translation error per component (mm)", 0, 1000);
+    v.field("joint_noise_mm", joint_noise_mm, "RMS noise per coordinate of joint_3d.json's joints (mm)", 0, 1000);
     v.field("fit_shape", fit_shape, "RMS shape coefficient error", 0, 10);
     v.field("fit_period_frames", fit_period_frames, "typical period of the error (frames)", 1,
             1e6);
