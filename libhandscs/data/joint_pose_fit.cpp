@@ -87,7 +87,7 @@ std::map<int64_t, RecordFrame> fit_joint_frames(const std::map<int64_t, InterHan
     const auto start = std::chrono::steady_clock::now();
     spdlog::info("{}: fitting the {} hand to {} frames' joints (pose_source joints; cached for the next open)",
                  joint_3d_json, c.hand, frames.size());
-    const std::vector<HandFit> results = fit_keypoint_sequence(model, frames, c.joint_fit);
+    const std::vector<HandFit> results = fit_keypoint_sequence(model, frames, c.joint_fit, "fit " + c.hand + " hand to joints");
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     spdlog::info("{}: {} frames fitted in {:.1f} s ({:.2f} ms a frame)", joint_3d_json, frames.size(), seconds,
                  frames.empty() ? 0.0 : 1e3 * seconds / frames.size());

@@ -119,7 +119,7 @@ SideResult fit_side(const JointModel& model, const JointModel& other, const Side
                   " frames): the hands are swapped, or the keypoint order or handedness is wrong");
   }
   const auto start = std::chrono::steady_clock::now();
-  result.fits = fit_keypoint_sequence(model, input.frames, config.fit);
+  result.fits = fit_keypoint_sequence(model, input.frames, config.fit, "fit " + side + " hand");
   result.ms_per_frame = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count() /
                         static_cast<double>(input.frames.size());
   result.skip_reason.resize(input.frames.size());

@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include <ATen/Parallel.h>
 
+#include "core/progress.h"
 #include "core/symmetric_eigen.h"
 #include "hand/joint_order.h"
 #include "hand/so3.h"
@@ -30,6 +32,10 @@ constexpr double kTwistLimit = 0.35;
 
 // The canonical frame's back-of-hand direction (MANO: +y, both hands).
 constexpr Vec3 kBackOfHand = {0, 1, 0};
+
+// Frames fitted between two updates of the progress line: ~0.2 s of work on 2 threads, and
+// enough per block for both threads.
+constexpr int64_t kProgressBlock = 256;
 
 // Levenberg-Marquardt damping: start, and the factors after a failed and a good step.
 constexpr double kInitialDamping = 1e-3;
@@ -551,18 +557,27 @@ HandFit fit_keypoints(const JointModel& model, const HandKeypoints& keypoints,
 
 std::vector<HandFit> fit_keypoint_sequence(const JointModel& model,
                                            const std::vector<HandKeypoints>& frames,
-                                           const KeypointFitConfig& config) {
+                                           const KeypointFitConfig& config, const std::string& progress_label) {
   const int64_t count = static_cast<int64_t>(frames.size());
   std::vector<HandFit> fits(frames.size());
   std::array<double, kShapeDim> shape{};
   // Every frame's pose alone first (the start is far from the answer), then poses and the shared
-  // shape together.
-  at::parallel_for(0, count, 1, [&](int64_t begin, int64_t end) {
-    for (int64_t f = begin; f < end; ++f)
-      if (frames[f].num_valid() >= kMinFitKeypoints)
-        fits[f] = fit_pose(model, frames[f], config, shape, false, nullptr, {});
-  });
-  if (config.fit_shape) fit_poses_and_shape(model, frames, fits, config, shape);
+  // shape together. The frames go in blocks so that the progress line moves between them.
+  std::optional<ProgressBar> progress;
+  if (!progress_label.empty()) progress.emplace(progress_label, count, "frames");
+  for (int64_t block = 0; block < count; block += kProgressBlock) {
+    at::parallel_for(block, std::min(count, block + kProgressBlock), 1, [&](int64_t begin, int64_t end) {
+      for (int64_t f = begin; f < end; ++f)
+        if (frames[f].num_valid() >= kMinFitKeypoints)
+          fits[f] = fit_pose(model, frames[f], config, shape, false, nullptr, {});
+    });
+    if (progress) progress->update(std::min(count, block + kProgressBlock), "poses");
+  }
+  if (config.fit_shape) {
+    if (progress) progress->update(count, "the shared shape with every pose");
+    fit_poses_and_shape(model, frames, fits, config, shape);
+  }
+  if (progress) progress->finish();
   // Smoothing pulls each pose towards its neighbours' (as just fitted), with the shape held.
   if (config.smoothing <= 0) {
     for (size_t f = 0; f < frames.size(); ++f)

@@ -12,6 +12,7 @@
 #include "hand/keypoint_order.h"
 #include "hand/lbs_one_pose.h"
 #include "hand/procedural_hand.h"
+#include "hand/rig.h"
 #include "test_support.h"
 
 using namespace handscs;
@@ -158,4 +159,28 @@ TEST_CASE("handscs-fit: bad keypoint files are refused with the file and key nam
   const json report = json::parse(in);
   CHECK(report["hands"]["right"]["fitted"] == 1);
   CHECK(report["frames"][1]["status"] == "skipped: too few keypoints (4 of 21)");
+}
+
+TEST_CASE("handscs-fit: a rig file fits as the rig it holds (a converted MANO file is one)") {
+  // The toy rig's pose blend shapes move the tips as MANO's do; the built-in hand has none.
+  const std::string rig_path = handscs_test::scratch_path("fit_command", "toy_rig.json");
+  Rig toy = make_procedural_hand(Handedness::right);
+  torch::manual_seed(5);
+  toy.posedirs = torch::randn(toy.posedirs.sizes(), torch::kFloat64) * 1e-3;
+  toy.name = "toy";
+  save_rig(toy, rig_path);
+  const JointModel model = make_joint_model(toy);
+  JointParams p;
+  for (int k = 1; k < kRigJoints; ++k)
+    for (int i = 0; i < 3; ++i) p.pose[3 * k + i] = 1.4 * model.hands_mean[3 * (k - 1) + i];
+  p.trans = {0.0, 0.0, 1.0};
+  std::array<double, 63> joints;
+  joint_positions(model, p, joints.data());
+  const json doc = {{"format", "handscs-keypoints"}, {"order", "interhand"}, {"units", "m"},
+                    {"frames", json::array({{{"name", "a"}, {"right", hand_entry(joints, KeypointOrder::interhand, 1.0)}}})}};
+  FitCommandOptions o = options_for(write_keypoints("toy.json", doc), "toy_rig");
+  o.rig_right = rig_path;
+  run_fit_command(o);
+  std::ifstream in(o.out + "/report.json");
+  CHECK(json::parse(in)["hands"]["right"]["mean_mm"].get<double>() < 0.5);
 }
