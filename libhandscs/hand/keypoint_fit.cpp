@@ -418,37 +418,31 @@ void fit_poses_and_shape(const JointModel& m, const std::vector<HandKeypoints>& 
   auto shape_prior_cost = [&](const std::array<double, S>& beta) {
     return add_shape_prior(beta, config, nullptr, 0, nullptr);
   };
-  auto total_cost = [&](const std::vector<JointParams>& params, const std::array<double, S>& beta) {
-    std::vector<double> costs(frames.size(), 0.0);
+  // Every fitted frame's cost at its pose and `beta` (with its normal equations when `with_system`),
+  // into systems; returns the total with the shape prior, summed in frame order (the same sum for
+  // any thread count).
+  auto evaluate_all = [&](const std::vector<JointParams>& params, const std::array<double, S>& beta,
+                          bool with_system) {
     at::parallel_for(0, count, 1, [&](int64_t begin, int64_t end) {
       for (int64_t f = begin; f < end; ++f) {
         if (!fits[f].fitted) continue;
         JointParams p = params[f];
         p.shape = beta;
         const Problem problem{m, frames[f], config, true, {}, false};
-        costs[f] = problem.evaluate(p, nullptr, nullptr);
+        systems[f].cost = with_system ? problem.evaluate(p, &systems[f].normal, &systems[f].gradient)
+                                      : problem.evaluate(p, nullptr, nullptr);
       }
     });
     double c = shape_prior_cost(beta);
-    for (double x : costs) c += x;  // in frame order: the same sum for any thread count
+    for (int64_t f = 0; f < count; ++f)
+      if (fits[f].fitted) c += systems[f].cost;
     return c;
   };
   std::vector<JointParams> params(frames.size());
   for (size_t f = 0; f < frames.size(); ++f) params[f] = fits[f].params;
   double damping = kInitialDamping;
   for (int it = 0; it < config.iterations; ++it) {
-    at::parallel_for(0, count, 1, [&](int64_t begin, int64_t end) {
-      for (int64_t f = begin; f < end; ++f) {
-        if (!fits[f].fitted) continue;
-        JointParams p = params[f];
-        p.shape = shape;
-        const Problem problem{m, frames[f], config, true, {}, false};
-        systems[f].cost = problem.evaluate(p, &systems[f].normal, &systems[f].gradient);
-      }
-    });
-    double cost = shape_prior_cost(shape);
-    for (int64_t f = 0; f < count; ++f)
-      if (fits[f].fitted) cost += systems[f].cost;
+    const double cost = evaluate_all(params, shape, true);
     bool improved = false;
     for (int attempt = 0; attempt < 8 && !improved; ++attempt) {
       // Per frame: A_f^-1 B_f and A_f^-1 g_f by Cholesky of the damped pose block.
@@ -513,7 +507,8 @@ void fit_poses_and_shape(const JointModel& m, const std::vector<HandKeypoints>& 
             }
             trial[f] = step(params[f], dx);
           }
-          const double trial_cost = total_cost(trial, trial_shape);
+          // The trial's costs overwrite systems[].cost only: the normal equations stay this step's.
+          const double trial_cost = evaluate_all(trial, trial_shape, false);
           if (trial_cost < cost) {
             improved = true;
             params = trial;
@@ -564,7 +559,7 @@ std::vector<HandFit> fit_keypoint_sequence(const JointModel& model,
   // Every frame's pose alone first (the start is far from the answer), then poses and the shared
   // shape together. The frames go in blocks so that the progress line moves between them.
   std::optional<ProgressBar> progress;
-  if (!progress_label.empty()) progress.emplace(progress_label, count, "frames");
+  if (!progress_label.empty() && count > kProgressBlock) progress.emplace(progress_label, count, "frames");
   for (int64_t block = 0; block < count; block += kProgressBlock) {
     at::parallel_for(block, std::min(count, block + kProgressBlock), 1, [&](int64_t begin, int64_t end) {
       for (int64_t f = begin; f < end; ++f)

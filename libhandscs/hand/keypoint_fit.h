@@ -71,8 +71,8 @@ HandFit fit_keypoints(const JointModel& model, const HandKeypoints& keypoints,
 
 // Fits a sequence with one shared shape: every frame's pose alone, then all poses and the shape
 // together. Frames with fewer than kMinFitKeypoints valid keypoints are not fitted (fitted false).
-// With a progress label, a progress line counts the frames (a 5 fps InterHand2.6M capture has
-// thousands).
+// With a progress label, a progress line counts the frames of a long sequence (a 5 fps
+// InterHand2.6M capture has thousands).
 std::vector<HandFit> fit_keypoint_sequence(const JointModel& model,
                                            const std::vector<HandKeypoints>& frames,
                                            const KeypointFitConfig& config,
