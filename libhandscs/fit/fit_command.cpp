@@ -8,6 +8,7 @@
 #include <map>
 #include <optional>
 
+#include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
 #include <spdlog/spdlog.h>
 
@@ -128,8 +129,10 @@ SideResult fit_side(const JointModel& model, const JointModel& other, const Side
     if (!fit.fitted)
       result.skip_reason[f] = "too few keypoints (" + std::to_string(input.frames[f].num_valid()) + " of 21)";
     else if (fit.mean_mm > config.poor_fit_mm)
-      result.skip_reason[f] = "poor fit (mean residual " + std::to_string(fit.mean_mm) + " mm > poor_fit_mm " +
-                              std::to_string(config.poor_fit_mm) + ")";
+      result.skip_reason[f] = fmt::format(
+          "poor fit (mean residual {:.2f} mm > poor_fit_mm {:g}): a wrong joint order, swapped hands or "
+          "mislabelled joints",
+          fit.mean_mm, config.poor_fit_mm);
   }
   return result;
 }
@@ -411,6 +414,15 @@ void run_fit_command(const FitCommandOptions& o) {
   for (int s = 0; s < 2; ++s)
     results[s] = fit_side(models[s], models[1 - s], inputs_by_side[s], config, kSides[s], o.multiview.empty());
   log_summary(results);
+  // Nothing fitted is an error, not an empty result: the first skipped frame says why.
+  bool any_fitted = false;
+  for (const SideResult& r : results)
+    for (const std::string& reason : r.skip_reason) any_fitted = any_fitted || reason.empty();
+  if (!any_fitted)
+    for (int s = 0; s < 2; ++s)
+      if (!results[s].fits.empty())
+        throw Error("no hand could be fitted; " + std::string(kSides[s]) + " hand, frame " + results[s].names[0] +
+                    ": " + results[s].skip_reason[0]);
   fs::remove_all(stage);
   ensure_directory(stage);
   FitCommandOptions staged = o;  // every file goes to the staging folder first

@@ -184,3 +184,23 @@ TEST_CASE("handscs-fit: a rig file fits as the rig it holds (a converted MANO fi
   std::ifstream in(o.out + "/report.json");
   CHECK(json::parse(in)["hands"]["right"]["mean_mm"].get<double>() < 0.5);
 }
+
+TEST_CASE("handscs-fit: real InterHand2.6M joints in a wrong order are refused as a poor fit") {
+  // Capture 3's right hand from ../shared, written as it is (InterHand order) and mislabelled as
+  // MediaPipe's order: the first fits to millimetres, the second fits nothing.
+  std::ifstream in(std::string(HANDSCS_SHARED_DIR) + "/testdata/interhand2.6m/test_interhand2.6m_joint_3d.json");
+  const json joints = json::parse(in)["3"]["69148"]["world_coord"];
+  json right = json::array();
+  for (int j = 0; j < 21; ++j) right.push_back(joints[j]);
+  auto file = [&](const std::string& order) {
+    return write_keypoints(order + "_order.json", {{"format", "handscs-keypoints"}, {"order", order}, {"units", "mm"},
+                                                   {"frames", json::array({{{"name", "x"}, {"right", right}}})}});
+  };
+  FitCommandOptions good = options_for(file("interhand"), "good_order");
+  run_fit_command(good);
+  std::ifstream report(good.out + "/report.json");
+  CHECK(json::parse(report)["hands"]["right"]["mean_mm"].get<double>() < 5.0);
+  CHECK_THAT(handscs_test::error_of([&] { run_fit_command(options_for(file("mediapipe"), "wrong_order")); }),
+             Catch::Contains("no hand could be fitted; right hand, frame x: poor fit (mean residual") &&
+                 Catch::Contains("a wrong joint order, swapped hands or mislabelled joints"));
+}
