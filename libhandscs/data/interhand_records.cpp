@@ -11,6 +11,16 @@
 
 namespace handscs {
 
+void interhand_hand_joints(const InterHandJoints& entry, bool right, std::array<double, 63>& joints,
+                           std::array<uint8_t, 21>& valid) {
+  const int row0 = right ? 0 : 21;  // joint_3d rows: right hand 0-20, left 21-41
+  for (int ih = 0; ih < 21; ++ih) {
+    const int m = kInterHandFromMano21[ih];
+    for (int d = 0; d < 3; ++d) joints[m * 3 + d] = entry.world_mm[(row0 + ih) * 3 + d] * 1e-3;
+    valid[m] = entry.valid[row0 + ih];
+  }
+}
+
 CaptureRecords read_interhand_records(const CaptureConfig& c, const std::string& prefix) {
   const CaptureLayout layout = resolve_capture_layout(c.root, c.split, prefix + ".root");
   const AnnotationCache annotation_cache(c.annotation_cache);
@@ -86,13 +96,7 @@ CaptureRecords read_interhand_records(const CaptureConfig& c, const std::string&
       hand.mano = *hand_params;
       if (record.has_joint_entry) {
         hand.has_joints = true;
-        const int row0 = right ? 0 : 21;  // joint_3d rows: right hand 0-20, left 21-41
-        for (int ih = 0; ih < 21; ++ih) {
-          const int m = kInterHandFromMano21[ih];
-          for (int d = 0; d < 3; ++d)
-            hand.joints[m * 3 + d] = j->second.world_mm[(row0 + ih) * 3 + d] * 1e-3;
-          hand.joint_valid[m] = j->second.valid[row0 + ih];
-        }
+        interhand_hand_joints(j->second, right, hand.joints, hand.joint_valid);
       }
       (right ? record.right : record.left) = hand;
     }

@@ -10,7 +10,7 @@
 #include "core/file_stamp.h"
 #include "core/hash.h"
 #include "data/cache_files.h"
-#include "hand/lbs.h"  // kInterHandFromMano21
+#include "data/interhand_records.h"  // interhand_hand_joints
 
 namespace handscs {
 
@@ -71,15 +71,10 @@ std::map<int64_t, RecordFrame> fit_joint_frames(const std::map<int64_t, InterHan
     const JointModel model = make_joint_model(rig);
     std::vector<int64_t> ids;
     std::vector<HandKeypoints> frames;
-    const int row0 = right ? 0 : 21;  // joint_3d rows: right hand 0-20, left 21-41
     for (const auto& [frame, entry] : joints) {
       if (entry.hand_type != "interacting" && entry.hand_type != c.hand) continue;
       HandKeypoints k;
-      for (int ih = 0; ih < 21; ++ih) {
-        const int m = kInterHandFromMano21[ih];
-        for (int d = 0; d < 3; ++d) k.joints[3 * m + d] = entry.world_mm[3 * (row0 + ih) + d] * 1e-3;
-        k.valid[m] = entry.valid[row0 + ih];
-      }
+      interhand_hand_joints(entry, right, k.joints, k.valid);
       if (k.num_valid() < kMinFitKeypoints) continue;
       ids.push_back(frame);
       frames.push_back(k);
@@ -112,14 +107,8 @@ std::map<int64_t, RecordFrame> fit_joint_frames(const std::map<int64_t, InterHan
     hand.mano.trans = f["trans"].get<std::array<double, 3>>();
     const double mean_mm = f["mean_mm"].get<double>();
     if (mean_mm > c.poor_joint_fit_mm) hand.fit_problem = "poor joint fit";
-    const InterHandJoints& entry = joints.at(frame);
     hand.has_joints = true;
-    const int row0 = right ? 0 : 21;
-    for (int ih = 0; ih < 21; ++ih) {
-      const int m = kInterHandFromMano21[ih];
-      for (int d = 0; d < 3; ++d) hand.joints[m * 3 + d] = entry.world_mm[(row0 + ih) * 3 + d] * 1e-3;
-      hand.joint_valid[m] = entry.valid[row0 + ih];
-    }
+    interhand_hand_joints(joints.at(frame), right, hand.joints, hand.joint_valid);
     (right ? out[frame].right : out[frame].left) = hand;
   }
   return out;
