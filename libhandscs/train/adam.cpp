@@ -1,8 +1,11 @@
 #include "train/adam.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <torch/types.h>
+
+#include "core/error.h"
 
 namespace handscs {
 
@@ -87,6 +90,35 @@ void Adam::append_rows(int64_t count) {
       const auto zeros = torch::zeros(sizes, group.exp_avg[i].options());
       group.exp_avg[i] = torch::cat({group.exp_avg[i], zeros}, 0);
       group.exp_avg_sq[i] = torch::cat({group.exp_avg_sq[i], zeros}, 0);
+    }
+  }
+}
+
+void Adam::save(Checkpoint& checkpoint) const {
+  for (const auto& group : groups_)
+    for (size_t i = 0; i < group.params.size(); ++i) {
+      const std::string base = "adam/" + group.name + "/" + std::to_string(i);
+      checkpoint.tensors[base + "/m"] = group.exp_avg[i].clone();
+      checkpoint.tensors[base + "/v"] = group.exp_avg_sq[i].clone();
+    }
+}
+
+void Adam::load(const Checkpoint& checkpoint, const std::string& source,
+                const std::vector<std::string>& fresh_groups) {
+  for (auto& group : groups_) {
+    const bool may_be_fresh =
+        std::find(fresh_groups.begin(), fresh_groups.end(), group.name) != fresh_groups.end();
+    for (size_t i = 0; i < group.params.size(); ++i) {
+      const std::string base = "adam/" + group.name + "/" + std::to_string(i);
+      const auto m = checkpoint.tensors.find(base + "/m");
+      const auto v = checkpoint.tensors.find(base + "/v");
+      if (may_be_fresh) continue;
+      if (m == checkpoint.tensors.end() || v == checkpoint.tensors.end())
+        throw Error(source + ": checkpoint lacks optimiser state " + base);
+      if (m->second.sizes() != group.params[i]->sizes())
+        throw Error(source + ": optimiser state " + base + " does not match its parameter");
+      group.exp_avg[i] = m->second.clone();
+      group.exp_avg_sq[i] = v->second.clone();
     }
   }
 }

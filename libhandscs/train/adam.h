@@ -8,6 +8,8 @@
 
 #include <torch/types.h>
 
+#include "run/checkpoint.h"
+
 namespace handscs {
 
 struct AdamGroup {
@@ -37,6 +39,14 @@ class Adam {
   // Densification: keep rows `index` of every per-Gaussian state / append `count` zero rows.
   void select_rows(const torch::Tensor& index);
   void append_rows(int64_t count);
+
+  // Checkpoint: each parameter's moments as "adam/<group>/<i>/m" and ".../v". load() checks each
+  // against its parameter's shape (Error naming `source`); a group in `fresh_groups` whose state
+  // the checkpoint lacks keeps fresh moments. Steps and the learning-rate scale travel in the
+  // checkpoint's metadata, not here.
+  void save(Checkpoint& checkpoint) const;
+  void load(const Checkpoint& checkpoint, const std::string& source,
+            const std::vector<std::string>& fresh_groups);
 
   std::vector<AdamGroup>& groups() { return groups_; }
   int64_t steps() const { return steps_; }

@@ -85,4 +85,16 @@ int64_t Densifier::densify_and_prune(GaussianState& g, Adam& optimizer, uint64_t
   return g.size();
 }
 
+void Densifier::save(Checkpoint& checkpoint) const {
+  if (grad_sum_.defined()) checkpoint.tensors["densify/grad_sum"] = grad_sum_.clone();
+  if (count_.defined()) checkpoint.tensors["densify/count"] = count_.clone();
+}
+
+void Densifier::load(const Checkpoint& checkpoint) {
+  const auto grad_sum = checkpoint.tensors.find("densify/grad_sum");
+  const auto count = checkpoint.tensors.find("densify/count");
+  grad_sum_ = grad_sum == checkpoint.tensors.end() ? torch::Tensor() : grad_sum->second.clone();
+  count_ = count == checkpoint.tensors.end() ? torch::Tensor() : count->second.clone();
+}
+
 }  // namespace handscs

@@ -9,6 +9,7 @@
 #include <torch/types.h>
 
 #include "avatar/gaussians.h"
+#include "run/checkpoint.h"
 #include "train/adam.h"
 #include "run/train_config.h"
 
@@ -34,8 +35,10 @@ class Densifier {
     return config_.enabled && iteration >= config_.start && iteration <= config_.stop &&
            iteration % config_.interval == 0;
   }
-  torch::Tensor& grad_sum() { return grad_sum_; }      // [N] float
-  torch::Tensor& visible_count() { return count_; }    // [N] float
+  // Checkpoint: the statistics gathered since the last densification ("densify/grad_sum" and
+  // "densify/count", [N] float). load() of a checkpoint without them starts them at zero.
+  void save(Checkpoint& checkpoint) const;
+  void load(const Checkpoint& checkpoint);
 
  private:
   void reset(int64_t n);

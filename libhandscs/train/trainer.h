@@ -9,11 +9,13 @@
 // all-reduce, so N ranks equal one process with batch_size N*B. Rank 0 alone writes the run folder
 // (checkpoints, metrics, validation), decides densification and rollbacks and broadcasts its state
 // after them (and at the start, fresh or resumed), so the ranks never diverge; NaN skips and
-// Ctrl-C are agreed in the same all-reduce. Each entry keeps its own inter-pose chain (L_con pairs
-// entry b of a step with entry b of the step before); a checkpoint holds rank 0's chains, so after
-// resuming with several ranks the others' first step has no L_con. Pose refinement and the
-// per-camera colour transforms (train.camera_color: an Adam group like the others, so their
-// gradients travel in the same all-reduce) work across ranks.
+// Ctrl-C are agreed in the same all-reduce.
+//
+// The parts of training beyond the avatar and its optimiser (pose refinement, the facing cull, the
+// LPIPS schedule, L_con's inter-pose chains, per-camera colour, densification) are components
+// (training_component.h): each adds its part at fixed points of the step, its own slots to the
+// all-reduce and its own section to checkpoints. The Trainer keeps the loop, the data, the avatar
+// and the run folder.
 #pragma once
 
 #include <array>
@@ -30,12 +32,13 @@
 #include "run/checkpoint.h"
 #include "run/run_config.h"
 #include "train/adam.h"
-#include "train/camera_color.h"
+#include "train/camera_color_component.h"
 #include "train/data_parallel.h"
-#include "train/densify.h"
+#include "train/entry_order.h"
 #include "train/losses.h"
-#include "train/pose_refine.h"
 #include "train/training_checks.h"
+#include "train/training_component.h"
+#include "train/view_target.h"
 
 namespace handscs {
 
@@ -109,39 +112,30 @@ class Trainer {
   Avatar& avatar() { return *avatar_; }
   Capture& capture() { return *capture_; }
   // train.camera_color: the per-camera colour transforms; null when off.
-  const CameraColors* camera_colors() const { return camera_colors_.get(); }
+  const CameraColors* camera_colors() const {
+    return camera_color_ ? &camera_color_->colors() : nullptr;
+  }
   const RunConfig& config() const { return config_; }
 
 
  private:
-  // The inter-pose state one entry leaves for the same entry of the next step (detached).
-  struct ConsistencyChain {
-    torch::Tensor descriptor, attributes, pose_feature;
-    torch::Tensor decoded;  // [N] bool: rows decoded at that step (train.cull); undefined: all
-  };
-  // What a view is trained against: its ROI crop (scaled by train.resolution_scale) composited on
-  // its background.
-  struct ViewTarget {
-    Camera camera;
-    torch::Tensor target;  // [h, w, 3]
-    torch::Tensor mask;    // [h, w]
-    std::array<float, 3> background{};
-  };
+  // The view's target (view_target.h), its empty mask recorded. view_index = entry_index x
+  // views_per_pose + the view's place in the entry.
   ViewTarget load_view(const FrameInfo& frame, int64_t view_index);
   struct EntryOutcome;
-  struct PoseUpdate;
   // Entry `entry` of this rank's step: its frames' pose decoded once, each frame rasterised, the
   // losses averaged over them and backpropagated (scaled to the step's mean over entries).
   EntryOutcome train_entry(int64_t entry, bool diagnostics, StepResult& result);
-  // Sums this rank's gradients, densification statistics, loss, PSNR, loss terms and flags with
-  // the other ranks' and divides the gradients and terms by the world size; pose_updates (this
-  // rank's pose-correction gradients) become every rank's, likewise scaled. Returns whether the
-  // step is finite on every rank.
-  bool reduce_across_ranks(EntryOutcome& sums, bool finite, std::map<std::string, double>& terms,
-                           std::vector<PoseUpdate>& pose_updates);
-  // Data parallel: every rank takes rank 0's state (parameters, optimiser, counters). keep_chains:
-  // the other ranks keep their inter-pose chains where the Gaussian count is unchanged.
-  void synchronize_state(bool keep_chains);
+  // Sums this rank's gradients, loss, PSNR, loss terms, flags and the components' slots with the
+  // other ranks' in one all-reduce and divides the gradients and terms by the world size. Returns
+  // whether the step is finite on every rank.
+  bool reduce_across_ranks(EntryOutcome& sums, bool finite, std::map<std::string, double>& terms);
+  // Data parallel: every rank takes rank 0's state (parameters, optimiser, counters, components).
+  // keep_own_state: the other ranks' components keep what is their own where it still fits (the
+  // inter-pose chains, where the Gaussian count is unchanged).
+  void synchronize_state(bool keep_own_state);
+  // The components train.* turns on, in the order the step asks them.
+  void make_components();
   bool stop_requested() const;
   int64_t entries_per_step() const;  // batch_size on each of the ranks
   int64_t first_entry() const;       // this rank's first entry of a step
@@ -151,25 +145,12 @@ class Trainer {
   // train.cull).
   std::vector<std::string> diagnostic_columns() const;
   Checkpoint make_checkpoint();
-  void put_chains(Checkpoint& checkpoint) const;  // this rank's inter-pose chains, by view
-  void gather_chains();  // data parallel, every rank: rank 0 receives the others' chains
   // Restores the trainer from `checkpoint` (its metadata, model and experiment checked first:
-  // ExperimentChanged unless `allow_changed_data`, see resume()).
+  // ExperimentChanged unless `allow_changed_data`, see resume()). keep_own_state: see
+  // synchronize_state().
   void load_from(const Checkpoint& checkpoint, const std::string& source,
-                 bool allow_changed_data = false);
+                 bool allow_changed_data = false, bool keep_own_state = false);
   bool rollback();
-  // The frames entry `entry_index` (= iteration x entries_per_step() + its place in the step)
-  // renders: one frame of a per-epoch shuffle of the training frames (views_per_pose 1), else up
-  // to views_per_pose of the cameras, in a shuffled order, of one pose of a per-epoch shuffle of
-  // the training poses.
-  std::vector<const FrameInfo*> frames_for(int64_t entry_index);
-  // view_index = entry_index x views_per_pose + the view's place in the entry.
-  std::array<float, 3> background_for(int64_t view_index) const;
-  // decoded: [N] bool, the Gaussians the pose decoded (train.cull; undefined: all); pose: the pose
-  // the entry rendered (annotated, or corrected by pose refinement); chain: the entry's place in
-  // the step.
-  torch::Tensor consistency_loss(const AvatarState& state, const torch::Tensor& decoded,
-                                 const torch::Tensor& pose, size_t chain, double* weight);
   void validate();
   void log_step(const StepResult& result);
 
@@ -180,12 +161,9 @@ class Trainer {
   std::unique_ptr<Capture> capture_;
   std::unique_ptr<Avatar> avatar_;
   std::unique_ptr<Adam> optimizer_;
-  std::unique_ptr<Densifier> densifier_;
   std::unique_ptr<Objective> objective_;
-  std::unique_ptr<PoseCorrections> pose_corrections_;  // null unless train.pose_refine.enabled
-  std::unique_ptr<CameraColors> camera_colors_;        // null unless train.camera_color is on
-  // A fresh CameraColors over the capture's training cameras (sorted ids), at the identity.
-  std::unique_ptr<CameraColors> make_camera_colors() const;
+  std::vector<std::unique_ptr<TrainingComponent>> components_;
+  CameraColorComponent* camera_color_ = nullptr;  // among components_; null when off
   std::unique_ptr<EmptyMaskWatch> empty_masks_;
   int64_t min_loss_side_ = 1;  // smallest image side the image losses accept (training_checks.h)
   int64_t iteration_ = 0;
@@ -197,22 +175,10 @@ class Trainer {
   bool run_files_written_ = false;
   std::vector<std::string> metrics_columns_;  // metrics.csv's header, the order of its cells
   std::string initial_state_;  // a fresh run's step-0 checkpoint, serialised: rollback's last resort
-  // Inter-pose state of the previous step, one chain per entry of this rank, this step's (pending
-  // until the step is taken) and the canonical K-NN candidate sets.
-  std::vector<ConsistencyChain> prev_chains_, next_chains_;
-  // Data parallel, rank 0: the other ranks' inter-pose chains (consistency/view<k>/...) as of step
-  // other_chains_iteration_, gathered before each checkpoint or read from the one resumed, so that
-  // rank 0's checkpoints give every rank its L_con back after a resume or a rollback.
-  std::map<std::string, torch::Tensor> other_chains_;
-  int64_t other_chains_iteration_ = -1;
-  torch::Tensor candidates_;
   std::vector<torch::Tensor> network_params_;  // the optimiser points into this vector
   double elapsed_seconds_ = 0;                 // training wall time, across resumes
-  std::vector<int64_t> order_;  // frame (or pose) permutation of the current epoch
-  // views_per_pose > 1: positions in capture_->train() of each training pose's frames.
-  std::vector<std::vector<int64_t>> train_poses_;
+  std::unique_ptr<EntryOrder> entry_order_;  // the frames each entry renders
   int64_t views_rendered_ = 0;  // by this process, over its lifetime
-  int64_t order_epoch_ = -1;
   double running_psnr_ = 0;
 };
 

@@ -12,7 +12,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <array>
 #include <chrono>
+#include <functional>
 #include <fstream>
 #include <set>
 #include <thread>
@@ -24,6 +26,7 @@
 #include "tiny_capture.h"
 #include "run/checkpoint.h"
 #include "train/data_parallel.h"
+#include "train/reduce_slots.h"
 #include "train/trainer.h"
 
 using handscs_test::fresh_dir;
@@ -100,6 +103,31 @@ std::pair<handscs::Checkpoint, handscs::Checkpoint> train_single_and_two_ranks(c
   REQUIRE(rc == 0);
   return {handscs::load_checkpoint(handscs::latest_checkpoint(dir + "/single")),
           handscs::load_checkpoint(handscs::latest_checkpoint(dir + "/ranks"))};
+}
+
+// Runs body(group, rank) for ranks 0 and 1 as two threads of this process; returns each rank's
+// error ("" when it ran through).
+std::array<std::string, 2> run_rank_threads(
+    const std::function<void(handscs::ProcessGroup&, int)>& body) {
+  handscs::DataParallelOptions options;
+  options.world_size = 2;
+  options.master_port = free_port();
+  options.timeout_s = 60;
+  std::array<std::string, 2> errors;
+  auto rank_main = [&](int rank) {
+    try {
+      auto mine = options;
+      mine.rank = rank;
+      handscs::ProcessGroup group(mine);
+      body(group, rank);
+    } catch (const std::exception& e) {
+      errors[rank] = e.what();
+    }
+  };
+  std::thread rank1(rank_main, 1);
+  rank_main(0);
+  rank1.join();
+  return errors;
 }
 
 // Rank 0's checkpoint holds every tensor the single process's does (view 1's inter-pose chain,
@@ -263,42 +291,27 @@ TEST_CASE("train: data parallel: a 2-rank run resumes with 1 rank, and a 1-rank 
 TEST_CASE("train: data parallel: a NaN on one rank is skipped by both, then both roll back") {
   auto config = handscs_test::tiny_run_config();
   config.train.max_bad_steps = 3;
-  handscs::DataParallelOptions options;
-  options.world_size = 2;
-  options.master_port = free_port();
-  options.timeout_s = 60;
   struct RankRecord {
     std::vector<handscs::StepResult> results;  // steps 5, 6, 7 (poisoned) and 8
     torch::Tensor good_means, means_after_rollback;
-    std::string error;
   };
   RankRecord records[2];
-  auto rank_main = [&](int rank) {
-    try {
-      auto mine = options;
-      mine.rank = rank;
-      handscs::ProcessGroup group(mine);
-      handscs::Trainer trainer(config, fresh_dir("dp_nan_" + std::to_string(rank)), &group);
-      for (int i = 0; i < 4; ++i) trainer.step();
-      if (rank == 0) trainer.save_checkpoint();  // what the rollback returns to
-      records[rank].good_means = trainer.avatar().gaussians().means.detach().clone();
-      if (rank == 1) {
-        torch::NoGradGuard no_grad;
-        trainer.avatar().gaussians().means[0][0] = NAN;  // rank 1's gradients only
-      }
-      for (int i = 0; i < 3; ++i) records[rank].results.push_back(trainer.step());
-      records[rank].means_after_rollback = trainer.avatar().gaussians().means.detach().clone();
-      records[rank].results.push_back(trainer.step());
-    } catch (const std::exception& e) {
-      records[rank].error = e.what();
+  const auto errors = run_rank_threads([&](handscs::ProcessGroup& group, int rank) {
+    handscs::Trainer trainer(config, fresh_dir("dp_nan_" + std::to_string(rank)), &group);
+    for (int i = 0; i < 4; ++i) trainer.step();
+    if (rank == 0) trainer.save_checkpoint();  // what the rollback returns to
+    records[rank].good_means = trainer.avatar().gaussians().means.detach().clone();
+    if (rank == 1) {
+      torch::NoGradGuard no_grad;
+      trainer.avatar().gaussians().means[0][0] = NAN;  // rank 1's gradients only
     }
-  };
-  std::thread rank1(rank_main, 1);
-  rank_main(0);
-  rank1.join();
+    for (int i = 0; i < 3; ++i) records[rank].results.push_back(trainer.step());
+    records[rank].means_after_rollback = trainer.avatar().gaussians().means.detach().clone();
+    records[rank].results.push_back(trainer.step());
+  });
   for (int rank = 0; rank < 2; ++rank) {
     INFO("rank " << rank);
-    REQUIRE(records[rank].error.empty());
+    REQUIRE(errors[rank] == "");
     const auto& r = records[rank].results;
     REQUIRE(r.size() == 4);
     CHECK(r[0].skipped);  // rank 0's own gradients were finite: skipped because rank 1's were not
@@ -310,5 +323,40 @@ TEST_CASE("train: data parallel: a NaN on one rank is skipped by both, then both
     CHECK(std::isfinite(r[3].loss));
     // Both ranks hold the checkpoint's parameters again, rank 1 by receiving rank 0's state.
     CHECK(torch::equal(records[rank].means_after_rollback, records[0].good_means));
+  }
+}
+
+TEST_CASE("train: data parallel: named slots sum across ranks whatever order each rank adds them") {
+  struct RankRecord {
+    torch::Tensor grid, count;
+    double loss = 0;
+    bool finite = false;
+  };
+  RankRecord records[2];
+  const auto errors = run_rank_threads([&](handscs::ProcessGroup& group, int rank) {
+    handscs::ReduceSlots slots;
+    const auto grid = torch::arange(6, torch::kFloat32).view({2, 3}) * (rank + 1);
+    const auto count = torch::full({4}, double(10 * (rank + 1)));
+    if (rank == 0) {  // rank 0 adds in one order, rank 1 in the reverse
+      slots.add("b/grid", grid);
+      slots.add("a/count", count);
+      slots.add_scalar("loss", 0.25);
+    } else {
+      slots.add_scalar("loss", 0.5);
+      slots.add("a/count", count);
+      slots.add("b/grid", grid);
+    }
+    slots.all_reduce(group);
+    records[rank] = {slots.get("b/grid").clone(), slots.get("a/count").clone(),
+                     slots.scalar("loss"), slots.all_finite()};
+  });
+  for (int rank = 0; rank < 2; ++rank) {
+    INFO("rank " << rank);
+    REQUIRE(errors[rank] == "");
+    // rank 0 holds 0..5, rank 1 twice that: the sum is three times 0..5, shaped as added.
+    CHECK(torch::equal(records[rank].grid, torch::arange(6, torch::kFloat32).view({2, 3}) * 3));
+    CHECK(torch::equal(records[rank].count, torch::full({4}, 30.0)));
+    CHECK(records[rank].loss == 0.75);
+    CHECK(records[rank].finite);
   }
 }
