@@ -622,7 +622,14 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
         sized = f.camera;
         break;
       }
-    impl->undistort[name] = undistort_maps(sized, record.distortion);
+    UndistortMaps maps = undistort_maps(sized, record.distortion);
+    if (const std::string problem = distortion_problem(sized, record.distortion, maps); !problem.empty()) {
+      std::string values;
+      for (const double c : record.distortion.coefficients) values += (values.empty() ? "" : ", ") + fmt::format("{}", c);
+      throw Error(records.index_file + ": camera " + name + ": " + problem +
+                  "; check its distortion coefficients (k1, k2, p1, p2, k3 = " + values + ")");
+    }
+    impl->undistort[name] = std::move(maps);
   }
   if (!impl->undistort.empty() && !mask_cache_dir.empty())
     impl->undistorted_folder = undistorted_folder(records, mask_cache_dir);

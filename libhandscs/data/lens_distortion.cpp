@@ -1,5 +1,9 @@
 #include "data/lens_distortion.h"
 
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -30,6 +34,45 @@ UndistortMaps undistort_maps(const Camera& camera, const LensDistortion& distort
                               cv::Size(camera.width, camera.height), CV_32FC1, maps.map_x,
                               maps.map_y);
   return maps;
+}
+
+std::string distortion_problem(const Camera& camera, const LensDistortion& distortion,
+                               const UndistortMaps& maps) {
+  const auto& d = distortion.coefficients;
+  const double fx = camera.K[0], fy = camera.K[4], cx = camera.K[2], cy = camera.K[5];
+  // The farthest corner from the principal point, in normalised image coordinates.
+  double r_max = 0;
+  for (const double x : {0.0, double(camera.width)})
+    for (const double y : {0.0, double(camera.height)})
+      r_max = std::max(r_max, std::hypot((x - cx) / fx, (y - cy) / fy));
+  // d/dr of r (1 + k1 r^2 + k2 r^4 + k3 r^6), sampled finely enough to find a turn inside.
+  constexpr int kSamples = 1000;
+  for (int i = 1; i <= kSamples; ++i) {
+    const double r = r_max * i / kSamples, r2 = r * r;
+    const double slope = 1 + 3 * d[0] * r2 + 5 * d[1] * r2 * r2 + 7 * d[4] * r2 * r2 * r2;
+    if (slope <= 0) {
+      char text[256];
+      std::snprintf(text, sizeof(text),
+                    "its radial distortion turns back at r = %.3g (normalised), inside the image "
+                    "(corners at r = %.3g): part of the image would appear mirrored",
+                    r, r_max);
+      return text;
+    }
+  }
+  const cv::Mat inside_x = (maps.map_x >= 0) & (maps.map_x <= camera.width - 1);
+  const cv::Mat inside_y = (maps.map_y >= 0) & (maps.map_y <= camera.height - 1);
+  const double inside = cv::countNonZero(inside_x & inside_y) / double(maps.map_x.total());
+  // A strong pincushion lens loses its corners; losing half the picture is no lens.
+  constexpr double kMinInside = 0.5;
+  if (inside < kMinInside) {
+    char text[256];
+    std::snprintf(text, sizeof(text),
+                  "its distortion takes %.0f%% of the undistorted image from outside the recorded "
+                  "one: the image would be mostly black",
+                  100 * (1 - inside));
+    return text;
+  }
+  return "";
 }
 
 cv::Mat undistort_image(const cv::Mat& image, const UndistortMaps& maps) {

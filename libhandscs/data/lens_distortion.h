@@ -6,6 +6,7 @@
 #pragma once
 
 #include <array>
+#include <string>
 #include <opencv2/core/mat.hpp>
 
 #include "core/camera.h"
@@ -29,6 +30,13 @@ struct UndistortMaps {
   cv::Mat map_x, map_y;  // CV_32FC1
 };
 UndistortMaps undistort_maps(const Camera& camera, const LensDistortion& distortion);
+
+// "" when the distortion is a lens's: its radial mapping keeps increasing out to the image's
+// corners, and `maps` (undistort_maps of it) take at least half of the undistorted image from
+// inside the recorded one. Otherwise what is wrong, in words: a mapping that turns back would
+// mirror part of the image, one that leaves the image would turn it black.
+std::string distortion_problem(const Camera& camera, const LensDistortion& distortion,
+                               const UndistortMaps& maps);
 
 // The image an ideal pinhole camera with `camera`'s K would have recorded (bilinear).
 cv::Mat undistort_image(const cv::Mat& image, const UndistortMaps& maps);

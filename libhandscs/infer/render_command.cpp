@@ -51,9 +51,14 @@ void run_ply_mode(const PlyMode& mode) {
   const RasterOutput out =
       rasterize_gaussians(ply.means, covariances, ply_colors(ply), ply_opacities(ply),
                                    camera, settings);
+  const int64_t visible = (out.radii > 0).sum().item<int64_t>();
+  // An image of the background alone is no render of the scene: the camera looks elsewhere.
+  require(visible > 0, mode.camera + ": none of the " + std::to_string(ply.size()) + " Gaussians of " +
+                           mode.ply + " is in this camera's view (it faces away or sits inside or "
+                           "beyond them); nothing written");
   write_png(mode.out, out.rgb);
   if (!mode.alpha.empty()) write_png(mode.alpha, out.alpha);
-  spdlog::info("rendered {} Gaussians ({} visible) at {}x{} -> {}", ply.size(), (out.radii > 0).sum().item<int64_t>(),
+  spdlog::info("rendered {} Gaussians ({} visible) at {}x{} -> {}", ply.size(), visible,
                camera.width, camera.height, mode.out);
 }
 

@@ -2,6 +2,7 @@
 
 #include <cstring>
 #include <filesystem>
+#include <vector>
 
 #include <ATen/ATen.h>
 #include <opencv2/imgproc.hpp>
@@ -100,11 +101,23 @@ cv::Mat decode_checked(const std::string& path, const std::string& what) {
   if (image.empty()) throw Error(path + ": cannot read " + what);
   return image;
 }
+
+// One channel, or colour channels (alpha aside) equal at every pixel: a grey picture stored as RGB.
+bool holds_grey(const cv::Mat& image) {
+  if (image.channels() == 1) return true;
+  // NaN compares unequal to nothing: such an image is reported as non-finite, not as grey.
+  if (image.depth() >= CV_32F && !cv::checkRange(image)) return false;
+  std::vector<cv::Mat> planes;
+  cv::split(image, planes);
+  for (int c = 1; c < 3; ++c)
+    if (cv::countNonZero(planes[0] != planes[c]) > 0) return false;
+  return true;
+}
 }  // namespace
 
 torch::Tensor load_rgb_image(const std::string& path, const std::array<double, 3>& background, bool* is_grey) {
   const cv::Mat image = decode_checked(path, "image");
-  if (is_grey) *is_grey = image.channels() == 1;
+  if (is_grey) *is_grey = holds_grey(image);
   try {
     return mat_to_rgb_tensor(image, background);
   } catch (const Error& e) {

@@ -23,7 +23,8 @@ torch::Tensor mat_to_mask_tensor(const cv::Mat& mask);
 cv::Mat rgb_tensor_to_mat(const torch::Tensor& rgb);  // [H, W, 3]
 
 // Reads an image file (unchanged depth; a .jpg/.jpeg is first checked for damage) into [H, W, 3].
-// `is_grey`, when given, says whether the file had one channel. Throws Error naming the file.
+// `is_grey`, when given, says whether the picture is grey: one channel, or R = G = B at every
+// pixel. Throws Error naming the file.
 torch::Tensor load_rgb_image(const std::string& path, const std::array<double, 3>& background = {0, 0, 0},
                              bool* is_grey = nullptr);
 

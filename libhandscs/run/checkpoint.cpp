@@ -82,6 +82,13 @@ Checkpoint checkpoint_from_bytes(const std::string& bytes, const std::string& pa
   } catch (const std::exception& e) {
     throw Error(path + ": checkpoint payload unreadable (" + std::string(e.what()) + ")");
   }
+  // Training never saves a non-finite value (such steps are skipped), so one here means a
+  // diverged state or an altered file: refused like a damaged file (resume tries older ones).
+  for (const auto& [name, tensor] : checkpoint.tensors)
+    if (tensor.is_floating_point() && !torch::isfinite(tensor).all().item<bool>())
+      throw Error(path + ": tensor '" + name +
+                  "' holds NaN or Inf values (a diverged run or an altered file); use an earlier "
+                  "checkpoint of the run");
   return checkpoint;
 }
 

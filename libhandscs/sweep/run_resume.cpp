@@ -56,7 +56,8 @@ std::string sweep_run_identity(const std::vector<std::string>& train_argv, const
 
 bool sweep_run_resumable(const std::string& run_dir, const std::string& identity) {
   try {
-    if (read_file(identity_path(run_dir)) != identity) return false;
+    // A larger file cannot be this identity: refused unread, however large.
+    if (read_file(identity_path(run_dir), identity.size()) != identity) return false;
   } catch (const std::exception&) {
     return false;  // missing or unreadable: the run is started afresh
   }

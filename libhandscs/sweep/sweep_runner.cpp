@@ -267,6 +267,8 @@ SweepOutcome run_sweep(const SweepConfig& config, const SweepOptions& options) {
   CsvTable results =
       fs::exists(results_path) ? read_results(results_path) : CsvTable{result_columns(), {}};
   const auto runs = shard_runs(sweep_runs(config, options.only_points), options.shard);
+  // What this folder holds, so that a merge can refuse shards of another sweep or a missing one.
+  write_shard_record(options.out_dir, shard_record(config, options.only_points, options.shard));
   if (options.shard.count > 1)
     spdlog::info("sweep: shard {} of {} (counted from 0): {} of the sweep's runs", options.shard.index,
                  options.shard.count, runs.size());

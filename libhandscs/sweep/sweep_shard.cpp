@@ -5,9 +5,16 @@
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <cstdio>
 #include <map>
+#include <optional>
 
+#include <nlohmann/json.hpp>
+
+#include "core/atomic_file.h"
+#include "core/config.h"
 #include "core/error.h"
+#include "core/hash.h"
 #include "core/text.h"
 #include "core/csv_table.h"
 #include "sweep/results_table.h"
@@ -83,6 +90,86 @@ std::vector<std::pair<const SweepPoint*, int>> shard_runs(
   return mine;
 }
 
+ShardRecord shard_record(const SweepConfig& config, const std::vector<std::string>& only_points,
+                         const SweepShard& shard) {
+  std::string identity = read_file(config.path);
+  for (const auto& point : only_points) identity += "\n--points " + point;
+  char hex[17];
+  std::snprintf(hex, sizeof(hex), "%016llx", static_cast<unsigned long long>(fnv1a64(identity)));
+  return {config.path, hex, shard};
+}
+
+void write_shard_record(const std::string& out_dir, const ShardRecord& record) {
+  const nlohmann::json json = {{"sweep", record.sweep},
+                               {"fingerprint", record.fingerprint},
+                               {"shard", record.shard.index},
+                               {"shards", record.shard.count}};
+  write_file_atomic(out_dir + "/shard.json", json.dump(2) + "\n");
+}
+
+namespace {
+
+// The shard.json of a sweep folder; nullopt when it has none (an older version's folder).
+std::optional<ShardRecord> read_shard_record(const std::string& dir) {
+  const std::string path = dir + "/shard.json";
+  if (!fs::exists(path)) return std::nullopt;
+  const nlohmann::json json = load_json_file(path);
+  ShardRecord record;
+  try {
+    record.sweep = json.at("sweep").get<std::string>();
+    record.fingerprint = json.at("fingerprint").get<std::string>();
+    record.shard = {json.at("shard").get<int>(), json.at("shards").get<int>()};
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(path + ": not a shard record (" + std::string(e.what()) + ")");
+  }
+  return record;
+}
+
+// Refuses shards of different sweeps, other counts, a shard given twice or one missing.
+void check_shard_records(const std::vector<std::string>& dirs) {
+  std::vector<std::optional<ShardRecord>> records;
+  for (const auto& dir : dirs) records.push_back(read_shard_record(dir));
+  const auto with = std::count_if(records.begin(), records.end(), [](const auto& r) { return r.has_value(); });
+  if (with == 0) {
+    spdlog::warn("merge: no shard folder holds a shard.json (an older handscs-bench wrote them): "
+                 "that they are one sweep's complete set of shards is not checked");
+    return;
+  }
+  const ShardRecord* first = nullptr;
+  std::string first_dir;
+  std::map<int, std::string> given;  // shard index -> folder
+  for (size_t k = 0; k < dirs.size(); ++k) {
+    if (!records[k])
+      throw Error(dirs[k] + "/shard.json: not found, while the other folders have one: is " +
+                  dirs[k] + " a shard of this sweep?");
+    const ShardRecord& record = *records[k];
+    if (!first) {
+      first = &record;
+      first_dir = dirs[k];
+    }
+    if (record.fingerprint != first->fingerprint)
+      throw Error(dirs[k] + " and " + first_dir + " hold shards of different sweeps (" +
+                  record.sweep + ", " + first->sweep + "): merge the shards of one sweep");
+    if (record.shard.count != first->shard.count)
+      throw Error(dirs[k] + " is shard " + std::to_string(record.shard.index) + " of " +
+                  std::to_string(record.shard.count) + ", " + first_dir + " one of " +
+                  std::to_string(first->shard.count) + ": merge the shards of one split");
+    const auto [it, added] = given.emplace(record.shard.index, dirs[k]);
+    if (!added && fs::weakly_canonical(it->second) != fs::weakly_canonical(dirs[k]))
+      throw Error(dirs[k] + " and " + it->second + " are both shard " +
+                  std::to_string(record.shard.index) + ": were two machines given the same --shard?");
+  }
+  std::vector<std::string> missing;
+  for (int index = 0; index < first->shard.count; ++index)
+    if (!given.count(index)) missing.push_back(std::to_string(index));
+  if (!missing.empty())
+    throw Error("merge: shard" + std::string(missing.size() == 1 ? " " : "s ") + join(missing, ", ") +
+                " of " + std::to_string(first->shard.count) +
+                " (counted from 0) not given: the table would miss their runs; give every shard's folder");
+}
+
+}  // namespace
+
 void merge_sweep_shards(const std::string& out_dir, const std::vector<std::string>& shard_dirs) {
   require(!shard_dirs.empty(), "merge: name the shards' result folders");
   std::error_code ec;
@@ -92,6 +179,8 @@ void merge_sweep_shards(const std::string& out_dir, const std::vector<std::strin
   if (fs::exists(out_dir + "/results.csv") && !out_is_input)
     throw Error(out_dir + "/results.csv exists and is not one of the shards: merge into a new "
                 "folder (nothing is overwritten or mixed without being asked)");
+
+  check_shard_records(shard_dirs);
 
   // results.csv: one row per (point, budget); "ok" wins over a failed attempt.
   CsvTable merged{result_columns(), {}};
@@ -137,6 +226,8 @@ void merge_sweep_shards(const std::string& out_dir, const std::vector<std::strin
   fs::create_directories(out_dir);
   write_csv_atomic(out_dir + "/results.csv", merged);
   if (!raster.header.empty()) write_csv_atomic(out_dir + "/raster.csv", raster);
+  if (const auto record = read_shard_record(shard_dirs.front()))  // the whole sweep now
+    write_shard_record(out_dir, {record->sweep, record->fingerprint, SweepShard{}});
   spdlog::info("merge: {} runs from {} shard folder{} into {}/results.csv", merged.rows.size(),
                shard_dirs.size(), shard_dirs.size() == 1 ? "" : "s", out_dir);
   draw_sweep_plots(out_dir);

@@ -33,11 +33,26 @@ std::vector<std::pair<const SweepPoint*, int>> sweep_runs(const SweepConfig& con
 std::vector<std::pair<const SweepPoint*, int>> shard_runs(
     const std::vector<std::pair<const SweepPoint*, int>>& runs, const SweepShard& shard);
 
+// What a sweep's --out folder holds, written there as shard.json: which sweep (a fingerprint of
+// the sweep file's bytes and the --points chosen, and the file's path for messages) and which
+// shard. A merge compares the records of its inputs.
+struct ShardRecord {
+  std::string sweep;        // the sweep file, as given
+  std::string fingerprint;  // 16 hex digits
+  SweepShard shard;
+};
+ShardRecord shard_record(const SweepConfig& config, const std::vector<std::string>& only_points,
+                         const SweepShard& shard);
+void write_shard_record(const std::string& out_dir, const ShardRecord& record);
+
 // Merges the results.csv (and raster.csv, when present) of each shard folder into out_dir, as one
 // machine would have written them: every (point, budget) once, an "ok" row preferred over a failed
 // attempt; two "ok" rows of the same run, or tables with other columns, are errors naming the files.
 // Then redraws the plots and summary.md. Writes atomically; an existing out_dir/results.csv is
-// refused unless it is one of the inputs' (merging into a shard folder is allowed).
+// refused unless it is one of the inputs' (merging into a shard folder is allowed). The folders'
+// shard.json records must name one sweep, the same shard count, and every shard once (errors name
+// the folders and the missing shards); folders of an older version, without records, merge with a
+// warning that their completeness is unchecked.
 void merge_sweep_shards(const std::string& out_dir, const std::vector<std::string>& shard_dirs);
 
 }  // namespace handscs

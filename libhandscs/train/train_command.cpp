@@ -111,10 +111,15 @@ int train_command(int argc, char** argv) {
     if (root && resume && !trainer.resume(resume_changing_data))
       spdlog::warn("{}: no checkpoint to resume; starting afresh", run_dir);
     const auto summary = trainer.run();
-    spdlog::info("{} steps in {:.1f} s ({:.2f} views/s), {} Gaussians, {} skipped steps, {} rollbacks",
-                 summary.iterations, summary.seconds,
-                 summary.seconds > 0 ? summary.views / summary.seconds : 0.0, summary.gaussians,
-                 summary.skipped_steps, summary.rollbacks);
+    if (summary.steps == 0)
+      spdlog::info("{}: already at step {} of train.iterations = {}: nothing to train (raise "
+                   "train.iterations to continue)",
+                   run_dir, summary.iterations, config.train.iterations);
+    else
+      spdlog::info("{} steps in {:.1f} s ({:.2f} views/s), {} Gaussians, {} skipped steps, {} rollbacks",
+                   summary.iterations, summary.seconds,
+                   summary.seconds > 0 ? summary.views / summary.seconds : 0.0, summary.gaussians,
+                   summary.skipped_steps, summary.rollbacks);
     if (group && summary.communication.calls > 0) {
       const double steps = std::max<double>(1.0, static_cast<double>(summary.steps));
       spdlog::info("data parallel: {:.2f} MB exchanged per step, {:.1f} ms per step in the "

@@ -92,8 +92,7 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir, ProcessGro
     : config_(config), run_dir_(run_dir), group_(group) {
   validate_run_config(config_, "config");
   if (group_ && group_->world_size() == 1) group_ = nullptr;
-  ensure_directory(run_dir_);
-  ensure_directory(run_dir_ + "/checkpoints");
+  ensure_directory(run_dir_);  // its checkpoints/ comes with the first checkpoint
   if (is_root()) remove_stale_temporaries(run_dir_);
 
   capture_ = std::make_unique<Capture>(Capture::open(config_.data, run_dir_ + "/cache"));
@@ -228,42 +227,37 @@ ViewTarget Trainer::load_view(const FrameInfo& frame, int64_t view_index) {
                           training_background(config_.train.background, config_.train.seed, view_index));
 }
 
-Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, StepResult& result) {
-  EntryOutcome outcome;
-  const int64_t entries = config_.train.batch_size;
+EntryContext Trainer::start_entry(int64_t entry, std::vector<ViewTarget>& targets,
+                                  StepResult& result) {
   const int64_t entry_index = iteration_ * entries_per_step() + first_entry() + entry;
-  const auto t0 = Clock::now();
   const std::vector<const FrameInfo*> frames = entry_order_->frames_for(entry_index);
   EntryContext ctx;
   ctx.iteration = iteration_;
   ctx.entry = entry;
   ctx.step_entry = first_entry() + entry;
-  ctx.entries = entries;
+  ctx.entries = config_.train.batch_size;
   ctx.avatar = avatar_.get();
   ctx.frame = frames.front();  // the pose, shape and translation of them all
-  std::vector<torch::Tensor> targets, masks;
   for (const FrameInfo* frame : frames) result.frames.push_back(frame->index);
   for (size_t k = 0; k < frames.size(); ++k) {
-    ViewTarget target = load_view(*frames[k], entry_index * config_.train.views_per_pose +
-                                                  static_cast<int64_t>(k));
+    targets.push_back(load_view(*frames[k], entry_index * config_.train.views_per_pose +
+                                                static_cast<int64_t>(k)));
     ViewRender view;
     view.frame = frames[k];
-    view.camera = target.camera;
-    view.background = target.background;
+    view.camera = targets.back().camera;
+    view.background = targets.back().background;
     ctx.views.push_back(std::move(view));
-    targets.push_back(target.target);
-    masks.push_back(target.mask);
   }
-  const int64_t count = static_cast<int64_t>(ctx.views.size());
-  outcome.views = count;
-  const auto t1 = Clock::now();
+  return ctx;
+}
 
+void Trainer::render_entry(EntryContext& ctx, AvatarState& state) {
   // The pose is decoded once; each view rasterises the same posed Gaussians.
   ctx.pose = float_vector(ctx.frame->pose);
   ctx.trans = float_vector(ctx.frame->trans);
   for (auto& component : components_) component->before_decode(ctx);
-  const AvatarState state = avatar_->pose(ctx.pose, float_vector(ctx.frame->shape), ctx.trans,
-                                          ctx.need_descriptor, ctx.cull ? &*ctx.cull : nullptr);
+  state = avatar_->pose(ctx.pose, float_vector(ctx.frame->shape), ctx.trans, ctx.need_descriptor,
+                        ctx.cull ? &*ctx.cull : nullptr);
   ctx.state = &state;
   ctx.decoded = decoded_mask(state);
   for (ViewRender& view : ctx.views) {
@@ -274,23 +268,24 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
     view.image = view.render.rgb;
     for (auto& component : components_) component->recolor(ctx, view);
   }
-  const auto t2 = Clock::now();
+}
 
+torch::Tensor Trainer::entry_loss(EntryContext& ctx, const std::vector<ViewTarget>& targets,
+                                  std::map<std::string, double>& terms) {
   LossInputs shared;  // what the views' losses share: the pose's terms
-  shared.offsets = &state.offsets;
-  shared.decoded_rows = state.decoded_rows;
+  shared.offsets = &ctx.state->offsets;
+  shared.decoded_rows = ctx.state->decoded_rows;
   for (auto& component : components_) component->prepare_loss(ctx, shared);
-  if (entry == 0) result.consistency_weight = ctx.consistency_weight;
   // The entry's loss is the mean over its views (the pose's terms, L_reg and L_con, are the same
   // in each, so they count once).
+  const int64_t count = static_cast<int64_t>(ctx.views.size());
   torch::Tensor total;
-  std::map<std::string, double> terms;
   for (int64_t k = 0; k < count; ++k) {
     LossInputs in = shared;
     in.rgb = ctx.views[k].image;
     in.alpha = ctx.views[k].render.alpha;
-    in.target = targets[k];
-    in.mask = masks[k];
+    in.target = targets[k].target;
+    in.mask = targets[k].mask;
     auto loss = objective_->compute(in);
     total = k == 0 ? loss.total : total + loss.total;
     for (const auto& [name, value] : loss.terms) terms[name] += value / count;
@@ -304,7 +299,21 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
       total = total + penalty;
     }
   }
-  for (const auto& [name, value] : terms) result.terms[name] += value / entries;
+  return total;
+}
+
+Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, StepResult& result) {
+  const auto t0 = Clock::now();
+  std::vector<ViewTarget> targets;
+  EntryContext ctx = start_entry(entry, targets, result);
+  const auto t1 = Clock::now();
+  AvatarState state;
+  render_entry(ctx, state);
+  const auto t2 = Clock::now();
+  std::map<std::string, double> terms;
+  const torch::Tensor total = entry_loss(ctx, targets, terms);
+  if (entry == 0) result.consistency_weight = ctx.consistency_weight;
+  for (const auto& [name, value] : terms) result.terms[name] += value / ctx.entries;
   if (diagnostics) {
     // On the steps run() logs (each value is a reduction and a sync; no need on every step).
     decoder_diagnostics(*avatar_, state, result.diagnostics);
@@ -313,17 +322,19 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
   const auto t3 = Clock::now();
 
   // The step's loss is the mean over its entries: each entry's gradients arrive scaled by 1/entries.
-  (entries == 1 ? total : total * (1.0 / entries)).backward();
+  (ctx.entries == 1 ? total : total * (1.0 / ctx.entries)).backward();
   const auto t4 = Clock::now();
 
+  EntryOutcome outcome;
+  outcome.views = static_cast<int64_t>(ctx.views.size());
   outcome.loss = total.item<double>();
   {
     torch::NoGradGuard no_grad;
     // Capped: a crop rendered exactly (mse 0, +inf dB) would make the running average infinite.
     constexpr double kMaxStepPsnr = 99.0;
-    for (int64_t k = 0; k < count; ++k) {
-      const double mse = (ctx.views[k].image.detach() - targets[k]).pow(2).mean().item<double>();
-      outcome.psnr += std::min(psnr_from_mse(mse), kMaxStepPsnr) / count;
+    for (int64_t k = 0; k < outcome.views; ++k) {
+      const double mse = (ctx.views[k].image.detach() - targets[k].target).pow(2).mean().item<double>();
+      outcome.psnr += std::min(psnr_from_mse(mse), kMaxStepPsnr) / outcome.views;
     }
   }
   for (auto& component : components_) component->after_backward(ctx);

@@ -126,6 +126,14 @@ class Trainer {
   // Entry `entry` of this rank's step: its frames' pose decoded once, each frame rasterised, the
   // losses averaged over them and backpropagated (scaled to the step's mean over entries).
   EntryOutcome train_entry(int64_t entry, bool diagnostics, StepResult& result);
+  // The entry's frames (their indices appended to result.frames) and their targets.
+  EntryContext start_entry(int64_t entry, std::vector<ViewTarget>& targets, StepResult& result);
+  // Decodes the entry's pose into `state` and renders each of its views.
+  void render_entry(EntryContext& ctx, AvatarState& state);
+  // The entry's loss: the mean over its views, plus the components' penalties (terms: each term's
+  // value, unweighted).
+  torch::Tensor entry_loss(EntryContext& ctx, const std::vector<ViewTarget>& targets,
+                           std::map<std::string, double>& terms);
   // Sums this rank's gradients, loss, PSNR, loss terms, flags and the components' slots with the
   // other ranks' in one all-reduce and divides the gradients and terms by the world size. Returns
   // whether the step is finite on every rank.

@@ -167,6 +167,39 @@ TEST_CASE("capture layouts: undistortion inverts the synthetic lens on a checker
   CHECK(cv::norm(same, board, cv::NORM_INF) == 0);
 }
 
+TEST_CASE("capture layouts: a distortion that folds or blackens the image is refused, naming the camera") {
+  Camera camera;
+  camera.K = {1265, 0, 167, 0, 1265, 256, 0, 0, 1};
+  camera.width = 334;
+  camera.height = 512;
+  const auto problem = [&](const LensDistortion& lens) {
+    return distortion_problem(camera, lens, undistort_maps(camera, lens));
+  };
+  LensDistortion strong = kSynthLensDistortion;
+  for (double& c : strong.coefficients) c *= 4;
+  CHECK(problem(LensDistortion{}) == "");
+  CHECK(problem(kSynthLensDistortion) == "");
+  CHECK(problem(strong) == "");
+  // k1 = -20: r (1 - 20 r^2) turns back at r = 1/sqrt(60) = 0.129, inside the corners (r = 0.242).
+  CHECK(problem(LensDistortion{{-20, 0, 0, 0, 0}}) ==
+        "its radial distortion turns back at r = 0.129 (normalised), inside the image (corners at "
+        "r = 0.242): part of the image would appear mirrored");
+  CHECK(problem(LensDistortion{{1e6, 1e6, 0, 0, 1e6}}).find("from outside the recorded one: the image "
+                                                            "would be mostly black") != std::string::npos);
+
+  // In a capture: refused at open, naming the file, the camera and the coefficients.
+  const std::string root = data_test::copy_of_tiny_in("handscs", "folding_lens");
+  const std::string file = root + "/capture.json";
+  json value = parse_json_file(file);
+  value["cameras"]["400004"]["dist"] = {-20, 0, 0, 0, 0};
+  data_test::write_text(file, value.dump());
+  const std::string error = error_of([&] { Capture::open(data_test::tiny_config(root)); });
+  INFO(error);
+  CHECK(error.find(": camera 400004: its radial distortion turns back") != std::string::npos);
+  CHECK(error.find("check its distortion coefficients (k1, k2, p1, p2, k3 = -20, 0, 0, 0, 0)") !=
+        std::string::npos);
+}
+
 TEST_CASE("capture layouts: undistorted images are cached beside the masks and read back") {
   const std::string root = data_test::tiny_capture_in("easymocap");
   const std::string cache = data_test::fresh_dir("undistort_cache");

@@ -315,6 +315,16 @@ TEST_CASE("handscs-render renders a PLY from a camera file (PLY mode end to end)
   CHECK(code == 1);
   CHECK(text.find("--ply: PLY-scene option(s), not used with --checkpoint (avatar mode); give one mode") !=
         std::string::npos);
+  // The camera turned around (the Gaussian now behind it): refused, nothing written.
+  write_bytes(dir.file("away.json"),
+              R"({"K": [[200, 0, 20.5], [0, 200, 10.5], [0, 0, 1]], "R": [[-1, 0, 0], [0, 1, 0], [0, 0, -1]],
+                  "t": [0, 0, 0], "width": 40, "height": 24})");
+  std::tie(code, text) = run_logged(" --ply " + dir.file("one.ply") + " --camera " + dir.file("away.json") +
+                                    " --out " + dir.file("away.png"));
+  CHECK(code == 1);
+  CHECK(text.find(dir.file("away.json") + ": none of the 1 Gaussians of " + dir.file("one.ply") +
+                  " is in this camera's view") != std::string::npos);
+  CHECK_FALSE(fs::exists(dir.file("away.png")));
   CHECK_FALSE(fs::exists(dir.file("n.png")));
   CHECK_FALSE(fs::exists(dir.file("x.jpg")));
 }

@@ -125,10 +125,14 @@ TEST_CASE("folder eval turns each bad pair into a failure entry excluded from th
     const std::string whole = handscs::read_file(gt + "/k.png");
     std::ofstream(pred + "/k.png", std::ios::binary) << whole.substr(0, whole.size() - 12);  // no IEND
   }                                                                       // truncated PNG
+  write_png(gt + "/l.png", random_hwc(16, 20, 14));
+  cv::Mat grey_rgb(16, 20, CV_8UC3, cv::Scalar(90, 90, 90));
+  grey_rgb.at<cv::Vec3b>(5, 6) = cv::Vec3b(200, 200, 200);
+  REQUIRE(cv::imwrite(pred + "/l.png", grey_rgb));  // grey stored as RGB (R = G = B), against colour
   std::ofstream(pred + "/notes.txt") << "ignored: not an image";
 
   const auto report = handscs::run_folder_eval({pred, gt, "", ""}, handscs::EvalConfig{});
-  REQUIRE(report.entries.size() == 11);
+  REQUIRE(report.entries.size() == 12);
   std::map<std::string, std::string> errors;
   for (const auto& entry : report.entries) errors[entry.name] = entry.ok ? "ok" : entry.error;
   CHECK(errors["a"] == "ok");
@@ -144,20 +148,22 @@ TEST_CASE("folder eval turns each bad pair into a failure entry excluded from th
                                "end-of-image marker)");
   CHECK(errors["j"] == pred + "/j.png: cannot read image (Too many levels of symbolic links)");
   CHECK(errors["k"] == pred + "/k.png: damaged PNG image (truncated: the data ends before the IEND chunk)");
+  CHECK(errors["l"] == "the prediction is grey and the ground truth colour (" + pred + "/l.png, " + gt +
+                           "/l.png): convert one so both match");
   const auto s = report.summary();
-  CHECK(s.num_entries == 11);
+  CHECK(s.num_entries == 12);
   CHECK(s.num_scored == 1);
-  CHECK(s.num_failed == 10);
+  CHECK(s.num_failed == 11);
   CHECK(*s.psnr == report.entries[0].scores.psnr);
   CHECK(*s.ssim == report.entries[0].scores.ssim);
   const auto j = handscs::eval_report_to_json(report);
-  CHECK(j["summary"]["failed"] == 10);
+  CHECK(j["summary"]["failed"] == 11);
   CHECK(j["images"].size() == 1);
-  CHECK(j["failed"].size() == 10);
+  CHECK(j["failed"].size() == 11);
   CHECK(j["failed"][0]["name"] == "b");
   CHECK(j["failed"][0]["error"] == "size mismatch: prediction 20x16, ground truth 24x16");
   const auto table = handscs::format_eval_table(report);
-  CHECK(table.find("10 of 11 images failed and are excluded from the means:") != std::string::npos);
+  CHECK(table.find("11 of 12 images failed and are excluded from the means:") != std::string::npos);
 }
 
 TEST_CASE("image checks: the range's edges, infinities and dtypes", "[eval]") {

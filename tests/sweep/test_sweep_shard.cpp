@@ -10,6 +10,7 @@
 #include <set>
 
 #include "core/atomic_file.h"
+#include "core/config.h"
 #include "core/error.h"
 #include "core/csv_table.h"
 #include "sweep/sweep_shard.h"
@@ -159,4 +160,62 @@ TEST_CASE("sweep shard: duplicate finished runs and other columns are refused") 
   CHECK(error_of([&] { handscs::merge_sweep_shards(out, {a, out + "_missing"}); }) ==
         out + "_missing/results.csv: not found (is " + out + "_missing a shard's --out folder?)");
   CHECK_FALSE(fs::exists(out + "/results.csv"));
+}
+
+TEST_CASE("sweep shard: shard records refuse another sweep, another split, a shard twice or missing") {
+  const auto with_record = [](const std::string& name, const std::string& run, const std::string& sweep,
+                              const std::string& fingerprint, int index, int count) {
+    const std::string dir = shard_dir(name, {run});
+    handscs::write_shard_record(dir, {sweep, fingerprint, {index, count}});
+    return dir;
+  };
+  const std::string one = "00000000000000aa";
+  const std::string a = with_record("rec_a", row("p.s0", "ok", "30.1"), "sweep.json", one, 0, 2);
+  const std::string b = with_record("rec_b", row("q.s0", "ok", "29.5"), "sweep.json", one, 1, 2);
+  const std::string out = handscs_test::scratch_path("handscs_test_shard", "rec_out");
+  fs::remove_all(out);
+  handscs::merge_sweep_shards(out, {a, b});
+  CHECK(handscs::read_csv(out + "/results.csv").rows.size() == 2);
+  const auto merged = handscs::load_json_file(out + "/shard.json");
+  CHECK(merged["fingerprint"] == one);
+  CHECK(merged["shard"] == 0);
+  CHECK(merged["shards"] == 1);  // the merged folder holds the whole sweep
+
+  const std::string none = handscs_test::scratch_path("handscs_test_shard", "rec_refused");
+  fs::remove_all(none);
+  const std::string other =
+      with_record("rec_other", row("r.s0", "ok", "31.0"), "other.json", "00000000000000bb", 1, 2);
+  CHECK(error_of([&] { handscs::merge_sweep_shards(none, {a, other}); }) ==
+        other + " and " + a + " hold shards of different sweeps (other.json, sweep.json): merge "
+                              "the shards of one sweep");
+  CHECK(error_of([&] { handscs::merge_sweep_shards(none, {a}); }) ==
+        "merge: shard 1 of 2 (counted from 0) not given: the table would miss their runs; give every "
+        "shard's folder");
+  const std::string twice = with_record("rec_twice", row("q.s0", "failed", ""), "sweep.json", one, 0, 2);
+  CHECK(error_of([&] { handscs::merge_sweep_shards(none, {a, twice}); }) ==
+        twice + " and " + a + " are both shard 0: were two machines given the same --shard?");
+  const std::string thirds = with_record("rec_thirds", row("q.s0", "ok", "29.5"), "sweep.json", one, 1, 3);
+  CHECK(error_of([&] { handscs::merge_sweep_shards(none, {a, thirds}); }) ==
+        thirds + " is shard 1 of 3, " + a + " one of 2: merge the shards of one split");
+  const std::string older = shard_dir("rec_older", {row("q.s0", "ok", "29.5")});
+  CHECK(error_of([&] { handscs::merge_sweep_shards(none, {a, older}); }) ==
+        older + "/shard.json: not found, while the other folders have one: is " + older +
+            " a shard of this sweep?");
+  CHECK_FALSE(fs::exists(none + "/results.csv"));
+}
+
+TEST_CASE("sweep shard: a sweep's fingerprint follows its file's bytes and the points chosen") {
+  const std::string dir = handscs_test::scratch_path("handscs_test_shard", "fingerprint");
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  handscs::SweepConfig config;
+  config.path = dir + "/sweep.json";
+  handscs::write_file_atomic(config.path, "{\"budgets\": [100]}\n");
+  const auto first = handscs::shard_record(config, {}, {0, 2});
+  CHECK(first.fingerprint.size() == 16);
+  CHECK(first.sweep == config.path);
+  CHECK(handscs::shard_record(config, {}, {1, 2}).fingerprint == first.fingerprint);
+  CHECK(handscs::shard_record(config, {"p"}, {0, 2}).fingerprint != first.fingerprint);
+  handscs::write_file_atomic(config.path, "{\"budgets\": [200]}\n");
+  CHECK(handscs::shard_record(config, {}, {0, 2}).fingerprint != first.fingerprint);
 }

@@ -8,6 +8,8 @@
 
 #include <filesystem>
 #include <functional>
+#include <limits>
+#include <cmath>
 #include <string>
 
 #include "core/atomic_file.h"
@@ -135,6 +137,34 @@ TEST_CASE("checkpoint meta: resume falls back past an edited checkpoint and keep
   REQUIRE(third.resume());
   CHECK(third.iteration() == 4);
   CHECK(fs::is_symlink(checkpoints + handscs::checkpoint_name(98) + ".unreadable"));
+  handscs::set_threads(2);
+}
+
+TEST_CASE("checkpoint: a NaN sealed into a tensor is refused by name, and resume falls back past it") {
+  handscs::set_threads(1);
+  const auto dir = fresh_dir("nan_checkpoint");
+  const auto checkpoints = train_four_steps(dir);
+  const std::string newest = checkpoints + handscs::checkpoint_name(4);
+  // Step 4's means poisoned and sealed again with a valid checksum.
+  auto ckpt = handscs::load_checkpoint(newest);
+  ckpt.tensors.at("gaussians/means")[0][1] = std::nan("");
+  handscs::save_checkpoint(newest, ckpt);
+  CHECK(handscs_test::error_of([&] { handscs::load_checkpoint(newest); }) ==
+        newest + ": tensor 'gaussians/means' holds NaN or Inf values (a diverged run or an altered "
+                 "file); use an earlier checkpoint of the run");
+  // Inf in an optimiser moment likewise.
+  auto older = handscs::load_checkpoint(checkpoints + handscs::checkpoint_name(2));
+  older.tensors.at("adam/colors/0/v")[0][0] = std::numeric_limits<float>::infinity();
+  const std::string edited = fresh_dir("inf_checkpoint") + ".ckpt";
+  handscs::save_checkpoint(edited, older);
+  CHECK_THROWS_WITH(handscs::load_checkpoint(edited), Catch::Contains("tensor 'adam/colors/0/v'"));
+
+  auto config = four_step_config();
+  config.train.iterations = 6;
+  handscs::Trainer trainer(config, dir);
+  REQUIRE(trainer.resume());
+  CHECK(trainer.iteration() == 2);  // the NaN checkpoint was passed over, not resumed
+  CHECK(fs::exists(newest + ".unreadable"));
   handscs::set_threads(2);
 }
 

@@ -80,6 +80,11 @@ TEST_CASE("cli: train, resume, evaluate and render the tiny capture") {
   INFO(log_text());
   CHECK(log_text().find("resumed from") != std::string::npos);
   CHECK(handscs::latest_checkpoint(run_dir).find("step_00000050.ckpt") != std::string::npos);
+  // Resumed at its last step: said so, with no rate of zero views.
+  REQUIRE(run(kBin + "/handscs-train --resume --out " + run_dir + " --threads 2") == 0);
+  CHECK(log_text().find(run_dir + ": already at step 50 of train.iterations = 50: nothing to train") !=
+        std::string::npos);
+  CHECK(log_text().find("views/s") == std::string::npos);
   {
     // The validation picture is labelled: render | ground truth | error under a header
     // (tiny.json validates every 50 steps; the tiny capture's images are 167x256 or 256x167).

@@ -124,6 +124,14 @@ TEST_CASE("trainer: NaN steps are skipped, then rolled back with a lower learnin
   CHECK(std::isfinite(r4.loss));
 }
 
+TEST_CASE("trainer: a run that fails its start checks leaves no empty checkpoints folder") {
+  auto config = tiny_run_config();
+  config.train.resolution_scale = 0.05;  // every image too small for the image losses
+  const std::string dir = fresh_dir("early_failure");
+  CHECK_THROWS_WITH(handscs::Trainer(config, dir), Catch::Contains("train.resolution_scale"));
+  CHECK_FALSE(std::filesystem::exists(dir + "/checkpoints"));
+}
+
 TEST_CASE("checkpoint: truncated, corrupted and foreign files are refused with their path") {
   const auto dir = fresh_dir("ckpt");
   std::filesystem::create_directories(dir);
