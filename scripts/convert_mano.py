@@ -26,6 +26,7 @@ import json
 import operator
 import os
 import pickle
+import stat
 import sys
 
 try:
@@ -195,17 +196,15 @@ class ManoUnpickler(pickle.Unpickler):
             return latin1_bytes
         if module.startswith("chumpy"):
             return chumpy_stand_in(module, name)
-        if module.startswith("scipy.sparse"):
-            if name == "csc_matrix":
-                return CscMatrix
-            if name == "csr_matrix":
-                return CsrMatrix
-            return _Inert
+        if module.startswith("scipy.sparse") and name == "csc_matrix":
+            return CscMatrix
+        if module.startswith("scipy.sparse") and name == "csr_matrix":
+            return CsrMatrix
         if (module, name) in _ALLOWED:
             return super().find_class(module, name)
-        if module.split(".")[0] in ("builtins", "__builtin__", "os", "posix", "subprocess", "sys"):
-            raise ConversionError(f"the pickle asks for {module}.{name}: refusing to load it")
-        return _Inert  # any other class: kept inert
+        # An allow list: anything else could run code when called, however harmless its name.
+        raise ConversionError(f"the pickle asks for {module}.{name}, which a MANO file does not "
+                              "need: refusing to load it")
 
 
 # chumpy expressions nest (Select of a Ch); deeper than this is a cycle or not a MANO file.
@@ -263,6 +262,32 @@ def chumpy_value(value, key, depth):
                           "the file's origin")
 
 
+# A nested list standing for more numbers than this (MANO's largest array holds 315,090) or nested
+# deeper than this (MANO's arrays have at most 3 axes) is no MANO array: refused before numpy
+# builds it (a small pickle can reference one row a million times).
+MAX_LIST_VALUES = 10_000_000
+MAX_LIST_DEPTH = 8
+
+
+def check_nested_list(value, key):
+    """Counts the numbers of a nested list without building it; refuses one too large or deep."""
+    count = 0
+    stack = [(value, 1)]
+    while stack:
+        item, depth = stack.pop()
+        if depth > MAX_LIST_DEPTH:
+            raise ConversionError(f"{key}: lists nested deeper than {MAX_LIST_DEPTH} levels: "
+                                  "not a MANO array")
+        for element in item:
+            if isinstance(element, (list, tuple)):
+                stack.append((element, depth + 1))
+            else:
+                count += 1
+        if count > MAX_LIST_VALUES:
+            raise ConversionError(f"{key}: lists of more than {MAX_LIST_VALUES:,} numbers: "
+                                  "not a MANO array")
+
+
 def to_array(value, key, depth=0, expected_shape=None):
     """The numeric array behind a pickled value (ndarray, chumpy expression or sparse matrix); a
     sparse matrix is checked against expected_shape before it is made dense."""
@@ -274,13 +299,22 @@ def to_array(value, key, depth=0, expected_shape=None):
         return value.toarray(key, expected_shape)
     if isinstance(value, ChumpyObject):
         return chumpy_value(value, key, depth)
+    if isinstance(value, (list, tuple)):
+        check_nested_list(value, key)
     if isinstance(value, (list, tuple, float, int)):
-        return np.asarray(value)
+        try:
+            return np.asarray(value)
+        except (ValueError, TypeError) as error:
+            raise ConversionError(f"{key}: not an array of numbers ({error})") from None
     raise ConversionError(f"{key}: expected an array, got {type(value).__name__}")
 
 
 def read_mano(path):
     try:
+        # A named pipe or a device would block the open or never end.
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            raise ConversionError("is not a regular file (a named pipe, a device or a socket); "
+                                  "give a file")
         with open(path, "rb") as stream:
             data = ManoUnpickler(stream, encoding="latin1").load()
     except OSError as error:

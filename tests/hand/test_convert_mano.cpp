@@ -9,6 +9,7 @@
 #include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <vector>
 
@@ -372,5 +373,57 @@ TEST_CASE("convert_mano.py: a hand label the geometry contradicts is refused") {
   INFO(r.output);
   CHECK(r.status == 0);
   CHECK(load_rig(dir + "/out.json").handedness == Handedness::left);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("convert_mano.py: hostile pickles are refused by name: foreign globals, deep or huge lists, "
+          "a named pipe") {
+  const std::string python = python_with_numpy();
+  REQUIRE_FALSE(python.empty());
+  const std::string dir = (std::filesystem::temp_directory_path() /
+                           ("handscs_mano_hostile_" + std::to_string(::getpid())))
+                              .string();
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  // Globals off the allow list (each would run `touch pwned` if called), a list nested 200,000
+  // deep, and a 2 MB pickle that references one 1,000-number row a million times (8 GB as an array).
+  const std::string writer = R"(
+import pickle, sys
+d = sys.argv[1]
+def call(module, name):
+    return b"c" + module.encode() + b"\n" + name.encode() + b"\n(S'" + d.encode() + b"/pwned'\ntR."
+for module, name in [("nt", "system"), ("io", "open"), ("shutil", "copy"),
+                     ("importlib", "import_module"), ("operator", "attrgetter")]:
+    open(f"{d}/{module}.{name}_right.pkl", "wb").write(call(module, name))
+n = 200000
+open(f"{d}/deep_right.pkl", "wb").write(b"\x80\x02}U\x0av_template" + b"]" * n + b"a" * (n - 1) + b"s.")
+open(f"{d}/wide_right.pkl", "wb").write(pickle.dumps({"v_template": [[0.5] * 1000] * 10**6}, protocol=2))
+)";
+  write_file_atomic(dir + "/write.py", writer);
+  REQUIRE(run(python + " '" + dir + "/write.py' '" + dir + "'", dir).status == 0);
+  const std::string script =
+      python + " '" + std::string(HANDSCS_SOURCE_DIR) + "/scripts/convert_mano.py' ";
+  const auto refusal = [&](const std::string& name) {
+    const Run r = run(script + "'" + dir + "/" + name + "' '" + dir + "/out.json'", dir);
+    CHECK(r.status != 0);
+    return r.output;
+  };
+  for (const std::string global :
+       {"nt.system", "io.open", "shutil.copy", "importlib.import_module", "operator.attrgetter"})
+    CHECK(refusal(global + "_right.pkl") ==
+          "convert_mano.py: " + dir + "/" + global + "_right.pkl: the pickle asks for " + global +
+              ", which a MANO file does not need: refusing to load it\n");
+  CHECK_FALSE(std::filesystem::exists(dir + "/pwned"));
+  CHECK(refusal("deep_right.pkl") == "convert_mano.py: " + dir +
+                                         "/deep_right.pkl: v_template: lists nested deeper than 8 "
+                                         "levels: not a MANO array\n");
+  CHECK(refusal("wide_right.pkl") == "convert_mano.py: " + dir +
+                                         "/wide_right.pkl: v_template: lists of more than "
+                                         "10,000,000 numbers: not a MANO array\n");
+  REQUIRE(::mkfifo((dir + "/pipe_right.pkl").c_str(), 0600) == 0);
+  CHECK(refusal("pipe_right.pkl") == "convert_mano.py: " + dir +
+                                         "/pipe_right.pkl: is not a regular file (a named pipe, a "
+                                         "device or a socket); give a file\n");
+  CHECK_FALSE(std::filesystem::exists(dir + "/out.json"));
   std::filesystem::remove_all(dir);
 }
