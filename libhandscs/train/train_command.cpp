@@ -82,6 +82,9 @@ int train_command(int argc, char** argv) {
       spdlog::info("data parallel: rank {} of {} (rendezvous at {}:{})", parallel.rank,
                    parallel.world_size, parallel.master_addr, parallel.master_port);
     }
+    // An earlier run a killed --overwrite set aside is put back first, before a resume reads the
+    // folder's config.json (the killed run's otherwise, not the run resumed).
+    if (root && std::filesystem::is_directory(run_dir)) recover_set_aside_runs(run_dir);
     RunConfig config;
     std::string config_text;
     if (root) {
@@ -95,9 +98,7 @@ int train_command(int argc, char** argv) {
       if (!root)
         config_from_json(nlohmann::json::parse(config_text), "rank 0's config", config);
     }
-    // An earlier run a killed --overwrite set aside is put back first; a fresh run into a folder
-    // holding another is refused before anything else happens...
-    if (root && std::filesystem::is_directory(run_dir)) recover_set_aside_runs(run_dir);
+    // A fresh run into a folder holding another is refused before anything else happens...
     if (root && !resume) refuse_run_folder_without_overwrite(run_dir, overwrite);
     // ...and with --overwrite the old run is set aside only once the new one has opened its
     // capture and passed the trainer's checks, and deleted once the new one has its first

@@ -402,6 +402,24 @@ TEST_CASE("cli: a run folder is never overwritten or mixed without --overwrite")
         it = it->first.rfind(run_dir + "/cache/", 0) == 0 ? files->erase(it) : std::next(it);
     CHECK(restored == expected);
   }
+  // The same with another model, then --resume without a config: the old run comes back before its
+  // config.json is read, and resumes (the killed run's config is not taken for the run's).
+  {
+    const pid_t pid = handscs_test::spawn(train + " train.iterations=100000 train.checkpoint_every=100000 "
+                                          "model.decoder_hidden=32 --overwrite > /dev/null 2>&1");
+    REQUIRE(pid > 0);
+    const std::string aside = run_dir + "/.overwritten." + std::to_string(pid);
+    handscs_test::wait_until([&] {
+      return std::filesystem::exists(aside) && std::filesystem::exists(run_dir + "/metrics.csv");
+    });
+    kill(pid, SIGKILL);
+    handscs_test::exit_code_of(pid);
+    CHECK(run(kBin + "/handscs-train --resume --out " + run_dir + " --threads 1") == 0);
+    INFO(log_text());
+    CHECK(log_text().find("it is back") != std::string::npos);
+    CHECK(log_text().find("resumed from") != std::string::npos);
+    CHECK(log_text().find("model differs") == std::string::npos);
+  }
 
   // --overwrite replaces the run: the old checkpoint is gone, the new run's is there.
   CHECK(run(train + " train.iterations=2 --resume --overwrite") != 0);  // exclusive flags
