@@ -56,6 +56,23 @@ pid_t start_long_training(const std::string& run_dir, const std::string& prefix 
   return pid;
 }
 
+// Starts `train` (a handscs-train command ending in --set ...) with `settings` and --overwrite into
+// run_dir, kills it (-9) once it has set the old run aside and logged a step; returns the folder
+// the old run waits in.
+std::string kill_overwrite_after_first_log(const std::string& train, const std::string& run_dir,
+                                           const std::string& settings) {
+  const pid_t pid = handscs_test::spawn(train + " train.iterations=100000 train.checkpoint_every=100000" +
+                                        settings + " --overwrite > /dev/null 2>&1");
+  REQUIRE(pid > 0);
+  const std::string aside = run_dir + "/.overwritten." + std::to_string(pid);
+  handscs_test::wait_until([&] {
+    return std::filesystem::exists(aside) && std::filesystem::exists(run_dir + "/metrics.csv");
+  });
+  kill(pid, SIGKILL);
+  handscs_test::exit_code_of(pid);
+  return aside;
+}
+
 // Waits for a training run stopped by a signal: exit 130, a checkpoint of the step reached and the
 // line saying so. Returns that step.
 int64_t check_stopped_with_checkpoint(pid_t pid, const std::string& run_dir) {
@@ -381,17 +398,7 @@ TEST_CASE("cli: a run folder is never overwritten or mixed without --overwrite")
   // --overwrite killed (-9) before the new run's first checkpoint: the old run waits set aside,
   // and the next handscs-train in the folder puts it back, every byte as it was.
   {
-    const pid_t pid = handscs_test::spawn(train + " train.iterations=100000 train.checkpoint_every=100000 "
-                                          "--overwrite > /dev/null 2>&1");
-    REQUIRE(pid > 0);
-    const std::string aside = run_dir + "/.overwritten." + std::to_string(pid);
-    // Wait until the new run has set the old one aside and logged a step, then kill.
-    handscs_test::wait_until([&] {
-      return std::filesystem::exists(aside) && std::filesystem::exists(run_dir + "/metrics.csv");
-    });
-    kill(pid, SIGKILL);
-    handscs_test::exit_code_of(pid);
-    REQUIRE(std::filesystem::is_directory(aside));
+    REQUIRE(std::filesystem::is_directory(kill_overwrite_after_first_log(train, run_dir, "")));
     CHECK(run(train + " train.iterations=2") == 1);  // no --overwrite: refused, old run back first
     CHECK(log_text().find("an interrupted --overwrite had set the earlier run aside before the new "
                           "run's first checkpoint; it is back") != std::string::npos);
@@ -405,15 +412,7 @@ TEST_CASE("cli: a run folder is never overwritten or mixed without --overwrite")
   // The same with another model, then --resume without a config: the old run comes back before its
   // config.json is read, and resumes (the killed run's config is not taken for the run's).
   {
-    const pid_t pid = handscs_test::spawn(train + " train.iterations=100000 train.checkpoint_every=100000 "
-                                          "model.decoder_hidden=32 --overwrite > /dev/null 2>&1");
-    REQUIRE(pid > 0);
-    const std::string aside = run_dir + "/.overwritten." + std::to_string(pid);
-    handscs_test::wait_until([&] {
-      return std::filesystem::exists(aside) && std::filesystem::exists(run_dir + "/metrics.csv");
-    });
-    kill(pid, SIGKILL);
-    handscs_test::exit_code_of(pid);
+    kill_overwrite_after_first_log(train, run_dir, " model.decoder_hidden=32");
     CHECK(run(kBin + "/handscs-train --resume --out " + run_dir + " --threads 1") == 0);
     INFO(log_text());
     CHECK(log_text().find("it is back") != std::string::npos);
