@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <new>
 #include <optional>
 #include <random>
 #include <set>
@@ -398,6 +401,39 @@ bool Trainer::reduce_across_ranks(EntryOutcome& sums, bool finite, std::map<std:
 }
 
 StepResult Trainer::step() {
+  try {
+    return take_step();
+  } catch (const std::bad_alloc&) {
+    throw out_of_memory("");
+  } catch (const c10::Error& e) {
+    // LibTorch's CPU allocator reports a failed allocation as an enforce failure in alloc_cpu.
+    const std::string what = e.what_without_backtrace();
+    if (what.find("alloc_cpu") == std::string::npos && what.find("can't allocate memory") == std::string::npos)
+      throw;
+    throw out_of_memory(what);
+  }
+}
+
+Error Trainer::out_of_memory(const std::string& detail) const {
+  // LibTorch says "... you tried to allocate N bytes ...": the size is what a user can act on.
+  std::string request;
+  const std::string marker = "you tried to allocate ";
+  if (const size_t at = detail.find(marker); at != std::string::npos) {
+    const double bytes = std::atof(detail.c_str() + at + marker.size());
+    char text[64];
+    std::snprintf(text, sizeof(text), " (a request of %.0f MB failed)", bytes / 1e6);
+    request = text;
+  }
+  return Error("out of memory at step " + std::to_string(iteration_ + 1) + " with " +
+               std::to_string(avatar_->gaussians().size()) + " Gaussians" + request +
+               ": the machine cannot hold this run. Fewer Gaussians (a lower "
+               "train.densify.max_gaussians, a higher train.densify.grad_threshold, an earlier "
+               "train.densify.stop), smaller decoders "
+               "(model.decoder_hidden) or smaller images (train.resolution_scale) need less; the "
+               "last checkpoint is kept");
+}
+
+StepResult Trainer::take_step() {
   StepResult result;
   const int64_t total = config_.train.iterations;
   const int64_t entries = config_.train.batch_size;

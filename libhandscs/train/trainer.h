@@ -99,6 +99,8 @@ class Trainer {
   // changes the experiment's data (experiment_differences: capture, split, held-out poses,
   // cameras) is refused with the keys named, unless `allow_changed_data`, which warns instead.
   bool resume(bool allow_changed_data = false);
+  // One step. A failed allocation ends it with an Error naming the step, the Gaussian count and
+  // the keys that lower what a step needs.
   StepResult step();
   // Runs to config.train.iterations (or until SIGINT/SIGTERM), with a progress bar.
   TrainSummary run();
@@ -126,6 +128,8 @@ class Trainer {
   // Entry `entry` of this rank's step: its frames' pose decoded once, each frame rasterised, the
   // losses averaged over them and backpropagated (scaled to the step's mean over entries).
   EntryOutcome train_entry(int64_t entry, bool diagnostics, StepResult& result);
+  StepResult take_step();  // step() without its out-of-memory message
+  Error out_of_memory(const std::string& detail) const;
   // The entry's frames (their indices appended to result.frames) and their targets.
   EntryContext start_entry(int64_t entry, std::vector<ViewTarget>& targets, StepResult& result);
   // Decodes the entry's pose into `state` and renders each of its views.

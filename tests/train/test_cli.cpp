@@ -234,6 +234,21 @@ TEST_CASE("cli: kill -9 during checkpoint writes leaves a loadable checkpoint") 
   }
 }
 
+TEST_CASE("cli: a run that outgrows the memory it may use ends naming the step and the keys") {
+  // Densification doubling the Gaussians every step under a 4 GB address-space limit (prlimit).
+  const auto run_dir = fresh_dir("cli_oom");
+  CHECK(run("prlimit --as=4000000000 " + kBin + "/handscs-train --config " + kSource +
+            "/configs/tiny.json --out " + run_dir + " --threads 1 --set data.root=" + tiny_capture_dir() +
+            " train.iterations=200 train.validate_every=0 train.checkpoint_every=100000"
+            " train.densify.start=1 train.densify.interval=1 train.densify.grad_threshold=0"
+            " train.densify.stop=1000 train.densify.max_gaussians=100000000") == 1);
+  INFO(log_text());
+  CHECK(log_text().find("out of memory at step ") != std::string::npos);
+  CHECK(log_text().find("Gaussians") != std::string::npos);
+  CHECK(log_text().find("train.densify.max_gaussians") != std::string::npos);
+  CHECK(log_text().find("enforce fail") == std::string::npos);  // not LibTorch's words alone
+}
+
 TEST_CASE("cli: SIGTERM stops training with a checkpoint of the step reached and exit 130") {
   const auto run_dir = fresh_dir("cli_sigterm");
   const pid_t pid = start_long_training(run_dir);
