@@ -246,7 +246,7 @@ struct TrainConfig {
   double resolution_scale = 1.0;    // train on images scaled by this factor (0.5 = half size)
   int64_t checkpoint_every = 1000;  // steps between checkpoints (and one at the end)
   // Checkpoints kept in the run folder, newest first; 0 keeps every one (to score a run's progress,
-  // e.g. scripts/time_to_quality.sh). 2: the newest, and the one before it if the newest is damaged.
+  // e.g. tools/study/time_to_quality.sh). 2: the newest, and the one before it if the newest is damaged.
   int64_t keep_checkpoints = 2;
   int64_t validate_every = 500;     // steps between validation renders (0 = never)
   int64_t log_every = 10;           // steps between metrics-log lines
