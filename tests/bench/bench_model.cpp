@@ -230,7 +230,7 @@ int main(int argc, char** argv) {
     // What handscs-render does for a new pose: the whole forward under inference mode (no autograd
     // graph), a new random pose every frame so nothing pose-dependent can be reused.
     // Alternated with the same under a FacingCull of the camera (measured only: handscs-render
-    // does not offer the cull, docs/BENCHMARKS.md).
+    // does not offer the cull, docs/BENCHMARKS.md#model-forward-and-backward).
     std::vector<double> t_render, t_render_culled, t_render_pose, t_render_raster;
     {
       c10::InferenceMode guard;
