@@ -1,7 +1,7 @@
 // handscs-features: the paper's evidence of structure for one trained avatar (Fig. 1(b), Fig. 7):
 // its Gaussians coloured by the principal components of their embeddings, blend transforms vec(T)
 // and structural coordinates P in a few poses, and how well each feature set separates the
-// phalanges (k-NN accuracy, silhouette), with a t-SNE plot by scripts/plot_features.py.
+// phalanges (k-NN accuracy, silhouette), with a t-SNE plot by plot_features.py (share/handscs/scripts/).
 //   handscs-features --checkpoint RUN_DIR --out DIR [--poses POSES] [--camera CAM.json] [--threads N]
 #include <cstdio>
 
@@ -23,8 +23,8 @@ int main(int argc, char** argv) {
   handscs::add_feature_structure_options(app, options);
   app.footer(
       "Compare runs on the same poses and view: run the second with --poses FIRST_OUT/poses.json --camera "
-      "FIRST_OUT/camera.json, then /usr/bin/python3 scripts/plot_features.py tsne --out tsne.png "
-      "\"SCS=FIRST_OUT\" \"no SCS=SECOND_OUT\" (docs/FEATURES.md).");
+      "FIRST_OUT/camera.json, then run the t-SNE command the first run logged last, with SECOND_OUT for "
+      "OTHER_OUT (plot_features.py, in share/handscs/scripts/ beside the programs; docs/FEATURES.md).");
   CLI11_PARSE(app, argc, argv);
   try {
     handscs::start_up(common, "handscs-features");
@@ -32,7 +32,7 @@ int main(int argc, char** argv) {
     std::fputs(handscs::format_feature_scores(result).c_str(), stdout);
     std::fflush(stdout);
     spdlog::info("wrote {} and the features and metrics beside it", result.grid_png);
-    spdlog::info("t-SNE against another run: {}", result.plot_command);
+    if (!result.plot_command.empty()) spdlog::info("t-SNE against another run: {}", result.plot_command);
   } catch (const std::exception& e) {
     spdlog::error("{}", handscs::error_text(e));
     return 1;

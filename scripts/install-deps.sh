@@ -16,7 +16,7 @@ packages=(
   libspdlog-dev           # logging
   catch2                  # tests (v2 API)
   python3 python3-numpy   # MANO converter and its test reference
-  python3-matplotlib      # handscs-bench charts (scripts/plot_sweep.py) and ablation_table.py
+  python3-matplotlib      # handscs-bench charts (scripts/plot_sweep.py), tools/study/ablation_table.py
   python3-sklearn         # handscs-features' t-SNE plots and the check of its metrics (scripts/plot_features.py)
   libcpp-httplib-dev      # handscs-view's HTTP server
   chromium                # handscs-view's browser test (headless, driven by puppeteer-core from npm)

@@ -134,7 +134,7 @@ AvatarState Avatar::pose(const torch::Tensor& pose_in, const torch::Tensor& shap
   // The skinning in plain loops (hand/lbs_one_pose.h, in double, rounded once) unless a gradient
   // must reach the pose, shape or translation (pose refinement): the rig itself is never learnt.
   // With refinement on, the skinning moves to lbs() at train.pose_refine.start, and its values by
-  // float rounding with it (kept by a rule fixed before the run: docs/BENCHMARKS.md).
+  // float rounding with it (docs/BENCHMARKS.md#model-forward-and-backward).
   const LbsOptions lbs_options{config_.flat_hand_mean};
   const bool lbs_graph = torch::GradMode::is_enabled() &&
                          (pose.requires_grad() || shape.requires_grad() || trans.requires_grad());

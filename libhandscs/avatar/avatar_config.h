@@ -1,5 +1,5 @@
 // Configuration of the HandSCS avatar: rig, Gaussian initialisation, embeddings, decoders, SCS.
-// Defaults follow DESIGN.md §4; each paper ablation is a switch (here or in ScsConfig).
+// Defaults follow the paper; each paper ablation is a switch (here or in ScsConfig).
 #pragma once
 
 #include <cstdint>
@@ -17,8 +17,9 @@ struct AvatarConfig {
   double embedding_init_std = 1e-2;  // N(0, 1e-2): small so decoders start from structure alone
   int decoder_hidden = 256;     // width of the two hidden layers of each decoder (paper)
   // Arithmetic of the decoder matmuls when the avatar is in float: "bf16" runs them in bfloat16
-  // with float accumulation and float master weights (2.7x faster where the CPU has AVX512-BF16,
-  // docs/BENCHMARKS.md), "float" keeps float; "auto" picks bf16 only where the CPU has it natively.
+  // with float accumulation and float master weights (faster where the CPU has AVX512-BF16;
+  // docs/BENCHMARKS.md#model-forward-and-backward), "float" keeps float; "auto" picks bf16 only where
+  // the CPU has it natively.
   // A double avatar (gradient checks) always stays in double.
   enum class DecoderPrecision { automatic, float32, bf16 };
   DecoderPrecision decoder_precision = DecoderPrecision::automatic;

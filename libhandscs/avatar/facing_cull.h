@@ -5,9 +5,8 @@
 // blend transform T; a Gaussian is kept when n.(x - c) / (|n| |x - c|) <= max_cos for at least one
 // camera centre c (x its LBS-posed centre, offsets not applied). max_cos > 0 keeps a band of
 // Gaussians just past the silhouette: the normal is the rig's, not the Gaussian's, and the decoded
-// offsets move Gaussians after the test. Measured (docs/BENCHMARKS.md): the skipped Gaussians do
-// reach the exact image (semi-transparent front layers, silhouettes), so training with the cull
-// costs 0.11 dB and it is off by default; at inference it is not offered.
+// offsets move Gaussians after the test. Off by default and not offered at inference: the skipped
+// Gaussians do reach the exact image (docs/BENCHMARKS.md#model-forward-and-backward).
 #pragma once
 
 #include <array>

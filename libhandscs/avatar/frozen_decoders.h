@@ -3,8 +3,8 @@
 // changes with the pose, and W_e e + b, a constant per Gaussian: that part is computed once, in
 // float, and kept in the decoders' precision. The weights are cast to bf16 once (in bf16 the hidden
 // layers' biases are added after the GEMMs, avatar/linear_relu.h) and each gate is folded into its
-// last layer. The same function as OffsetDecoders::forward up to rounding (the
-// difference is measured in docs/BENCHMARKS.md and bounded by tests/avatar/test_frozen_decoders).
+// last layer. The same function as OffsetDecoders::forward up to rounding (bounded by
+// tests/avatar/test_frozen_decoders; docs/BENCHMARKS.md#rendering-a-novel-pose).
 //
 // A FrozenDecoders remembers which tensors it was built from and their version counters, so
 // current() notices any in-place update (an optimiser step) or replacement (densification).

@@ -1,10 +1,8 @@
 // A decoder's hidden layer in bf16, relu(x W^T + b), as a GEMM without bias followed by one pass
-// that adds the bias and applies the ReLU in place. LibTorch's addmm adds a bias by
-// filling its output with it and letting oneDNN add the product to that (a "sum" post-op), which
-// costs more than the pass: mm alone plus the pass measured 0.3-0.5 ms faster per [10k, K] x [K, 256]
-// layer than addmm + relu_ (docs/BENCHMARKS.md). The sum is taken in float from the GEMM's bf16
-// output, so the result is rounded twice where addmm rounds once: one bf16 unit apart in 10-15% of
-// the entries (what this costs in PSNR is measured in docs/BENCHMARKS.md).
+// that adds the bias and applies the ReLU in place: faster than addmm, which fills its output with
+// the bias and has oneDNN add the product to it (a "sum" post-op), then relu_. The sum is taken in
+// float from the GEMM's bf16 output, so the result is rounded twice where addmm rounds once (one
+// bf16 unit apart in 10-15% of the entries; docs/BENCHMARKS.md#model-forward-and-backward).
 #pragma once
 
 #include <torch/types.h>

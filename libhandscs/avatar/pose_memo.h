@@ -2,7 +2,7 @@
 // (a capture's frames are sorted by frame index, then camera) and an orbit shows one pose from many
 // cameras: the avatar's pose-dependent work (LBS, SCS, the three decoders; most of a frame) is the
 // same for all of them, only the rasterizer depends on the camera. The result is bit-identical to
-// posing for every image; what it saves is measured in docs/BENCHMARKS.md ("Evaluation").
+// posing for every image (docs/BENCHMARKS.md#evaluation).
 #pragma once
 
 #include <array>

@@ -1,9 +1,8 @@
 // How the C allocator treats freed memory. Every image the tools score and every training step
 // allocates and frees the same large tensors (LPIPS feature maps, SSIM planes, rasterizer buffers:
 // 0.1-30 MB each). glibc's defaults hand such blocks back to the kernel on free (mmap'ed blocks,
-// heap trimming), so the next image faults every page in again and clears it: on handscs-eval at
-// 10k Gaussians, 29% of all CPU time was the kernel's page-fault path (perf). Keeping freed blocks
-// for reuse took that evaluation from 51.6 s to 35.0 s (docs/BENCHMARKS.md, "Evaluation").
+// heap trimming), so the next image faults every page in again and clears it. Freed blocks are
+// kept for reuse instead (docs/BENCHMARKS.md#evaluation).
 #pragma once
 
 namespace handscs {

@@ -1,7 +1,7 @@
 // A file's size and modification time: what the caches take to tell one version of a file from
 // another without reading it (the image-check cache per image, the annotation cache with a hash of
 // the file's edges beside it, the mask and undistortion caches' folder keys). A rewrite that keeps
-// both goes unnoticed; docs/NOTES.md says where that matters.
+// both goes unnoticed (docs/NOTES.md#data-and-files).
 #pragma once
 
 #include <sys/stat.h>

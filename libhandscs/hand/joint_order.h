@@ -1,4 +1,4 @@
-// Joint orders of the MANO layout (DESIGN.md §3): the 16 rig joints with their parents, the MANO21
+// Joint orders of the MANO layout (docs/RIG_FORMAT.md): the 16 rig joints with their parents, the MANO21
 // order (16 rig joints, then the 5 fingertips) and per-finger chains. InterHand's order:
 // hand/lbs.h.
 #pragma once

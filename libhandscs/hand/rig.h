@@ -26,7 +26,7 @@ struct Rig {
   torch::Tensor faces;        // [F, 3] int64, counter-clockwise seen from outside
   torch::Tensor weights;      // [V, 16] float64 skinning weights, rows sum to 1
   torch::Tensor j_regressor;  // [16, V] float64, rows sum to 1
-  std::vector<int64_t> parents;  // [16], parents[0] = -1, MANO joint order (DESIGN.md §3)
+  std::vector<int64_t> parents;  // [16], parents[0] = -1, MANO joint order (docs/RIG_FORMAT.md)
   torch::Tensor posedirs;     // [V, 3, 135] float64 pose blend shapes
   torch::Tensor shapedirs;    // [V, 3, 10] float64 shape blend shapes
   torch::Tensor hands_mean;   // [45] float64 mean finger pose (added when flat_hand_mean = false)

@@ -21,7 +21,7 @@ namespace {
 // split the run trained with (experiment_differences, the trainer's resume check) is refused.
 // Two changes keep that true and stay allowed: data.root (the capture found in another place) and
 // a validation split dropped (validation_poses 0, validation_cameras []), which scores the
-// capture's own test split, as scripts/early_stopping.py does. `source` names the config given.
+// capture's own test split, as tools/study/early_stopping.py does. `source` names the config given.
 void refuse_changed_split(const TrainedAvatar& trained, const RunConfig& given, const std::string& source) {
   const CaptureConfig& was = trained.trained_config.data;
   RunConfig kept = given;

@@ -1,4 +1,4 @@
-// Model-mode evaluation (paper protocol, DESIGN.md §4): render every held-out frame of a capture with
+// Model-mode evaluation (the paper's protocol): render every held-out frame of a capture with
 // a trained avatar on the full image, composite the ground truth onto the same background with its
 // mask, score PSNR/SSIM/LPIPS per image (and inside the capture's region masks, when it has them),
 // and time the whole forward (LBS, SCS, decoders, rasterizer).

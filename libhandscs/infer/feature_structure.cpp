@@ -24,6 +24,7 @@
 #include "core/csv_table.h"
 #include "core/error.h"
 #include "core/float_vector.h"
+#include "core/installed_paths.h"
 #include "data/capture.h"
 #include "data/mesh_mask.h"
 #include "infer/feature_grid.h"
@@ -44,7 +45,6 @@ namespace {
 
 // Debian's Python, which has python3-sklearn and python3-matplotlib (a PATH python may lack them).
 const char kPython[] = "/usr/bin/python3";
-const char kPlotScript[] = HANDSCS_SOURCE_DIR "/scripts/plot_features.py";
 // Pixels kept around the hands in the grid's cells: room for the Gaussians' soft edges.
 constexpr int kCropMargin = 12;
 
@@ -287,7 +287,7 @@ void add_feature_structure_options(CLI::App& app, FeatureStructureOptions& o) {
                  "each principal component's colour spans this percentile to 100 minus it (0 = min-max)")
       ->check(CLI::Range(0.0, 49.0));
   app.add_flag("!--no-plot", o.plot,
-               "do not run scripts/plot_features.py (t-SNE of this run, scikit-learn check of the metrics)");
+               "do not run plot_features.py (t-SNE of this run, scikit-learn check of the metrics)");
 }
 
 void refuse_out_holding_training_files(const std::string& out_dir) {
@@ -406,13 +406,22 @@ FeatureStructureResult run_feature_structure(const FeatureStructureOptions& opti
   write_file_atomic(out + "poses.json", json{{"poses", poses_json}}.dump(2) + "\n");
   write_camera_json(out + "camera.json", camera);
 
-  result.plot_command = std::string(kPython) + " " + kPlotScript + " tsne --out tsne_scs_vs_noscs.png " +
+  // Without the plot script the features and metrics above are complete: the plot and the check are
+  // skipped with a warning, as when Python or scikit-learn is missing.
+  std::string script;
+  try {
+    script = installed_script("plot_features.py");
+  } catch (const Error& e) {
+    if (options.plot) spdlog::warn("no t-SNE plot or scikit-learn check: {}", e.what());
+    return result;
+  }
+  result.plot_command = std::string(kPython) + " " + shell_quote(script) + " tsne --out tsne_scs_vs_noscs.png " +
                         shell_quote(result.label + "=" + options.out_dir) + " 'other label=OTHER_OUT'";
   if (options.plot) {
-    const int checked = run_script({kPython, kPlotScript, "check", options.out_dir});
+    const int checked = run_script({kPython, script, "check", options.out_dir});
     if (checked != 0)
       spdlog::warn("the scikit-learn check of {}metrics.json did not pass (exit status {}; see above)", out, checked);
-    const int drawn = run_script({kPython, kPlotScript, "tsne", "--out", out + "tsne_decoder_input.png",
+    const int drawn = run_script({kPython, script, "tsne", "--out", out + "tsne_decoder_input.png",
                                   result.label + "=" + options.out_dir});
     if (drawn != 0) spdlog::warn("t-SNE plot not drawn (exit status {}; see above)", drawn);
   }

@@ -43,7 +43,7 @@ struct FeatureStructureResult {
   double majority_share = 0;  // share of the largest label: what always guessing it scores
   std::vector<FeatureScore> scores;
   std::string grid_png;
-  std::string plot_command;  // how to draw the t-SNE comparison of this run with others
+  std::string plot_command;  // how to draw the t-SNE comparison of this run with others ("" without the script)
 };
 
 // handscs-features writes metrics.csv, the name of a training run's log: throws Error when

@@ -1,5 +1,5 @@
-// Evaluation options shared by handscs-eval's modes: metric conventions, LPIPS weights and the
-// mask protocol (DESIGN.md 4: full image, ground truth composited onto the background with the mask).
+// Evaluation options shared by handscs-eval's modes: metric conventions, LPIPS weights and the mask
+// protocol (full image, ground truth composited on the background with its mask; docs/METRICS.md).
 #pragma once
 
 #include <array>

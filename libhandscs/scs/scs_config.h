@@ -1,5 +1,5 @@
 // Configuration of the Structural Coordinate Space: bone basis, virtual-bone generator, descriptor.
-// Defaults are DESIGN.md §4; every ablation of the paper's tables is a switch here.
+// Defaults follow the paper; every ablation of the paper's tables is a switch here.
 #pragma once
 
 #include <array>
@@ -17,13 +17,13 @@ struct ScsConfig {
   bool interpolation = true;  // learn t in [0,1]; false: endpoints at bone midpoints (t = 0.5)
   bool endpoint_offsets = true;  // learn dp, dq; false: no offsets
   // m: radial decay of static bones. 0.03 m, about one finger segment (2-5 cm), keeps each bone's
-  // term local as the paper's text asks; DESIGN.md's 0.08 m (43% of the hand) lost to it in the
-  // declared confirmation (docs/SCALING.md, "The open choices").
+  // term local as the paper's text asks (docs/SCALING.md#the-defaults-against-the-papers-text).
   double tau = 0.03;
   double max_offset = 0.02;  // m: |dp|, |dq| <= this (tanh-scaled), a fraction of a finger width
   int generator_hidden = 128;  // width of the generator MLP's two hidden layers ("lightweight")
   double norm_eps = 1e-8;  // m: floor of |r| and |b| so Gaussians on joints stay finite
-  // Choices the paper leaves open (docs/SCALING.md, "The open choices"):
+  // Choices the paper leaves open
+  // (docs/SCALING.md#the-open-choices-protocol-fixed-before-any-of-its-runs):
   // P built from the Gaussians' means with their gradient (false, as the paper's formulas read
   // literally) or from detached means, so that P's gradient reaches the generator only.
   bool detach_means = false;
@@ -32,7 +32,8 @@ struct ScsConfig {
   // embeddings' initial std, so that P and the embeddings enter the decoders at one scale.
   enum class InputNorm { none, rest };
   InputNorm input_norm = InputNorm::none;
-  // E_s = (E_MANO \ removed) U cross, on MANO21 joint ids (DESIGN.md §4).
+  // E_s = (E_MANO \ removed) U cross, on MANO21 joint ids: the wrist's edges to the four fingers
+  // replaced by a chain across their bases, from the thumb's to the little finger's.
   std::vector<std::array<int, 2>> removed_edges = {{0, 1}, {0, 4}, {0, 10}, {0, 7}};
   std::vector<std::array<int, 2>> cross_edges = {{13, 1}, {1, 4}, {4, 10}, {10, 7}};
 

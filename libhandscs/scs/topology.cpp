@@ -9,7 +9,7 @@
 namespace handscs {
 
 namespace {
-// MANO rig parents (DESIGN.md §3) and the distal joint of each finger with its MANO21 tip id.
+// MANO rig parents (docs/RIG_FORMAT.md) and the distal joint of each finger with its MANO21 tip id.
 constexpr std::array<int, 16> kParents = {-1, 0, 1, 2, 0, 4, 5, 0, 7, 8, 0, 10, 11, 0, 13, 14};
 constexpr std::array<std::array<int, 2>, 5> kDistalToTip = {
     {{15, 16}, {3, 17}, {6, 18}, {12, 19}, {9, 20}}};

@@ -6,8 +6,8 @@
 
 #include "core/cli.h"
 #include "core/error.h"
+#include "core/installed_paths.h"
 #include "core/logging.h"
-#include "sweep/subprocess.h"
 #include "sweep/sweep_config.h"
 #include "sweep/sweep_runner.h"
 #include "sweep/sweep_shard.h"
@@ -30,7 +30,8 @@ int bench_command(int argc, char** argv) {
   SweepOptions options;
   CommonOptions common;
   bool plots_only = false;
-  app.add_option("--sweep", sweep_path, "sweep file, e.g. configs/sweeps/quick.json")
+  app.add_option("--sweep", sweep_path,
+                 "sweep file, e.g. configs/sweeps/quick.json (installed: share/handscs/configs/sweeps/)")
       ->check(CLI::ExistingFile);
   app.add_option("--out", options.out_dir, "results folder (resumed if it holds results)")
       ->required();

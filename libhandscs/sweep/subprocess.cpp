@@ -8,7 +8,6 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
-#include <filesystem>
 
 #include "core/error.h"
 
@@ -63,13 +62,6 @@ ProcessResult run_process(const std::vector<std::string>& argv, const std::strin
   result.peak_rss_mb = static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   return result;
-}
-
-std::string executable_dir() {
-  std::error_code error;
-  const auto exe = std::filesystem::read_symlink("/proc/self/exe", error);
-  if (error) throw Error("/proc/self/exe: cannot resolve the running executable");
-  return exe.parent_path().string();
 }
 
 }  // namespace handscs

@@ -18,7 +18,4 @@ struct ProcessResult {
 // (created or truncated). Throws Error when the program cannot be started at all.
 ProcessResult run_process(const std::vector<std::string>& argv, const std::string& log_path);
 
-// Folder of the running executable (/proc/self/exe), so tools find their sibling programs.
-std::string executable_dir();
-
 }  // namespace handscs

@@ -12,6 +12,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/installed_paths.h"
 #include "core/text.h"
 #include "core/progress.h"
 #include "core/csv_table.h"
@@ -29,10 +30,8 @@ namespace {
 // Step stages logged by the trainer (metrics.csv), reported as medians over the run's second half.
 const std::vector<std::string> kStageColumns = {"data_ms", "forward_ms", "losses_ms",
                                                 "backward_ms", "optimizer_ms"};
-// Debian's Python (with python3-matplotlib), not a PATH python that may lack it; the chart script
-// is read from the source tree this library was built from.
+// Debian's Python (with python3-matplotlib), not a PATH python that may lack it.
 const char kPython[] = "/usr/bin/python3";
-const char kPlotScript[] = HANDSCS_SOURCE_DIR "/scripts/plot_sweep.py";
 const std::vector<std::string> kRasterColumns = {"gaussians", "threads", "forward_ms",
                                                  "backward_ms", "total_ms", "load_average"};
 
@@ -381,10 +380,11 @@ void draw_sweep_plots(const std::string& out_dir) {
   ensure_directory(out_dir + "/logs");
   const std::string log = out_dir + "/logs/plots.log";
   try {
-    const ProcessResult drawn = run_process({kPython, kPlotScript, out_dir}, log);
+    const std::string script = installed_script("plot_sweep.py");
+    spdlog::info("sweep: drawing the charts with {}", script);
+    const ProcessResult drawn = run_process({kPython, script, out_dir}, log);
     if (drawn.exit_code != 0)
-      spdlog::warn("sweep: charts not drawn ({} exited with {}; see {})", kPlotScript,
-                   drawn.exit_code, log);
+      spdlog::warn("sweep: charts not drawn ({} exited with {}; see {})", script, drawn.exit_code, log);
   } catch (const Error& e) {
     spdlog::warn("sweep: charts not drawn ({})", e.what());
   }

@@ -48,7 +48,7 @@ constexpr double kDrift = 0.008;
 // held-out tail (the poses data.held_out_poses = held_out_frames holds out with frame_stride 1 and
 // no pose lost to skipped images), the gesture the hand moves to ("" in range of motion) and
 // whether any training pose moves to that gesture; for scoring held-out frames by kind
-// (scripts/frame_groups.py).
+// (tools/study/frame_groups.py).
 CsvTable frames_csv(const SynthScene& scene, int held_out_frames) {
   const int64_t n = static_cast<int64_t>(scene.frames.size());
   const int64_t first_held_out = n - std::min<int64_t>(n, std::max(0, held_out_frames));

@@ -50,7 +50,7 @@ struct SynthEffects {
 
   // 6. What real frames contain besides the hand: the forearm (not in the MANO masks), a dark
   // background with sensor noise and vignetting, per-camera gain and white balance, and monochrome
-  // cameras as InterHand2.6M has (synth/studio.h).
+  // cameras as InterHand2.6M has (synth/forearm.h, synth/camera_response.h).
   bool forearm = false;
   bool camera_response = false;  // gain, white balance, sensor noise on every pixel, vignetting
   double gain_spread = 0.12;     // per-camera exposure gain uniform in [1 - s, 1 + s]

@@ -137,8 +137,8 @@ void ProcessGroup::broadcast_bytes(std::string& bytes, int root) {
   // Length and bytes travel as all-reduces (the root's values, zeros elsewhere; a sum of one
   // non-zero term is exact), not broadcasts: every rank then hears from every other, so a peer that
   // died is seen at once as a closed connection. A broadcast's root only sends, and Gloo let it wait
-  // out the whole timeout when the receiver had died (3-5% of the kills in
-  // tests/train/test_data_parallel.cpp; docs/NOTES.md). It costs twice a broadcast's traffic, on
+  // out the whole timeout when the receiver had died (tests/train/test_data_parallel.cpp;
+  // docs/NOTES.md#data-parallel-training). It costs twice a broadcast's traffic, on
   // the rare exchanges that use it (the state at the start, after densification and rollback).
   const bool mine = options_.rank == root;
   auto length = torch::tensor({mine ? static_cast<int64_t>(bytes.size()) : 0}, torch::kInt64);

@@ -15,8 +15,8 @@
 // its points away (real_demo, 10k Gaussians, random training pose pairs). A bound built from the
 // split planes alone (Arya and Mount's incremental distance) sees only the few directions the tree
 // splits in, so it had to visit every cell within that distance; the box bound also counts the
-// query's offset from the surface in the thin directions, and prunes those cells: 3.2x faster
-// at 10k (123 -> 36 ms median per search; docs/BENCHMARKS.md, "Correspondence search").
+// query's offset from the surface in the thin directions, and prunes those cells
+// (docs/BENCHMARKS.md#correspondence-search).
 #pragma once
 
 #include <cstdint>

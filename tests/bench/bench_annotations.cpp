@@ -26,6 +26,7 @@
 #include "core/atomic_file.h"
 #include "core/cli.h"
 #include "core/config.h"
+#include "core/installed_paths.h"
 #include "core/logging.h"
 #include "data/capture.h"
 #include "data/capture_layout.h"

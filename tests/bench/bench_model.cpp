@@ -10,7 +10,7 @@
 //                       [--work-dir /tmp/handscs-bench-model] [--profile-ops TRACE]
 // --profile-ops writes LibTorch's op trace of `repeats` further forward + backward steps per count
 // to TRACE_<count>.json and of `repeats` further novel-pose renders to TRACE_<count>_render.json
-// (Chrome trace format; scripts/profile_ops.py totals self time per op).
+// (Chrome trace format; tools/study/profile_ops.py totals self time per op).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -107,7 +107,7 @@ int main(int argc, char** argv) {
   app.add_option("--profile-ops", profile_ops,
                  "after the timed runs, write LibTorch's op trace of `repeats` more forward + backward "
                  "steps per count to TRACE_<count>.json and of as many renders to "
-                 "TRACE_<count>_render.json (scripts/profile_ops.py sums them)");
+                 "TRACE_<count>_render.json (tools/study/profile_ops.py sums them)");
   CLI11_PARSE(app, argc, argv);
   handscs::set_threads(threads);
   train_step.decoder_hidden = decoder_hidden;
@@ -230,7 +230,7 @@ int main(int argc, char** argv) {
     // What handscs-render does for a new pose: the whole forward under inference mode (no autograd
     // graph), a new random pose every frame so nothing pose-dependent can be reused.
     // Alternated with the same under a FacingCull of the camera (measured only: handscs-render
-    // does not offer the cull, docs/BENCHMARKS.md).
+    // does not offer the cull, docs/BENCHMARKS.md#model-forward-and-backward).
     std::vector<double> t_render, t_render_culled, t_render_pose, t_render_raster;
     {
       c10::InferenceMode guard;

@@ -1,4 +1,4 @@
-// Static bone basis and smoothing kernel (paper §3.1.1, DESIGN.md §4).
+// Static bone basis and smoothing kernel (paper §3.1.1).
 #include "catch_torch.h"
 
 #include <torch/types.h>
@@ -8,7 +8,7 @@
 
 using handscs::ScsConfig;
 
-TEST_CASE("topology: default E_s has the 20 bones of DESIGN.md") {
+TEST_CASE("topology: default E_s has its 20 bones") {
   const auto topology = handscs::make_static_topology(ScsConfig{});
   REQUIRE(topology.size() == 20);
   auto has = [&](int u, int v) {

@@ -86,8 +86,8 @@ TEST_CASE("consistency: exact search, K-NN and candidate search match plain loop
 
 TEST_CASE("consistency: on the built-in hand's descriptors, candidates approach the exact argmin") {
   // Two different poses of an untrained avatar: the K-NN sets are nested, so the agreement of the
-  // candidate search with the exact one can only grow with K (the trained-avatar figures are in
-  // docs/NOTES.md, measured with handscs-bench-consistency).
+  // candidate search with the exact one can only grow with K (the trained-avatar figures:
+  // docs/BENCHMARKS.md#correspondence-search).
   torch::NoGradGuard no_grad;
   handscs::Avatar avatar(handscs::AvatarConfig{}, handscs::load_rig_source("builtin"));
   const auto [a, b] = handscs_test::two_pose_descriptors(avatar);

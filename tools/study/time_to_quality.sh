@@ -12,12 +12,12 @@
 # machine; the scoring may share it.
 # Writes OUT/<mode>/ (the run), OUT/<mode>.csv (step, seconds, PSNR, SSIM, LPIPS per checkpoint),
 # OUT/time_to_quality.png / .pdf (PSNR and LPIPS against wall time) and prints one JSON per mode.
-# Usage: scripts/time_to_quality.sh OUT CAPTURE
+# Usage: tools/study/time_to_quality.sh OUT CAPTURE
 #   env: STEPS (10000), SEED (0), MODES ("single ranks2"), EVAL_IMAGES (250), DELTA (0.2),
 #        SET (more config keys, e.g. "data.held_out_poses=4"), BIN (build/bin),
 #        HANDSCS_LPIPS_WEIGHTS (default ../shared/assets/lpips/lpips_alex_v0.1.pt)
 set -euo pipefail
-root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 if [ $# -lt 2 ] || [ "$1" = "-h" ] || [ "$1" = "--help" ]; then sed -n 2,18p "$0"; exit 0; fi
 out="$1"
 capture="$2"
@@ -62,7 +62,7 @@ train() {  # $1 mode, $2 run folder
   if [ "$mode" = single ]; then
     "$bin/handscs-train" "${common[@]}" --threads 2 > "$run.log" 2>&1 || failed "$run.log"
   else
-    "$root/scripts/train_two_ranks.sh" "$bin" "$run" "${common[@]}" || failed "$run.log"
+    "$root/tools/study/train_two_ranks.sh" "$bin" "$run" "${common[@]}" || failed "$run.log"
   fi
 }
 

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Early stopping on a validation split of the training poses or cameras, for the runs a sweep kept.
 
-    /usr/bin/python3 scripts/early_stopping.py SWEEP_OUT... --out OUT [--lpips-weights W]
+    /usr/bin/python3 tools/study/early_stopping.py SWEEP_OUT... --out OUT [--lpips-weights W]
         [--bin build/bin] [--threads 1] [--set KEY=VALUE] [--set KEY=VALUE] ...
 
 Each SWEEP_OUT is a handscs-bench output folder (results.csv, runs/<point>_<budget>/) whose runs
@@ -9,7 +9,7 @@ trained with a validation split, data.validation_poses > 0 on the novel-pose spl
 training poses held out as validation, the capture's test poses unopened) or data.validation_cameras
 on the novel-view split (those training cameras held out, the test cameras unopened), and kept
 every checkpoint (train.keep_checkpoints=0) up to the budget; other runs are named and left out.
-Point names are <row>.<cell>.s<seed>, as scripts/paired_gains.py reads them. For every such run:
+Point names are <row>.<cell>.s<seed>, as tools/study/paired_gains.py reads them. For every such run:
   1. each checkpoint is scored on the validation split (handscs-eval: PSNR and SSIM of every
      validation image, no LPIPS, no regions) into RUN/early_stopping/validation_<step>/; a second
      call scores again only what is missing or was scored by another command or checkpoint file;
@@ -20,7 +20,7 @@ Point names are <row>.<cell>.s<seed>, as scripts/paired_gains.py reads them. For
      image, LPIPS with --lpips-weights or the run's weights, the capture's region masks) into
      OUT/runs/<row>_es.<cell>.s<seed>_<budget>/eval/ and OUT/runs/<row>_end.<cell>.s<seed>_<budget>/eval/.
 Writes OUT/results.csv (point, budget, status, step, validation_psnr, eval_images, psnr, ssim, lpips;
-rows <row>_es and <row>_end, which scripts/paired_gains.py reads like a sweep's), OUT/validation.csv
+rows <row>_es and <row>_end, which tools/study/paired_gains.py reads like a sweep's), OUT/validation.csv
 (point, budget, step, psnr, ssim of every checkpoint) and, with Debian's python3-matplotlib,
 OUT/validation.png / .pdf: validation PSNR against step, one line per run, its choice marked.
 --set passes a config key to every handscs-eval call (repeatable; e.g. data.root=DIR when the
@@ -239,7 +239,7 @@ def main():
     parser.add_argument('sweeps', nargs='+')
     parser.add_argument('--out', required=True)
     parser.add_argument('--lpips-weights', help="LPIPS weight file for the test scores (without it, the run's own)")
-    parser.add_argument('--bin', default=os.path.join(os.path.dirname(os.path.abspath(__file__)), '..',
+    parser.add_argument('--bin', default=os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..',
                                                      'build', 'bin'), help='folder of handscs-eval')
     parser.add_argument('--threads', type=int, default=1, help='threads of each handscs-eval')
     parser.add_argument('--set', action='append', default=[], metavar='KEY=VALUE',

@@ -9,7 +9,7 @@ Points are named <row>.s<seed>; this groups the sweep's results.csv by row and w
                 says "(k of n seeds)";
   ablation.csv  the same numbers, one line per row, with how many seeds each mean is over;
   ablation.png / ablation.pdf  each row's mean with its spread (error bar = std, dots = seeds).
-Usage: /usr/bin/python3 scripts/ablation_table.py SWEEP_OUT [--title TEXT]
+Usage: /usr/bin/python3 tools/study/ablation_table.py SWEEP_OUT [--title TEXT]
 """
 import argparse
 import csv

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Self time per op in a LibTorch op trace (handscs-bench-model --profile-ops TRACE).
 
-Usage: scripts/profile_ops.py TRACE_<count>.json [--steps N] [--top 25]
+Usage: tools/study/profile_ops.py TRACE_<count>.json [--steps N] [--top 25]
 
 A trace event's self time is its duration minus that of the events nested directly inside it on
 the same thread; the table lists ms per step (total / N) and calls per step, largest first.

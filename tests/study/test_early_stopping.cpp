@@ -1,4 +1,4 @@
-// scripts/early_stopping.py, the fair baseline of the scaling study's few-pose cell. First with a
+// tools/study/early_stopping.py, the fair baseline of the scaling study's few-pose cell. First with a
 // stand-in handscs-eval that reports PSNRs chosen here and logs its calls: the choice is the best
 // validation PSNR (the earlier of a tie, never a non-finite one), the chosen and the last checkpoint
 // are scored on the test poses with the right options (once when they are the same), runs that cannot
@@ -120,7 +120,7 @@ TEST_CASE("early_stopping.py: the choice, the test scores and the runs left out,
   const std::string full = runs + "full.p2v1.s0_40/checkpoints/step_000000", inter = runs + "inter.p2v1.s0_20/checkpoints/step_000000";
   handscs::write_file_atomic(dir + "/psnr.txt", full + "10.ckpt 20\n" + full + "20.ckpt 22.5\n" + full + "30.ckpt 22.5\n" +
                                                     full + "40.ckpt 21\n" + inter + "10.ckpt \"nan\"\n" + inter + "20.ckpt 25\n");
-  const std::string call = "/usr/bin/python3 '" + kSource + "/scripts/early_stopping.py' --bin " + dir +
+  const std::string call = "/usr/bin/python3 '" + kSource + "/tools/study/early_stopping.py' --bin " + dir +
                            "/bin --lpips-weights " + handscs_test::kLpipsAlexWeights + " --out " + dir + "/out " +
                            dir + "/sweep";
   const std::string log = dir + "/log.txt";
@@ -189,7 +189,7 @@ TEST_CASE("early_stopping.py: a novel-view run held out validation cameras: its 
   const std::string ckpt = run_dir + "/checkpoints/step_000000";
   handscs::write_file_atomic(dir + "/psnr.txt", ckpt + "10.ckpt 21\n" + ckpt + "20.ckpt 20\n");
   const std::string log = dir + "/log.txt";
-  REQUIRE(run("/usr/bin/python3 '" + kSource + "/scripts/early_stopping.py' --bin " + dir + "/bin --out " + dir +
+  REQUIRE(run("/usr/bin/python3 '" + kSource + "/tools/study/early_stopping.py' --bin " + dir + "/bin --out " + dir +
                   "/out " + dir + "/sweep",
               log) == 0);
   const auto results = handscs::read_csv(dir + "/out/results.csv");
@@ -229,7 +229,7 @@ TEST_CASE("early_stopping.py: the best validation checkpoint and the last, score
                              "point,budget,status\nfull.p7v2.s0,30,ok\nplain.p9.s0,10,ok\n");
 
   const std::string lpips = handscs_test::kLpipsAlexWeights;
-  const std::string script = "/usr/bin/python3 '" + kSource + "/scripts/early_stopping.py' --bin " + kBin;
+  const std::string script = "/usr/bin/python3 '" + kSource + "/tools/study/early_stopping.py' --bin " + kBin;
   const std::string out = dir + "/out";
   const std::string call = script + " --out " + out + " " + dir + "/sweep";  // LPIPS: the run's weights
   REQUIRE(run(call, log) == 0);
@@ -286,7 +286,7 @@ TEST_CASE("early_stopping.py: the best validation checkpoint and the last, score
   }
 
   // paired_gains.py reads the output as a sweep.
-  REQUIRE(run("/usr/bin/python3 '" + kSource + "/scripts/paired_gains.py' " + out +
+  REQUIRE(run("/usr/bin/python3 '" + kSource + "/tools/study/paired_gains.py' " + out +
                   " --gain stop=full_es-full_end --out " + dir + "/gains",
               log) == 0);
   const auto gains = handscs::read_csv(dir + "/gains.csv");
@@ -323,7 +323,7 @@ TEST_CASE("early_stopping.py: the choice is the highest finite PSNR, the earlier
   const auto choice = [](const std::string& scores) {
     const std::string dir = handscs_test::scratch_path("handscs_test_early_stopping_choice", std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
-    const std::string command = "cd '" + kSource + "/scripts' && /usr/bin/python3 -c 'import early_stopping; "
+    const std::string command = "cd '" + kSource + "/tools/study' && /usr/bin/python3 -c 'import early_stopping; "
                                 "print(early_stopping.choose(" + scores + "))' > " + dir + "/choice.txt";
     REQUIRE(std::system(command.c_str()) == 0);
     const std::string text = handscs::read_file(dir + "/choice.txt");

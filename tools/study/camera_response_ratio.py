@@ -8,7 +8,7 @@ included), then divided by the mean over the colour cameras (monochrome ones, R 
 listed but left out of the mean, as training drops them) -- what a per-camera gain learned with
 its mean held at 1 should find. With --run RUN_DIR also the run's learned transforms
 (camera_color.csv), as the response at the camera's mean plain hand colour (A c + b) / c.
-Usage: /usr/bin/python3 scripts/camera_response_ratio.py CAPTURE PLAIN_CAPTURE [--run RUN_DIR]
+Usage: /usr/bin/python3 tools/study/camera_response_ratio.py CAPTURE PLAIN_CAPTURE [--run RUN_DIR]
 """
 import argparse
 import csv

@@ -1,4 +1,4 @@
-// scripts/paired_gains.py, which reads the scaling study: gains paired by seed, their mean, std and
+// tools/study/paired_gains.py, which reads the scaling study: gains paired by seed, their mean, std and
 // reading, and how a gain changes with training poses, budget and a setting, all against values
 // worked out here from the made-up PSNRs written below; a failed row is left out and counted, a
 // run's own summary (full precision) wins over the CSV's printed figure, a region's gain reads its
@@ -73,7 +73,7 @@ TEST_CASE("paired_gains.py: paired gains, their readings and changes equal the v
   handscs::write_file_atomic(dir + "/tau08/results.csv", at_08);
   handscs::write_file_atomic(dir + "/tau03/results.csv", at_03);
 
-  const std::string command = "/usr/bin/python3 '" + handscs_test::kSource + "/scripts/paired_gains.py' '" + dir +
+  const std::string command = "/usr/bin/python3 '" + handscs_test::kSource + "/tools/study/paired_gains.py' '" + dir +
                               "/tau08' '" + dir + "/tau03' --gain scs=full-inter_pose --gain scs_t=full_t-inter_pose_t "
                               "--gain-change tau=scs_t-scs --gain long=full@10000-inter_pose@2000 "
                               "--gain c_budget=inter_pose@10000-inter_pose@2000 --out '" + dir + "/gains' > '" + dir +
@@ -121,14 +121,14 @@ TEST_CASE("paired_gains.py: paired gains, their readings and changes equal the v
   // Row (c) at p50, 2,000 steps: 31.1 / 31.2 / 31.3 over seeds 1-3.
   CHECK(has("| inter_pose | p50 | 2000 | 3 | 31.200 +- 0.100 | 0.9600 +- 0.0000 | 0.0500 +- 0.0000 |"));
   // A gain with a budget on one side only is refused, naming the expected forms.
-  const std::string half = "/usr/bin/python3 '" + handscs_test::kSource + "/scripts/paired_gains.py' '" + dir +
+  const std::string half = "/usr/bin/python3 '" + handscs_test::kSource + "/tools/study/paired_gains.py' '" + dir +
                            "/tau08' --gain bad=full@10000-inter_pose --out '" + dir + "/bad' > '" + dir +
                            "/bad.log' 2>&1";
   CHECK(std::system(half.c_str()) != 0);
   CHECK(handscs::read_file(dir + "/bad.log").find("expected NAME=ROW-BASE or NAME=ROW@BUDGET-BASE@BUDGET") !=
         std::string::npos);
   // Two gains of one name would overwrite each other's figures: refused, naming it.
-  const std::string twice = "/usr/bin/python3 '" + handscs_test::kSource + "/scripts/paired_gains.py' '" + dir +
+  const std::string twice = "/usr/bin/python3 '" + handscs_test::kSource + "/tools/study/paired_gains.py' '" + dir +
                             "/tau08' --gain g=full-inter_pose --gain g=full@10000-inter_pose@2000 --out '" + dir +
                             "/twice' > '" + dir + "/twice.log' 2>&1";
   CHECK(std::system(twice.c_str()) != 0);
@@ -178,7 +178,7 @@ TEST_CASE("paired_gains.py: a region's gain reads its pooled-MSE PSNR; --frames 
                 number(values.second[k]) + ",0.9,0.05\n";
     handscs::write_file_atomic(eval + "/per_image.csv", images);
   }
-  const std::string command = "/usr/bin/python3 '" + handscs_test::kSource + "/scripts/paired_gains.py' '" + dir +
+  const std::string command = "/usr/bin/python3 '" + handscs_test::kSource + "/tools/study/paired_gains.py' '" + dir +
                               "/sweep' --gain scs=full-inter_pose --frames '" + dir + "/frames.csv' --out '" + dir +
                               "/gains' > '" + dir + "/log' 2>&1";
   REQUIRE(std::system(command.c_str()) == 0);

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Paired gains of a seeded study: what one row adds over another, cell by cell, seed by seed.
 
-    /usr/bin/python3 scripts/paired_gains.py SWEEP_OUT... --gain NAME=ROW-BASE ... [--out PREFIX]
+    /usr/bin/python3 tools/study/paired_gains.py SWEEP_OUT... --gain NAME=ROW-BASE ... [--out PREFIX]
         [--gain NAME=ROW@BUDGET-BASE@BUDGET ...]
         [--gain-change NAME=GAIN-BASE_GAIN ...] [--frames FRAMES.csv] [--plot-gain NAME ...]
         [--title TEXT]
@@ -28,7 +28,7 @@ seed): from the fewest to the most training poses at each budget (cells pN), fro
 the largest budget in each cell, and, for every --gain-change NAME=GAIN-BASE_GAIN, GAIN minus
 BASE_GAIN in each cell (e.g. scs_tau003-scs: what a setting changes in a gain).
 With --frames CAPTURE/frames.csv (handscs-synth's), each kept novel-pose run's per-image PSNRs are
-also split as scripts/frame_groups.py splits them, into held-out gestures some training pose moves to
+also split as tools/study/frame_groups.py splits them, into held-out gestures some training pose moves to
 and those none does; their gains appear beside the region PSNRs as gestures_seen / gestures_unseen.
 Rows that failed or whose PSNR is not finite are left out and counted in the table. One seed has
 no std: n/a in the table, empty in the CSV.
@@ -42,7 +42,7 @@ import re
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import frame_groups  # noqa: E402  (scripts/frame_groups.py: the held-out gesture groups)
+import frame_groups  # noqa: E402  (tools/study/frame_groups.py: the held-out gesture groups)
 from seed_stats import mean_std, std_text  # noqa: E402  (one home for the mean and spread)
 
 POINT = re.compile(r'^(?P<row>[A-Za-z0-9_-]+)(?:\.(?P<cell>[A-Za-z0-9_-]+))?\.s(?P<seed>\d+)$')

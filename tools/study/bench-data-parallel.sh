@@ -8,11 +8,11 @@
 # metric) and no validation renders, seeds 0 1 2, VIEWS = 2000, novel-pose PSNR/SSIM/LPIPS over 150 held-out images; the
 # training loop's own wall time (rank 0's "N steps in S s" line, capture opening excluded).
 # Prints one JSON object per run and writes OUT/results.csv. Run it on an idle machine.
-# Usage: scripts/bench-data-parallel.sh OUT [CAPTURE]   (CAPTURE: a real_demo capture to reuse)
+# Usage: tools/study/bench-data-parallel.sh OUT [CAPTURE]   (CAPTURE: a real_demo capture to reuse)
 #   env: SEEDS (default "0 1 2"), VIEWS (2000), MODES ("single batch2 ranks2"), BIN (build/bin),
 #        HANDSCS_LPIPS_WEIGHTS (default ../shared/assets/lpips/lpips_alex_v0.1.pt)
 set -euo pipefail
-root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 if [ $# -lt 1 ] || [ "$1" = "-h" ] || [ "$1" = "--help" ]; then sed -n 2,14p "$0"; exit 0; fi
 out="$1"
 capture="${2:-$out/capture}"
@@ -49,7 +49,7 @@ for seed in $seeds; do
               "$bin/handscs-train" "${common[@]}" "train.iterations=$steps" train.batch_size=2 \
                 --threads 2 > "$run.log" 2>&1 ;;
       ranks2) steps=$(( views / 2 )); batch=1; processes=2; threads=1
-              "$root/scripts/train_two_ranks.sh" "$bin" "$run" "${common[@]}" \
+              "$root/tools/study/train_two_ranks.sh" "$bin" "$run" "${common[@]}" \
                 "train.iterations=$steps" ;;
       *) echo "bench-data-parallel: unknown mode $mode" >&2; exit 2 ;;
     esac

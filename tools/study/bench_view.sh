@@ -5,9 +5,9 @@
 # The avatars grow to their counts the way handscs-bench-model's do: densification at every step
 # from step 1, any Gaussian with a gradient split or cloned, capped at the count (their pictures
 # are not trained ones; only the count matters for speed).
-#   scripts/bench_view.sh [OUT_DIR]     (default /tmp/handscs-bench-view); builds what it needs
+#   tools/study/bench_view.sh [OUT_DIR]     (default /tmp/handscs-bench-view); builds what it needs
 set -euo pipefail
-root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 out="${1:-/tmp/handscs-bench-view}"
 bin="$root/build/bin"
 "$root/scripts/build.sh" handscs-view handscs-bench-view handscs-train handscs-synth handscs-render >/dev/null

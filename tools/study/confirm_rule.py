@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """The open choices' confirmation rule (docs/SCALING.md), read from the confirmation's sweeps.
 
-    /usr/bin/python3 scripts/confirm_rule.py --capture real_demo=OUT1[,OUT1b] --capture seed2=OUT2 \
+    /usr/bin/python3 tools/study/confirm_rule.py --capture real_demo=OUT1[,OUT1b] --capture seed2=OUT2 \
         [--base default] [--cell full] [--general-cell c] [--out PREFIX]
 
 Each OUT is a handscs-bench output folder of configs/sweeps/open_choices_confirm.json or of a sweep

@@ -1,4 +1,4 @@
-// scripts/frame_groups.py: held-out scores split into gestures training saw and gestures it never
+// tools/study/frame_groups.py: held-out scores split into gestures training saw and gestures it never
 // saw, against means computed here from the same made-up per-image scores; failed images and
 // missing metrics are left out and counted; an image of another capture is an error naming it.
 #include <catch2/catch.hpp>
@@ -26,7 +26,7 @@ std::string python() {
 TEST_CASE("frame_groups.py: held-out means per gesture kind equal the means computed here") {
   const std::string py = python();
   if (py.empty()) {
-    WARN("no python3: scripts/frame_groups.py not tested");
+    WARN("no python3: tools/study/frame_groups.py not tested");
     return;
   }
   const std::string dir = data_test::fresh_dir("frame_groups");
@@ -57,7 +57,7 @@ TEST_CASE("frame_groups.py: held-out means per gesture kind equal the means comp
       }
     }
   data_test::write_text(dir + "/run/eval/per_image.csv", images);
-  const std::string script = std::string(HANDSCS_SOURCE_DIR) + "/scripts/frame_groups.py";
+  const std::string script = std::string(HANDSCS_SOURCE_DIR) + "/tools/study/frame_groups.py";
   const std::string command = py + " '" + script + "' '" + dir + "/frames.csv' '" + dir + "/run' --csv '" +
                               dir + "/out.csv' > '" + dir + "/log' 2>&1";
   REQUIRE(std::system(command.c_str()) == 0);

@@ -2,7 +2,7 @@
 """Top entries of a `perf record` profile as Markdown tables: share per library, then per symbol.
 
     ONEDNN_JIT_PROFILE=2 perf record -F 999 -o P.data -- build/bin/handscs-train ...
-    /usr/bin/python3 scripts/perf_top.py P.data [ROWS]
+    /usr/bin/python3 tools/study/perf_top.py P.data [ROWS]
 
 ONEDNN_JIT_PROFILE=2 makes oneDNN write /tmp/perf-PID.map, so its JIT kernels (the GEMMs and
 convolutions) get names; their entries at different addresses are summed by name here. Debian's

@@ -2,7 +2,7 @@
 # One handscs-train run on 2 ranks over c10d on loopback, 1 thread each (docs/BENCHMARKS.md
 # "Data-parallel training"); rank 1 takes its config from rank 0. Shared by the benchmarks that
 # time such runs (bench-data-parallel.sh, time_to_quality.sh).
-# Usage: scripts/train_two_ranks.sh BIN RUN [rank 0's handscs-train options, --out RUN among them]
+# Usage: tools/study/train_two_ranks.sh BIN RUN [rank 0's handscs-train options, --out RUN among them]
 #   Rank 0 logs to RUN.log, rank 1 to RUN.rank1.log. Exits 0 when both ranks do; otherwise names
 #   the failing rank's log on stderr and exits with its code.
 set -uo pipefail

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Held-out scores split by what the pose is: a gesture some training pose moves to, or one none does.
 
-    /usr/bin/python3 scripts/frame_groups.py CAPTURE/frames.csv RUN_OR_CSV... [--csv OUT.csv]
+    /usr/bin/python3 tools/study/frame_groups.py CAPTURE/frames.csv RUN_OR_CSV... [--csv OUT.csv]
 
 CAPTURE/frames.csv is written by handscs-synth (one row per pose: sequence, frame index, held out,
 the gesture the hand moves to, whether any training pose moves to that gesture). Its held-out rows

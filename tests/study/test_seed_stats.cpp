@@ -1,4 +1,4 @@
-// scripts/seed_stats.py, the analysis scripts' mean and spread over seeds: its mean and sample std
+// tools/study/seed_stats.py, the analysis scripts' mean and spread over seeds: its mean and sample std
 // against the textbook formulas worked out here, no std for one value, nothing for none, a NaN or an
 // infinity giving a NaN std instead of an error, and finite_mean_std leaving non-finite values and
 // None out while counting what it kept.
@@ -24,7 +24,7 @@ std::string python_value(const std::string& expression) {
   std::filesystem::create_directories(dir);
   const std::string out = dir + "/out.txt";
   const std::string command = "/usr/bin/python3 -c \"import sys; sys.path.insert(0, '" + handscs_test::kSource +
-                              "/scripts'); from seed_stats import *; import math; print(" + expression +
+                              "/tools/study'); from seed_stats import *; import math; print(" + expression +
                               ")\" > '" + out + "' 2>&1";
   const int status = std::system(command.c_str());
   std::string text = handscs::read_file(out);

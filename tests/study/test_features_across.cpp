@@ -1,4 +1,4 @@
-// scripts/features_across.py, which reads Fig. 7's claim over training runs: its two column unions
+// tools/study/features_across.py, which reads Fig. 7's claim over training runs: its two column unions
 // (with and without P) are scored against a k-NN vote and silhouettes worked out here on four
 // Gaussians whose geometry is chosen by hand (differing by run and pose, so each run's and pose's
 // own features must be read), the groups' mean and sample standard deviation against the made-up
@@ -95,7 +95,7 @@ TEST_CASE("features_across.py: unions, group means and pairs equal the values wo
   write_run(dir + "/scs1", "scs1", 0.8, kP, kP);
   write_run(dir + "/plain0", "plain0", 0.7, kMixed, kP);
   write_run(dir + "/plain1", "plain1", 0.75, kMixed, kP);
-  const std::string script = "/usr/bin/python3 '" + handscs_test::kSource + "/scripts/features_across.py'";
+  const std::string script = "/usr/bin/python3 '" + handscs_test::kSource + "/tools/study/features_across.py'";
   const std::string command = script + " --pair scs=plain --out '" + dir + "/across' 'scs=" + dir + "/scs0," +
                               dir + "/scs1' 'plain=" + dir + "/plain0," + dir + "/plain1' > '" + dir + "/log' 2>&1";
   REQUIRE(std::system(command.c_str()) == 0);

@@ -1,4 +1,4 @@
-// scripts/ablation_table.py, which summarises a seeded ablation sweep: each row's mean and sample
+// tools/study/ablation_table.py, which summarises a seeded ablation sweep: each row's mean and sample
 // std over its seeds against values worked out here from made-up figures, the paper's numbers beside
 // the row they belong to, a region's column read from its pooled-MSE PSNR (its mean of per-image
 // PSNRs is "inf" in one run, as a region matching exactly in one image makes it), a cell that only
@@ -35,7 +35,7 @@ TEST_CASE("ablation_table.py: means, stds, the paper's row and pooled region PSN
   summary("full.s2", "23.5", 22);
   summary("embedding.s1", "25.0", 24);
   const std::string log = dir + "/log.txt";
-  REQUIRE(std::system(("/usr/bin/python3 '" + handscs_test::kSource + "/scripts/ablation_table.py' '" + dir +
+  REQUIRE(std::system(("/usr/bin/python3 '" + handscs_test::kSource + "/tools/study/ablation_table.py' '" + dir +
                        "' > '" + log + "' 2>&1")
                           .c_str()) == 0);
   const std::string table = handscs::read_file(dir + "/ablation.md");

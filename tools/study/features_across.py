@@ -11,7 +11,7 @@ on two unions of its columns, standardised the same way (scripts/plot_features.p
   without_p  embedding+transform: the decoder input without P, whether the run trained with it or not.
 
 Usage:
-  /usr/bin/python3 scripts/features_across.py --out PREFIX [--pair A=B ...] GROUP=DIR[,DIR...] ...
+  /usr/bin/python3 tools/study/features_across.py --out PREFIX [--pair A=B ...] GROUP=DIR[,DIR...] ...
       GROUP names a kind of avatar (e.g. "full p350"); its DIRs are that kind's runs, in seed order.
       --pair A=B (A with SCS, B without, both GROUPs with as many runs) pairs A's i-th run with B's:
       gap = A's decoder input k-NN accuracy - B's; control = B's with_p - A's decoder input;
@@ -27,7 +27,9 @@ import sys
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(HERE, '..', '..', 'scripts'))  # plot_features.py, which handscs-features runs
 from plot_features import read_run, score_per_pose  # noqa: E402  (one home for reading and scoring)
 from seed_stats import mean_std, std_text  # noqa: E402  (one home for the mean and spread)
 
