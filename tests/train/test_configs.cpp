@@ -69,8 +69,8 @@ TEST_CASE("configs: the paper's InterHand2.6M protocol configs resolve to their 
     handscs::validate_run_config(config, path);
     CHECK(config.data.split == e.split);
     CHECK(config.data.capture == e.capture);
-    CHECK(config.data.split_rule == e.rule);
-    CHECK(config.data.hand == "right");
+    CHECK(config.data.split_rule == handscs::choice_value(e.rule, handscs::CaptureConfig::split_rule_names()));
+    CHECK(config.data.hand == handscs::Handedness::right);
     CHECK(config.data.held_out_poses == 50);
     CHECK(config.data.test_cameras.empty());  // novel_view: 10 train / 15 test chosen by id
     CHECK(config.data.novel_view_train_views == 10);
