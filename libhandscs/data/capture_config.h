@@ -77,7 +77,7 @@ struct CaptureConfig {
   // joint fit". Real InterHand2.6M joints fit the built-in hand to 2-3 mm on average (docs/FIT.md);
   // 15 mm means mislabelled joints, never a usable pose.
   double poor_joint_fit_mm = 15.0;
-  std::string rig = "builtin";             // rig source for the masks: "builtin" or a rig file
+  std::string rig = "builtin";             // rig of the masks and (in a run) the avatar
   bool flat_hand_mean = false;  // false: annotated poses are relative to hands_mean (InterHand)
   int roi_margin = 16;          // pixels added around the mask's bounding box
   // Where the capture's extract of the annotation files is kept so that later opens skip the
@@ -130,9 +130,11 @@ struct CaptureConfig {
     v.section("joint_fit", joint_fit, "pose_source joints: the rig fitted to each frame's joints");
     v.field("poor_joint_fit_mm", poor_joint_fit_mm,
             "pose_source joints: skip a hand whose mean joint residual (mm) exceeds this", 0.1, 1e6);
-    v.field("rig", rig, "rig for the masks: builtin or a rig file (hand must match)");
+    v.field("rig", rig,
+            "rig of the masks and the avatar: builtin (the hand of data.hand), builtin:left or a rig "
+            "file (hand must match)");
     v.field("flat_hand_mean", flat_hand_mean,
-            "poses are absolute (true) or relative to hands_mean");
+            "poses are absolute (true) or relative to hands_mean (masks and avatar)");
     v.field("roi_margin", roi_margin, "pixels around the mask's bounding box", 0, 4096);
     v.field("annotation_cache", annotation_cache,
             "cache of the capture's annotations for fast reopening: auto (a .handscs-cache folder "

@@ -94,12 +94,12 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
     spdlog::warn("the given config's model section differs from the checkpoint's ({}); the checkpoint's is used",
                  join(differences, "; "));
   config.model = stored.model;
-  config.data.rig = stored.model.rig;
+  config.data.rig = stored.data.rig;
   if (config.data.hand != stored.data.hand)
     spdlog::warn("data.hand = {} but the checkpoint's avatar is a {} hand: evaluating the {} hand",
                  hand_name(config.data.hand), hand_name(stored.data.hand), hand_name(stored.data.hand));
   config.data.hand = stored.data.hand;
-  config.data.flat_hand_mean = stored.model.flat_hand_mean;
+  config.data.flat_hand_mean = stored.data.flat_hand_mean;
 
   ensure_directory(options.out_dir);
   // Masks are cached beside the run the checkpoint came from when there is one.
