@@ -10,6 +10,8 @@
 namespace handscs {
 
 struct AvatarConfig {
+  // The rig and its pose convention. Not keys of the model section: a run config reads them from
+  // data.rig and data.flat_hand_mean (run/run_config.h), as masks and avatar are posed alike.
   std::string rig = "builtin";  // "builtin", "builtin:left" or a rig file (docs/RIG_FORMAT.md)
   bool flat_hand_mean = false;  // false: poses are relative to the rig's hands_mean (InterHand2.6M)
   bool embeddings = true;       // per-Gaussian embeddings e_g, e_a as decoder inputs
@@ -31,8 +33,6 @@ struct AvatarConfig {
 
   template <class V>
   void visit(V& v) {
-    v.field("rig", rig, "hand rig: builtin, builtin:left or a rig file path");
-    v.field("flat_hand_mean", flat_hand_mean, "poses are absolute (true) or relative to hands_mean");
     v.field("embeddings", embeddings, "use per-Gaussian embeddings e_g, e_a");
     v.field("embedding_dim", embedding_dim, "embedding size d", 1, 1024);
     v.field("embedding_init_std", embedding_init_std, "std of the embeddings' initial values", 0.0,

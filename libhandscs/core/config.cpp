@@ -1,5 +1,7 @@
 #include "core/config.h"
 
+#include <spdlog/spdlog.h>
+
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -189,6 +191,59 @@ json load_json_file_depth(const std::string& path, int depth) {
 }  // namespace
 
 json load_json_file(const std::string& path) { return load_json_file_depth(path, 0); }
+
+namespace {
+
+// The value at a dotted key path ("model.rig"), or nullptr.
+json* config_value_at(json& object, const std::string& path) {
+  json* node = &object;
+  size_t start = 0;
+  while (true) {
+    const size_t dot = path.find('.', start);
+    const std::string part = path.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
+    if (!node->is_object() || !node->contains(part)) return nullptr;
+    node = &(*node)[part];
+    if (dot == std::string::npos) return node;
+    start = dot + 1;
+  }
+}
+
+}  // namespace
+
+void drop_deprecated_keys(json& object, const json& defaults, const std::vector<DeprecatedKey>& keys,
+                          const std::string& source) {
+  static std::set<std::string> warned;  // one warning per source and key in a process
+  json lookup = defaults;
+  lookup.merge_patch(object);
+  for (const auto& k : keys) {
+    const std::string old_key = k.old_key;
+    const json* old_value = config_value_at(object, old_key);
+    if (old_value == nullptr) continue;
+    const json* value = config_value_at(lookup, k.key);
+    const json current = value ? *value : json();
+    if (*old_value != current)
+      throw Error(source + ": " + k.key + " (" + current.dump() + ") and " + old_key + " (" +
+                  old_value->dump() + ") must agree: " + k.why + " (" + old_key +
+                  " is deprecated: set " + k.key + " alone)");
+    if (warned.insert(source + "|" + old_key).second)
+      spdlog::warn("{}: {} is deprecated ({} serves for it): drop it", source, old_key, k.key);
+    const size_t dot = old_key.rfind('.');
+    json* parent = dot == std::string::npos ? &object : config_value_at(object, old_key.substr(0, dot));
+    parent->erase(old_key.substr(dot == std::string::npos ? 0 : dot + 1));
+  }
+}
+
+void make_room_for_deprecated_keys(json& object, const std::vector<std::string>& overrides,
+                                   const std::vector<DeprecatedKey>& keys) {
+  for (const auto& text : overrides)
+    for (const auto& k : keys) {
+      const std::string old_key = k.old_key;
+      if (text.compare(0, old_key.size() + 1, old_key + "=") != 0 || config_value_at(object, old_key)) continue;
+      const size_t dot = old_key.rfind('.');
+      json* parent = dot == std::string::npos ? &object : config_value_at(object, old_key.substr(0, dot));
+      if (parent != nullptr && parent->is_object()) (*parent)[old_key.substr(dot == std::string::npos ? 0 : dot + 1)] = nullptr;
+    }
+}
 
 void apply_overrides(json& object, const std::vector<std::string>& overrides) {
   for (const auto& text : overrides) {

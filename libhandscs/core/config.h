@@ -194,14 +194,46 @@ json config_to_json(C& config) {
   return writer.out;
 }
 
+// A key a config no longer has because another key now says the same (a struct lists them in a
+// static deprecated_keys()): files and --set may still give it, with a warning when it agrees with
+// that key, and an error naming both when it does not.
+struct DeprecatedKey {
+  const char* old_key;  // e.g. "model.rig"
+  const char* key;      // the key that serves for it, e.g. "data.rig"
+  const char* why;      // why the two must agree, for the error
+};
+
+template <class C, class = void>
+struct HasDeprecatedKeys : std::false_type {};
+template <class C>
+struct HasDeprecatedKeys<C, std::void_t<decltype(C::deprecated_keys())>> : std::true_type {};
+
+// Removes the deprecated keys from `object` (a config as a file writes it; `defaults` gives the
+// value of a key it lacks), warning once per source and key. Throws Error when one disagrees.
+void drop_deprecated_keys(json& object, const json& defaults, const std::vector<DeprecatedKey>& keys,
+                          const std::string& source);
+
+// Gives each deprecated key an override sets a place in `object`, so apply_overrides takes it.
+void make_room_for_deprecated_keys(json& object, const std::vector<std::string>& overrides,
+                                   const std::vector<DeprecatedKey>& keys);
+
 // Reads `object` into `config` (starting from its defaults); `source` names the origin in errors.
 template <class C>
 void config_from_json(const json& object, const std::string& source, C& config) {
   if (!object.is_object()) throw Error(source + ": expected a JSON object at the top level, got " +
                                        json_type_name(object));
-  ConfigReader reader(object, source);
-  config.visit(reader);
-  reader.finish();
+  if constexpr (HasDeprecatedKeys<C>::value) {
+    json current = object;
+    C defaults;
+    drop_deprecated_keys(current, config_to_json(defaults), C::deprecated_keys(), source);
+    ConfigReader reader(current, source);
+    config.visit(reader);
+    reader.finish();
+  } else {
+    ConfigReader reader(object, source);
+    config.visit(reader);
+    reader.finish();
+  }
 }
 
 template <class C>
@@ -248,6 +280,8 @@ C load_config(const std::string& path, const std::vector<std::string>& overrides
     merged.merge_patch(file);
     source = path;
   }
+  if constexpr (HasDeprecatedKeys<C>::value)
+    make_room_for_deprecated_keys(merged, overrides, C::deprecated_keys());
   apply_overrides(merged, overrides);
   config_from_json(merged, overrides.empty() ? source : source + " + --set", config);
   return config;

@@ -12,7 +12,6 @@
 
 #include "core/error.h"
 #include "core/image_header.h"
-#include "core/jpeg_entropy.h"
 #include "core/text.h"
 
 namespace handscs {
@@ -130,7 +129,7 @@ void decode(const uint8_t* bytes, size_t n, ErrorManager& err, JpegThumbnail* th
 
 }  // namespace
 
-std::string libjpeg_damage(const std::string& file_bytes, JpegThumbnail* thumbnail) {
+std::string jpeg_damage(const std::string& file_bytes, JpegThumbnail* thumbnail) {
   const auto* bytes = reinterpret_cast<const uint8_t*>(file_bytes.data());
   const size_t n = file_bytes.size();
   if (thumbnail) *thumbnail = JpegThumbnail{};
@@ -146,13 +145,6 @@ std::string libjpeg_damage(const std::string& file_bytes, JpegThumbnail* thumbna
   if (err.error_code != 0) return "corrupt: " + reword(err.error, err.error_at);
   const char* kind = err.warning_code == JWRN_HIT_MARKER ? "truncated image data: " : "corrupt image data: ";
   return kind + reword(err.warning, err.warning_at);
-}
-
-std::string jpeg_damage(const std::string& file_bytes, JpegThumbnail* thumbnail) {
-  std::string problem = libjpeg_damage(file_bytes, thumbnail);
-  if (problem.empty()) problem = jpeg_entropy_problem(file_bytes);  // the class libjpeg lets through
-  if (!problem.empty() && thumbnail) *thumbnail = JpegThumbnail{};
-  return problem;
 }
 
 bool has_jpeg_extension(const std::string& path) {

@@ -1,8 +1,7 @@
 // Damage to a JPEG file: what libjpeg itself reports while decoding it at 1/8 scale (its errors,
 // and the warnings it otherwise only prints without a path while filling what it could not decode
 // with grey: a cut file, coded data that ends before the last block, a bad Huffman code, restart
-// markers out of order, bytes left over after a scan), then, for a file libjpeg passes, the walk of
-// its coded data (core/jpeg_entropy.h) for the one class libjpeg lets through.
+// markers out of order, bytes left over after a scan).
 // What this finds is cached per image (data/scan_cache.h): a change to what it reports for a file
 // must bump kImageChecksVersion in data/image_checks.h, or cached results of the old checks stay.
 #pragma once
@@ -20,21 +19,18 @@ struct JpegThumbnail {
   std::vector<uint8_t> bgr;  // [height, width, 3]
 };
 
-// "" when libjpeg decodes `file_bytes` with neither error nor warning and the walk of the coded
-// data finds nothing (jpeg_entropy_problem); otherwise what is wrong,
+// "" when libjpeg decodes `file_bytes` with neither error nor warning; otherwise what is wrong,
 // e.g. "truncated: the image data ends without an end-of-image marker", "truncated image data:
 // premature end of data segment at byte 18233", "corrupt image data: bad Huffman code at byte 903",
 // "corrupt: unsupported marker type 0x02 at byte 623", "not a JPEG file (PNG data)". The byte is
 // where libjpeg's reader stood (the marker's offset when it has just read one). The entropy-coded
 // data is parsed in full at any scale (libjpeg reads and drops the codes of coefficients a scaled
-// decode does not need), so the 1/8 scale costs no detection. Not detected: a flip that changes only
-// a coefficient's value bits or that the Huffman code recovers from within the scan.
+// decode does not need), so the 1/8 scale costs no detection. Not detected: damage to the coded data
+// that libjpeg's decoder recovers from in silence (a flip that changes only a coefficient's value
+// bits, a code its tables do not hold, a coefficient run past the block).
 // `thumbnail` (optional) receives the decode of an undamaged file when it is a colour or grey JPEG
 // without an Exif segment (OpenCV would apply its orientation); otherwise it is left empty.
 std::string jpeg_damage(const std::string& file_bytes, JpegThumbnail* thumbnail = nullptr);
-
-// libjpeg's part of jpeg_damage alone (what its decode reports), for measuring it against the walk.
-std::string libjpeg_damage(const std::string& file_bytes, JpegThumbnail* thumbnail = nullptr);
 
 // True for the .jpg / .jpeg extensions (any case): the files jpeg_damage applies to.
 bool has_jpeg_extension(const std::string& path);

@@ -134,10 +134,10 @@ std::string mask_folder(const CaptureConfig& c, const CaptureRecords& records,
                         const std::string& cache_dir) {
   std::ostringstream settings;
   settings << "v1|";
-  if (records.layout != "interhand") settings << records.layout << "|";
+  if (records.layout != CaptureConfig::Layout::interhand) settings << layout_name(records.layout) << "|";
   settings << fs::absolute(records.images_dir).string() << "|" << records.source_files.front();
   for (const auto& file : records.source_files) settings << "|" << file_stamp(file);
-  settings << "|" << c.rig << "|" << c.hand << "|" << c.flat_hand_mean << "|"
+  settings << "|" << c.rig << "|" << hand_name(c.hand) << "|" << c.flat_hand_mean << "|"
            << c.mask_refine.enabled << "|" << c.mask_refine.low << "|" << c.mask_refine.high << "|"
            << c.mask_refine.largest_component;
   return cache_folder(cache_dir, "masks", settings.str());
@@ -147,7 +147,7 @@ std::string mask_folder(const CaptureConfig& c, const CaptureRecords& records,
 // (their sizes and times stand for the cameras and coefficients).
 std::string undistorted_folder(const CaptureRecords& records, const std::string& cache_dir) {
   std::ostringstream settings;
-  settings << "v1|" << records.layout << "|" << fs::absolute(records.images_dir).string();
+  settings << "v1|" << layout_name(records.layout) << "|" << fs::absolute(records.images_dir).string();
   for (const auto& file : records.source_files) settings << "|" << file << "|" << file_stamp(file);
   return cache_folder(cache_dir, "undistorted", settings.str());
 }
@@ -160,7 +160,7 @@ struct PoseRanges {
   int first_train = 0, first_test = 0, end = 0;
 };
 
-void split_frames(const std::vector<FrameInfo>& frames, const std::string& rule,
+void split_frames(const std::vector<FrameInfo>& frames, CaptureConfig::SplitRule rule,
                   const std::set<std::string>& train_cams, const std::set<std::string>& test_cams,
                   const PoseRanges& poses, std::vector<FrameInfo>& train,
                   std::vector<FrameInfo>& test) {
@@ -168,21 +168,21 @@ void split_frames(const std::vector<FrameInfo>& frames, const std::string& rule,
     const bool in_train = train_cams.empty() || train_cams.count(f.camera_id);
     const bool in_test = test_cams.empty() || test_cams.count(f.camera_id);
     const int p = f.pose_index;
-    const bool novel_pose = rule == "novel_pose";
+    const bool novel_pose = rule == CaptureConfig::SplitRule::novel_pose;
     const bool train_pose = !novel_pose || (p >= poses.first_train && p < poses.first_test);
     const bool test_pose = !novel_pose || (p >= poses.first_test && p < poses.end);
     if (in_train && train_pose) train.push_back(f);
     if (in_test && test_pose) test.push_back(f);
   }
-  if (train.empty()) throw Error("capture: no training images left after the split (" + rule + ")");
-  if (test.empty()) throw Error("capture: no test images left after the split (" + rule + ")");
+  if (train.empty()) throw Error("capture: no training images left after the split (" + split_rule_name(rule) + ")");
+  if (test.empty()) throw Error("capture: no test images left after the split (" + split_rule_name(rule) + ")");
 }
 
 }  // namespace
 
 std::string capture_rig_source(const CaptureConfig& config) {
-  return (config.rig == "builtin" && config.hand == "left") ? std::string("builtin:left")
-                                                            : config.rig;
+  return (config.rig == "builtin" && config.hand == Handedness::left) ? std::string("builtin:left")
+                                                                     : config.rig;
 }
 
 void choose_novel_view_cameras(const std::set<std::string>& available, int train_views,
@@ -214,9 +214,9 @@ std::string key_name(const std::string& prefix, const char* name) { return prefi
 PoseRanges novel_pose_ranges(const CaptureConfig& c, int num_poses, const std::string& prefix) {
   for (const auto& [name, value] : {std::pair<const char*, int>{"train_poses", c.train_poses},
                                     {"validation_poses", c.validation_poses}})
-    require(value == 0 || c.split_rule == "novel_pose",
+    require(value == 0 || c.split_rule == CaptureConfig::SplitRule::novel_pose,
             key_name(prefix, name) + ": only split_rule novel_pose selects poses (it is " +
-                std::to_string(value) + " with " + c.split_rule + ")");
+                std::to_string(value) + " with " + split_rule_name(c.split_rule) + ")");
   PoseRanges r;
   r.end = num_poses - c.held_out_poses;  // the training poses end where the held-out ones start
   if (c.validation_poses > 0) {
@@ -242,11 +242,10 @@ PoseRanges novel_pose_ranges(const CaptureConfig& c, int num_poses, const std::s
 
 // Step 1: the capture's records in its layout (data/capture_layout.h).
 CaptureRecords read_capture_records(const CaptureConfig& c, const std::string& prefix) {
-  const std::string layout =
-      detect_capture_layout(c.root, c.layout, key_name(prefix, "root"), key_name(prefix, "layout"));
-  if (layout == "interhand") return read_interhand_records(c, prefix);
-  if (c.pose_source == "joints")
-    throw Error(key_name(prefix, "pose_source") + ": joints is read from InterHand2.6M's joint_3d.json; a " + layout +
+  const CaptureConfig::Layout layout = detect_capture_layout(c.root, c.layout, key_name(prefix, "root"));
+  if (layout == CaptureConfig::Layout::interhand) return read_interhand_records(c, prefix);
+  if (c.pose_source == CaptureConfig::PoseSource::joints)
+    throw Error(key_name(prefix, "pose_source") + ": joints is read from InterHand2.6M's joint_3d.json; a " + layout_name(layout) +
                 " capture carries its poses in capture.json (fit keypoints into one with handscs-fit)");
   CaptureRecords records =
       read_handscs_capture(c.root, layout, c.flat_hand_mean, key_name(prefix, "flat_hand_mean"));
@@ -278,8 +277,8 @@ struct CameraSplit {
 void hold_out_validation_cameras(const CaptureConfig& c, const std::string& prefix,
                                  CameraSplit& cams) {
   const std::string key = key_name(prefix, "validation_cameras");
-  require(c.split_rule == "novel_view",
-          key + ": only split_rule novel_view holds out cameras (it is " + c.split_rule +
+  require(c.split_rule == CaptureConfig::SplitRule::novel_view,
+          key + ": only split_rule novel_view holds out cameras (it is " + split_rule_name(c.split_rule) +
               "; novel_pose holds out poses: " + key_name(prefix, "validation_poses") + ")");
   // novel_view has filled in the training cameras by now.
   for (const auto& id : c.validation_cameras)
@@ -305,7 +304,7 @@ CameraSplit choose_cameras(const CaptureConfig& c, const CaptureRecords& records
   CameraSplit cams;
   cams.train.insert(c.train_cameras.begin(), c.train_cameras.end());
   cams.test.insert(c.test_cameras.begin(), c.test_cameras.end());
-  if (c.split_rule == "novel_view") {
+  if (c.split_rule == CaptureConfig::SplitRule::novel_view) {
     if (cams.train.empty() && cams.test.empty()) {
       choose_novel_view_cameras(data_cameras, c.novel_view_train_views, c.novel_view_test_views,
                                 cams.train, cams.test);
@@ -315,7 +314,7 @@ CameraSplit choose_cameras(const CaptureConfig& c, const CaptureRecords& records
                      "and {} test cameras", key_name(prefix, "novel_view_train_views"),
                      c.novel_view_train_views, key_name(prefix, "novel_view_test_views"),
                      c.novel_view_test_views, c.novel_view_train_views + c.novel_view_test_views,
-                     records.layout == "interhand" ? "capture " + std::to_string(c.capture)
+                     records.layout == CaptureConfig::Layout::interhand ? "capture " + std::to_string(c.capture)
                                                    : records.index_file,
                      data_cameras.size(), cams.train.size(), cams.test.size());
     }
@@ -338,7 +337,7 @@ CameraSplit choose_cameras(const CaptureConfig& c, const CaptureRecords& records
 std::vector<Candidate> annotated_candidates(const CaptureConfig& c, const CaptureRecords& records,
                                             const CameraSplit& cams,
                                             std::vector<SkippedImage>& skipped, size_t& considered) {
-  const bool right = c.hand == "right";
+  const bool right = c.hand == Handedness::right;
   const std::string other_hand = right ? "left" : "right";
   std::vector<Candidate> candidates;
   for (const auto& image : records.images) {
@@ -515,7 +514,7 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   auto impl = std::make_unique<Impl>(static_cast<size_t>(config.cache.budget_mb) << 20);
   impl->config = config;
   const CaptureConfig& c = impl->config;
-  require(c.split_rule != "novel_view" || !c.test_cameras.empty() || c.train_cameras.empty(),
+  require(c.split_rule != CaptureConfig::SplitRule::novel_view || !c.test_cameras.empty() || c.train_cameras.empty(),
           key_name(config_key, "test_cameras") + ": split_rule novel_view with train_cameras needs "
           "a list of test cameras");
   const CaptureRecords records = read_capture_records(c, config_key);
@@ -530,12 +529,11 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   std::vector<const ManoParams*> pose_params(strided_pose.size(), nullptr);
   for (const auto& cand : candidates)
     pose_params[strided_pose.at(cand.image->frame_idx)] = &cand.hand->mano;
-  const bool right = c.hand == "right";
   const Rig rig = load_rig_source(capture_rig_source(c));
-  if ((rig.handedness == Handedness::right) != right)
+  if (rig.handedness != c.hand)
     throw Error(key_name(config_key, "rig") + ": rig \"" + c.rig + "\" is a " +
-                (rig.handedness == Handedness::right ? "right" : "left") + " hand but " +
-                key_name(config_key, "hand") + " is " + c.hand);
+                hand_name(rig.handedness) + " hand but " + key_name(config_key, "hand") + " is " +
+                hand_name(c.hand));
   const std::vector<std::vector<float>> posed = pose_rig(rig, pose_params, c.flat_hand_mean);
   impl->num_vertices = rig.num_vertices();
   {
@@ -571,7 +569,7 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
                     key_name(config_key, "drop_monochrome") + "); hold out a colour camera");
   if (usable.empty())
     throw Error(records.index_file + ": no usable images" +
-                (records.layout == "interhand" ? " in capture " + std::to_string(c.capture) : "") +
+                (records.layout == CaptureConfig::Layout::interhand ? " in capture " + std::to_string(c.capture) : "") +
                 " (" + std::to_string(considered) + " considered" +
                 (impl->skip_summary.empty() ? "" : "; " + impl->skip_summary) + ")");
 
@@ -581,7 +579,7 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   int next = 0;
   for (auto& [frame, index] : pose_of) index = next++;
   impl->num_poses = next;
-  if (c.split_rule == "novel_pose" && c.held_out_poses >= impl->num_poses)
+  if (c.split_rule == CaptureConfig::SplitRule::novel_pose && c.held_out_poses >= impl->num_poses)
     throw Error(key_name(config_key, "held_out_poses") + ": " + std::to_string(c.held_out_poses) +
                 " held-out poses leave nothing to train on (the selection has " +
                 std::to_string(impl->num_poses) + " poses)");
@@ -600,7 +598,7 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   std::set<std::string> kept_cameras;
   for (size_t i : usable) {
     const int pose_index = pose_of.at(candidates[i].image->frame_idx);
-    const bool held_out = c.split_rule == "novel_pose" && pose_index >= first_held_out;
+    const bool held_out = c.split_rule == CaptureConfig::SplitRule::novel_pose && pose_index >= first_held_out;
     impl->frames.push_back(make_frame(candidates[i], static_cast<int64_t>(impl->frames.size()),
                                       pose_index, held_out));
     kept_cameras.insert(impl->frames.back().camera_id);
@@ -637,18 +635,19 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
     spdlog::info("{} camera(s) with lens distortion: images undistorted on first load, K kept",
                  impl->undistort.size());
   spdlog::info("{}: {} images, {} poses, {} cameras; train {}, test {} ({})",
-               records.layout == "interhand" ? "capture " + std::to_string(c.capture) + " (" + c.split + ")"
-                                             : records.layout + " capture " + c.root,
+               records.layout == CaptureConfig::Layout::interhand
+                   ? "capture " + std::to_string(c.capture) + " (" + c.split + ")"
+                   : layout_name(records.layout) + " capture " + c.root,
                impl->frames.size(), impl->num_poses, impl->cameras.size(),
-               impl->train.size(), impl->test.size(), c.split_rule);
+               impl->train.size(), impl->test.size(), split_rule_name(c.split_rule));
   impl->start_workers(c.cache.prefetch_threads);
   return Capture(std::move(impl));
 }
 
 const CaptureConfig& Capture::config() const { return impl_->config; }
-const std::string& Capture::layout() const { return impl_->layout; }
+CaptureConfig::Layout Capture::layout() const { return impl_->layout; }
 std::string Capture::region_subfolder() const {
-  return impl_->layout == "interhand" ? impl_->config.split : std::string();
+  return impl_->layout == CaptureConfig::Layout::interhand ? impl_->config.split : std::string();
 }
 const std::vector<FrameInfo>& Capture::frames() const { return impl_->frames; }
 const std::vector<FrameInfo>& Capture::train() const { return impl_->train; }

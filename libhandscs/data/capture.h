@@ -101,8 +101,8 @@ class Capture {
   ~Capture();
 
   const CaptureConfig& config() const;
-  // The layout read (data/capture_layout.h): "interhand", "handscs" or "easymocap".
-  const std::string& layout() const;
+  // The layout read (data/capture_layout.h): interhand, handscs or easymocap.
+  CaptureConfig::Layout layout() const;
   // Folder of the region masks of this capture's images under a regions folder: <split>/ for
   // InterHand2.6M (regions/test/Capture0/...), none for the other layouts (regions/<camera>/...).
   std::string region_subfolder() const;

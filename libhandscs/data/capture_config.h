@@ -7,8 +7,10 @@
 #include <string>
 #include <vector>
 
+#include "core/config.h"
 #include "data/mask_refine.h"
 #include "hand/keypoint_fit.h"
+#include "hand/rig.h"
 
 namespace handscs {
 
@@ -29,21 +31,27 @@ struct CropCacheConfig {
 };
 
 struct CaptureConfig {
+  // The capture folder's layout (docs/CAPTURE_FORMAT.md). automatic ("auto" in files): easymocap
+  // when root holds intri.yml, handscs when it holds capture.json, else interhand.
+  enum class Layout { automatic, interhand, handscs, easymocap };
+  // novel_pose: the last held_out_poses poses are the test set; novel_view: test cameras are.
+  enum class SplitRule { novel_pose, novel_view };
+  // Where each frame's hand pose comes from (InterHand2.6M layout).
+  enum class PoseSource { mano, joints };
+
   std::string root;                        // dataset folder (see layout)
-  // "auto": easymocap when root holds intri.yml, handscs when it holds capture.json, else
-  // interhand (images/ and annotations/); or one of those three names.
-  std::string layout = "auto";
+  Layout layout = Layout::automatic;
   std::string split = "test";              // InterHand split folder: train, test or val
   int capture = 0;                         // Capture{c} (InterHand2.6M layout only)
   std::vector<std::string> sequences;      // seq_name values to use (empty = all of the capture)
-  std::string hand = "right";              // which hand's MANO parameters drive the avatar
+  Handedness hand = Handedness::right;     // which hand's MANO parameters drive the avatar
   bool include_interacting = false;        // also use frames annotated "interacting" (both hands)
   std::vector<std::string> train_cameras;  // camera ids for training (empty = all; see split_rule)
   std::vector<std::string> test_cameras;   // camera ids for testing (empty: as train_cameras)
   int frame_stride = 1;                    // keep every k-th pose (by frame index)
   bool drop_monochrome = true;             // drop cameras whose images are grey (R = G = B)
   bool skip_black_images = true;           // skip frames whose image is black (camera dropout)
-  std::string split_rule = "novel_pose";   // novel_pose: last held_out_poses poses are the test set
+  SplitRule split_rule = SplitRule::novel_pose;  // which images test (see SplitRule)
   int held_out_poses = 50;                 // poses held out by novel_pose (the paper: 50)
   // novel_pose: train on only the last train_poses poses before the held-out tail (0 = all of
   // them). Runs with different counts on one capture then share the same test images, so a
@@ -61,15 +69,15 @@ struct CaptureConfig {
   // supplement we do not have). Counted before monochrome cameras are dropped.
   int novel_view_train_views = 10;
   int novel_view_test_views = 15;
-  // Where each frame's hand pose comes from (InterHand2.6M layout): "mano", the MANO_NeuralAnnot
-  // file; "joints", the rig fitted to joint_3d.json (no MANO file or licence needed; docs/FIT.md).
-  std::string pose_source = "mano";
+  // mano: the MANO_NeuralAnnot file; joints: the rig fitted to joint_3d.json (no MANO file or
+  // licence needed; docs/FIT.md).
+  PoseSource pose_source = PoseSource::mano;
   KeypointFitConfig joint_fit;  // pose_source = joints: the fit's settings
   // pose_source = joints: a hand whose mean joint residual exceeds this (mm) is skipped as "poor
   // joint fit". Real InterHand2.6M joints fit the built-in hand to 2-3 mm on average (docs/FIT.md);
   // 15 mm means mislabelled joints, never a usable pose.
   double poor_joint_fit_mm = 15.0;
-  std::string rig = "builtin";             // rig source for the masks: "builtin" or a rig file
+  std::string rig = "builtin";             // rig of the masks and (in a run) the avatar
   bool flat_hand_mean = false;  // false: annotated poses are relative to hands_mean (InterHand)
   int roi_margin = 16;          // pixels added around the mask's bounding box
   // Where the capture's extract of the annotation files is kept so that later opens skip the
@@ -85,14 +93,14 @@ struct CaptureConfig {
   template <class V>
   void visit(V& v) {
     v.field("root", root, "capture folder (docs/CAPTURE_FORMAT.md)");
-    v.choice("layout", layout, {"auto", "interhand", "handscs", "easymocap"},
+    v.choice("layout", layout, layout_names(),
              "capture layout; auto: easymocap with intri.yml, handscs with capture.json, else "
              "interhand");
     v.choice("split", split, {"train", "test", "val"}, "InterHand2.6M split folder");
     v.field("capture", capture, "InterHand2.6M capture number (images/{split}/Capture{c})", 0,
             1000000);
     v.field("sequences", sequences, "sequence names to use (empty = all)");
-    v.choice("hand", hand, {"right", "left"}, "hand whose MANO parameters are used");
+    v.choice("hand", hand, hand_names(), "hand whose MANO parameters are used");
     v.field("include_interacting", include_interacting,
             "also use frames whose hand_type is interacting (the other hand is in view)");
     v.field("train_cameras", train_cameras, "training camera ids (empty = all)");
@@ -102,7 +110,7 @@ struct CaptureConfig {
     v.field("frame_stride", frame_stride, "keep every k-th pose by frame index", 1, 1000000);
     v.field("drop_monochrome", drop_monochrome, "drop monochrome (R=G=B) cameras");
     v.field("skip_black_images", skip_black_images, "skip black (dropped-out) images");
-    v.choice("split_rule", split_rule, {"novel_pose", "novel_view"},
+    v.choice("split_rule", split_rule, split_rule_names(),
              "novel_pose: hold out the last poses; novel_view: train vs test cameras");
     v.field("held_out_poses", held_out_poses, "poses held out by novel_pose", 1, 1000000);
     v.field("train_poses", train_poses,
@@ -117,14 +125,16 @@ struct CaptureConfig {
             "novel_view without camera lists: number of training cameras chosen", 1, 100000);
     v.field("novel_view_test_views", novel_view_test_views,
             "novel_view without camera lists: number of test cameras chosen", 1, 100000);
-    v.choice("pose_source", pose_source, {"mano", "joints"},
+    v.choice("pose_source", pose_source, pose_source_names(),
              "InterHand2.6M: hand poses from MANO_NeuralAnnot (mano) or fitted to joint_3d.json (joints)");
     v.section("joint_fit", joint_fit, "pose_source joints: the rig fitted to each frame's joints");
     v.field("poor_joint_fit_mm", poor_joint_fit_mm,
             "pose_source joints: skip a hand whose mean joint residual (mm) exceeds this", 0.1, 1e6);
-    v.field("rig", rig, "rig for the masks: builtin or a rig file (hand must match)");
+    v.field("rig", rig,
+            "rig of the masks and the avatar: builtin (the hand of data.hand), builtin:left or a rig "
+            "file (hand must match)");
     v.field("flat_hand_mean", flat_hand_mean,
-            "poses are absolute (true) or relative to hands_mean");
+            "poses are absolute (true) or relative to hands_mean (masks and avatar)");
     v.field("roi_margin", roi_margin, "pixels around the mask's bounding box", 0, 4096);
     v.field("annotation_cache", annotation_cache,
             "cache of the capture's annotations for fast reopening: auto (a .handscs-cache folder "
@@ -136,6 +146,19 @@ struct CaptureConfig {
     v.section("mask_refine", mask_refine, "mask refinement against the image");
     v.section("cache", cache, "image cache and prefetching");
   }
+
+  // Each choice's names as files write them (and --help lists them).
+  static const ChoiceNames<Layout>& layout_names();
+  static const ChoiceNames<Handedness>& hand_names();
+  static const ChoiceNames<SplitRule>& split_rule_names();
+  static const ChoiceNames<PoseSource>& pose_source_names();
 };
+
+// A choice's name as config files write it, for messages and cache keys ("interhand", "left",
+// "novel_view", "joints").
+std::string layout_name(CaptureConfig::Layout layout);
+std::string hand_name(Handedness hand);
+std::string split_rule_name(CaptureConfig::SplitRule rule);
+std::string pose_source_name(CaptureConfig::PoseSource source);
 
 }  // namespace handscs

@@ -17,7 +17,7 @@ namespace handscs {
 
 struct Capture::Impl {
   CaptureConfig config;
-  std::string layout;  // "interhand", "handscs" or "easymocap"
+  CaptureConfig::Layout layout = CaptureConfig::Layout::interhand;  // as read (never automatic)
   std::vector<FrameInfo> frames, train, test;
   int num_poses = 0;
   std::vector<std::vector<float>> posed_vertices;  // [pose][V * 3]

@@ -22,17 +22,16 @@ void require_capture_root(const std::string& root, const std::string& root_key) 
 
 }  // namespace
 
-std::string detect_capture_layout(const std::string& root, const std::string& setting,
-                                  const std::string& root_key, const std::string& layout_key) {
+CaptureConfig::Layout detect_capture_layout(const std::string& root, CaptureConfig::Layout setting,
+                                            const std::string& root_key) {
+  using Layout = CaptureConfig::Layout;
   require_capture_root(root, root_key);
-  if (setting == "interhand" || setting == "handscs" || setting == "easymocap") return setting;
-  require(setting == "auto", layout_key + ": unknown layout \"" + setting +
-                                 "\" (known: auto, interhand, handscs, easymocap)");
+  if (setting != Layout::automatic) return setting;
   const fs::path base(root);
   std::error_code ec;
-  if (fs::is_regular_file(base / kEasyMocapIntrinsicsFile, ec)) return "easymocap";
-  if (fs::is_regular_file(base / kHandscsCaptureFile, ec)) return "handscs";
-  return "interhand";
+  if (fs::is_regular_file(base / kEasyMocapIntrinsicsFile, ec)) return Layout::easymocap;
+  if (fs::is_regular_file(base / kHandscsCaptureFile, ec)) return Layout::handscs;
+  return Layout::interhand;
 }
 
 CaptureLayout resolve_capture_layout(const std::string& root, const std::string& split,

@@ -5,6 +5,8 @@
 
 #include <string>
 
+#include "data/capture_config.h"
+
 namespace handscs {
 
 // The file that marks the project's own layout, and the two that mark EasyMocap's (with it).
@@ -12,12 +14,11 @@ constexpr char kHandscsCaptureFile[] = "capture.json";
 constexpr char kEasyMocapIntrinsicsFile[] = "intri.yml";
 constexpr char kEasyMocapExtrinsicsFile[] = "extri.yml";
 
-// The layout of `root`: `setting` ("interhand", "handscs", "easymocap") as given, or for "auto"
-// easymocap when root holds intri.yml, else handscs when it holds capture.json, else interhand.
-// Throws Error naming root_key for an empty or missing root, layout_key for an unknown setting.
-std::string detect_capture_layout(const std::string& root, const std::string& setting,
-                                  const std::string& root_key = "data.root",
-                                  const std::string& layout_key = "data.layout");
+// The layout of `root`: `setting` as given, or for automatic easymocap when root holds intri.yml,
+// else handscs when it holds capture.json, else interhand (never automatic).
+// Throws Error naming root_key for an empty or missing root.
+CaptureConfig::Layout detect_capture_layout(const std::string& root, CaptureConfig::Layout setting,
+                                            const std::string& root_key = "data.root");
 
 struct CaptureLayout {
   std::string images_dir;  // folder that data.json's file_name values are relative to

@@ -64,7 +64,7 @@ cv::Mat Capture::Impl::read_image(const std::string& path, const FrameInfo& fram
   if (bgr.empty()) throw Error(path + ": cannot decode image");
   if (bgr.cols != frame.camera.width || bgr.rows != frame.camera.height)
     throw Error(path + ": image is " + std::to_string(bgr.cols) + "x" + std::to_string(bgr.rows) +
-                " but " + (layout == "interhand" ? "data.json" : "its camera") + " says " +
+                " but " + (layout == CaptureConfig::Layout::interhand ? "data.json" : "its camera") + " says " +
                 std::to_string(frame.camera.width) + "x" + std::to_string(frame.camera.height));
   return bgr;
 }

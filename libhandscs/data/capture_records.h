@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/camera.h"
+#include "data/capture_config.h"
 #include "data/interhand_annotations.h"  // ManoParams
 #include "data/lens_distortion.h"
 
@@ -53,7 +54,7 @@ struct RecordFrame {
 };
 
 struct CaptureRecords {
-  std::string layout;       // "interhand", "handscs" or "easymocap"
+  CaptureConfig::Layout layout = CaptureConfig::Layout::interhand;  // never automatic
   std::string images_dir;   // folder RecordImage::file_name is relative to
   std::string index_file;   // file that lists the images (named in skip summaries and errors)
   std::string scope;        // the selection in messages: "capture 3 of <data.json>" or the index

@@ -93,10 +93,10 @@ std::string frame_file_stem(int64_t frame) {
   return stem;
 }
 
-CaptureRecords read_handscs_capture(const std::string& root, const std::string& layout,
+CaptureRecords read_handscs_capture(const std::string& root, CaptureConfig::Layout layout,
                                     bool flat_hand_mean, const std::string& flat_key) {
   const fs::path base(root);
-  const bool easymocap = layout == "easymocap";
+  const bool easymocap = layout == CaptureConfig::Layout::easymocap;
   CaptureRecords records;
   records.layout = layout;
   records.images_dir = (base / "images").string();
@@ -105,7 +105,7 @@ CaptureRecords read_handscs_capture(const std::string& root, const std::string& 
   records.scope = path;
   std::error_code ec;
   if (!fs::is_regular_file(path, ec))
-    throw Error(path + ": missing (the " + layout + " layout keeps its frames' MANO parameters "
+    throw Error(path + ": missing (the " + layout_name(layout) + " layout keeps its frames' MANO parameters "
                 "there; docs/CAPTURE_FORMAT.md)");
   const json document = parse_json_file(path);
   const JsonView top(document, path, "");

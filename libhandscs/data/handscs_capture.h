@@ -19,9 +19,9 @@ constexpr int kHandscsCaptureVersion = 1;
 // longer numbers are written in full).
 std::string frame_file_stem(int64_t frame);
 
-// Reads `root` in layout "handscs" or "easymocap". `flat_hand_mean` is the config's value, which
+// Reads `root` in layout handscs or easymocap. `flat_hand_mean` is the config's value, which
 // the file's must equal; `flat_key` names it in the error ("data.flat_hand_mean").
-CaptureRecords read_handscs_capture(const std::string& root, const std::string& layout,
+CaptureRecords read_handscs_capture(const std::string& root, CaptureConfig::Layout layout,
                                     bool flat_hand_mean, const std::string& flat_key);
 
 }  // namespace handscs

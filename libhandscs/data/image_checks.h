@@ -19,7 +19,7 @@ struct ImageScan {
 // Version of scan_image's checks: bump whenever what it reports for a file can change (a check added
 // or altered, a constant below changed), so that scans cached by an earlier version are redone
 // (data/scan_cache.h).
-constexpr int kImageChecksVersion = 3;
+constexpr int kImageChecksVersion = 4;
 // Brightest 8x8-block average of a black (dropped-out) frame: JPEG noise on a black frame stays a
 // few levels above 0, a lit hand or body is several tens of levels brighter.
 constexpr int kBlackLevel = 16;

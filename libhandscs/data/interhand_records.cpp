@@ -42,12 +42,12 @@ CaptureRecords read_interhand_records(const CaptureConfig& c, const std::string&
       read_interhand_cameras(layout.camera_json, c.capture);
   const std::map<int64_t, InterHandJoints> joints =
       annotation_cache.joints(layout.joint_3d_json, c.capture);
-  const bool from_joints = c.pose_source == "joints";
+  const bool from_joints = c.pose_source == CaptureConfig::PoseSource::joints;
   const std::map<int64_t, InterHandMano> mano =
       from_joints ? std::map<int64_t, InterHandMano>{} : annotation_cache.mano(layout.mano_json, c.capture);
 
   CaptureRecords records;
-  records.layout = "interhand";
+  records.layout = CaptureConfig::Layout::interhand;
   records.images_dir = layout.images_dir;
   records.index_file = layout.data_json;
   records.scope = "capture " + std::to_string(c.capture) + " of " + layout.data_json;

@@ -10,6 +10,7 @@
 #include "core/file_stamp.h"
 #include "core/hash.h"
 #include "data/cache_files.h"
+#include "data/capture.h"  // capture_rig_source
 #include "data/interhand_records.h"  // interhand_hand_joints
 
 namespace handscs {
@@ -29,26 +30,21 @@ std::string cache_key(const std::string& joint_file, const CaptureConfig& c) {
   KeypointFitConfig fit = c.joint_fit;
   const json key = {{"version", kFitCacheVersion}, {"joint_file", fs::absolute(joint_file).string()},
                     {"size", stamp.size}, {"mtime_ns", stamp.mtime_ns}, {"capture", c.capture},
-                    {"hand", c.hand}, {"rig", c.rig}, {"rig_size", rig_stamp.size},
+                    {"hand", hand_name(c.hand)}, {"rig", c.rig}, {"rig_size", rig_stamp.size},
                     {"rig_mtime_ns", rig_stamp.mtime_ns}, {"flat_hand_mean", c.flat_hand_mean},
                     {"fit", config_to_json(fit)}};
   return key.dump();
-}
-
-std::string rig_source_for(const CaptureConfig& c) {
-  // "builtin" names the right hand; the left hand's built-in rig is its mirror.
-  if (c.rig == "builtin" && c.hand == "left") return "builtin:left";
-  return c.rig;
 }
 
 }  // namespace
 
 std::map<int64_t, RecordFrame> fit_joint_frames(const std::map<int64_t, InterHandJoints>& joints,
                                                 const std::string& joint_3d_json, const CaptureConfig& c) {
-  const bool right = c.hand == "right";
+  const bool right = c.hand == Handedness::right;
+  const std::string hand = hand_name(c.hand);
   const std::string key = cache_key(joint_3d_json, c);
   const std::string name = fs::path(joint_3d_json).filename().string() + ".capture" + std::to_string(c.capture) +
-                           ".fit-" + c.hand + "-" + std::to_string(fnv1a64(key)) + ".json";
+                           ".fit-" + hand + "-" + std::to_string(fnv1a64(key)) + ".json";
   const std::vector<std::string> files = cache_files_for(c.annotation_cache, joint_3d_json, name, "annotations");
   // The cached fits: per frame, the MANO parameters and the mean residual.
   json fits;
@@ -65,14 +61,14 @@ std::map<int64_t, RecordFrame> fit_joint_frames(const std::map<int64_t, InterHan
     }
   }
   if (fits.is_null()) {
-    const Rig rig = load_rig_source(rig_source_for(c));
-    if ((rig.handedness == Handedness::right) != right)
-      throw Error("data.rig: " + c.rig + " is a " + (right ? "left" : "right") + "-hand rig, data.hand is " + c.hand);
+    const Rig rig = load_rig_source(capture_rig_source(c));
+    if (rig.handedness != c.hand)
+      throw Error("data.rig: " + c.rig + " is a " + hand_name(rig.handedness) + "-hand rig, data.hand is " + hand);
     const JointModel model = make_joint_model(rig);
     std::vector<int64_t> ids;
     std::vector<HandKeypoints> frames;
     for (const auto& [frame, entry] : joints) {
-      if (entry.hand_type != "interacting" && entry.hand_type != c.hand) continue;
+      if (entry.hand_type != "interacting" && entry.hand_type != hand) continue;
       HandKeypoints k;
       interhand_hand_joints(entry, right, k.joints, k.valid);
       if (k.num_valid() < kMinFitKeypoints) continue;
@@ -81,8 +77,8 @@ std::map<int64_t, RecordFrame> fit_joint_frames(const std::map<int64_t, InterHan
     }
     const auto start = std::chrono::steady_clock::now();
     spdlog::info("{}: fitting the {} hand to {} frames' joints (pose_source joints; cached for the next open)",
-                 joint_3d_json, c.hand, frames.size());
-    const std::vector<HandFit> results = fit_keypoint_sequence(model, frames, c.joint_fit, "fit " + c.hand + " hand to joints");
+                 joint_3d_json, hand, frames.size());
+    const std::vector<HandFit> results = fit_keypoint_sequence(model, frames, c.joint_fit, "fit " + hand + " hand to joints");
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     spdlog::info("{}: {} frames fitted in {:.1f} s ({:.2f} ms a frame)", joint_3d_json, frames.size(), seconds,
                  frames.empty() ? 0.0 : 1e3 * seconds / frames.size());

@@ -94,12 +94,12 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
     spdlog::warn("the given config's model section differs from the checkpoint's ({}); the checkpoint's is used",
                  join(differences, "; "));
   config.model = stored.model;
-  config.data.rig = stored.model.rig;
+  config.data.rig = stored.data.rig;
   if (config.data.hand != stored.data.hand)
     spdlog::warn("data.hand = {} but the checkpoint's avatar is a {} hand: evaluating the {} hand",
-                 config.data.hand, stored.data.hand, stored.data.hand);
+                 hand_name(config.data.hand), hand_name(stored.data.hand), hand_name(stored.data.hand));
   config.data.hand = stored.data.hand;
-  config.data.flat_hand_mean = stored.model.flat_hand_mean;
+  config.data.flat_hand_mean = stored.data.flat_hand_mean;
 
   ensure_directory(options.out_dir);
   // Masks are cached beside the run the checkpoint came from when there is one.
@@ -152,7 +152,7 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
   result.report.mode = "model";
   result.report.inputs = {{"checkpoint", ckpt_path},
                           {"capture_root", config.data.root},
-                          {"layout", capture.layout()},
+                          {"layout", layout_name(capture.layout())},
                           {"split", config.data.split},
                           {"capture", config.data.capture},
                           {"frames", options.split}};
@@ -266,7 +266,7 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
   const std::filesystem::path root = std::filesystem::path(config.data.root).lexically_normal();
   const std::string label =
       !options.label.empty()             ? options.label
-      : capture.layout() == "interhand" ? config.data.split + "/Capture" + std::to_string(config.data.capture)
+      : capture.layout() == CaptureConfig::Layout::interhand ? config.data.split + "/Capture" + std::to_string(config.data.capture)
       : (root.has_filename() ? root.filename() : root.parent_path().filename()).string();
   write_file_atomic(options.out_dir + "/table.md", paper_table(label, summary, result.fps) +
                                                       "\nColours: " + result.camera_color + ".\n");

@@ -64,10 +64,15 @@ Avatar restore_avatar(const Checkpoint& checkpoint, const AvatarConfig& config, 
 
 void refuse_model_overrides(const std::vector<std::string>& overrides) {
   // The avatar is the checkpoint's: a model key set here would be ignored, or contradict the weights.
-  for (const auto& assignment : overrides)
+  // data.rig and data.flat_hand_mean are the model's too (RunConfig: one rig for masks and avatar).
+  for (const auto& assignment : overrides) {
     if (assignment.rfind("model.", 0) == 0 || assignment.rfind("model=", 0) == 0)
       throw Error("--set " + assignment + ": the model is the checkpoint's and cannot be changed "
                   "after training (data.*, eval.* and train.* keys can be set)");
+    if (assignment.rfind("data.rig=", 0) == 0 || assignment.rfind("data.flat_hand_mean=", 0) == 0)
+      throw Error("--set " + assignment + ": the rig is the checkpoint's (data.rig and "
+                  "data.flat_hand_mean serve the model) and cannot be changed after training");
+  }
 }
 
 TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run,

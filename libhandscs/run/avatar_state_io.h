@@ -33,7 +33,7 @@ struct TrainedAvatar {
 };
 TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run,
                                   const std::vector<std::string>& overrides = {});
-// Throws Error naming the first model.* override (see open_trained_avatar).
+// Throws Error naming the first model.* override, or data.rig / data.flat_hand_mean (the model's rig).
 void refuse_model_overrides(const std::vector<std::string>& overrides);
 
 }  // namespace handscs

@@ -8,11 +8,14 @@
 
 namespace handscs {
 
-std::string avatar_rig_source(const RunConfig& config) {
-  CaptureConfig data = config.data;
-  data.rig = config.model.rig;
-  return capture_rig_source(data);
+const std::vector<DeprecatedKey>& RunConfig::deprecated_keys() {
+  static const std::vector<DeprecatedKey> keys = {
+      {"model.rig", "data.rig", "masks and avatar are posed with one rig"},
+      {"model.flat_hand_mean", "data.flat_hand_mean", "masks and avatar read poses alike"}};
+  return keys;
 }
+
+std::string avatar_rig_source(const RunConfig& config) { return capture_rig_source(config.data); }
 
 std::vector<std::string> experiment_differences(const RunConfig& stored, const RunConfig& given) {
   // Caches, prefetching, crop margins and mask refinement change how images are read, not which.

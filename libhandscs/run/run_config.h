@@ -4,6 +4,7 @@
 #pragma once
 
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "avatar/avatar_config.h"
@@ -22,14 +23,23 @@ struct RunConfig {
   template <class V>
   void visit(V& v) {
     v.section("data", data, "capture: which images, split rule, masks, cache");
-    v.section("model", model, "avatar: rig, Gaussians, embeddings, decoders, SCS");
+    v.section("model", model, "avatar: Gaussians, embeddings, decoders, SCS (its rig: data.rig)");
     v.section("train", train, "optimisation: losses, learning rates, densification, checkpoints");
     v.section("eval", eval, "evaluation protocol: SSIM variant, LPIPS, masks, background");
+    // One rig for masks and avatar: data.rig and data.flat_hand_mean serve the model.
+    if constexpr (std::is_same_v<V, ConfigReader>) {
+      model.rig = data.rig;
+      model.flat_hand_mean = data.flat_hand_mean;
+    }
   }
+
+  // model.rig and model.flat_hand_mean, keys before data.* served the model: still read from
+  // files and checkpoints written then (core/config.h, DeprecatedKey).
+  static const std::vector<DeprecatedKey>& deprecated_keys();
 };
 
-// The rig the avatar is built on: model.rig, with "builtin" meaning the built-in left hand when
-// data.hand is left (the same rig the capture poses its masks with, capture_rig_source).
+// The rig the avatar is built on: data.rig (model.rig), with "builtin" meaning the built-in left
+// hand when data.hand is left (the same rig the capture poses its masks with, capture_rig_source).
 std::string avatar_rig_source(const RunConfig& config);
 
 // What makes two runs one experiment, beyond the model: the data.* keys that choose which images
@@ -37,7 +47,8 @@ std::string avatar_rig_source(const RunConfig& config);
 // between `stored` and `given` as "data.key: a -> b" lines (empty when a resume keeps them).
 std::vector<std::string> experiment_differences(const RunConfig& stored, const RunConfig& given);
 
-// Cross-section checks that single fields cannot express (e.g. data.rig and model.rig must agree).
+// Cross-section checks that single fields cannot express (e.g. data.rig and model.rig, which a
+// config read from JSON sets alike, must agree when set in code).
 // `source` names the config in errors.
 void validate_run_config(const RunConfig& config, const std::string& source);
 // eval.background's values in [0, 1] (part of validate_run_config; evaluation checks a stored

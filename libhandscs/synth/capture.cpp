@@ -289,14 +289,14 @@ SynthView render_synth_frame(const SynthScene& scene, int frame, int camera) {
 SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_dir) {
   const auto start = std::chrono::steady_clock::now();
   const SynthConfig& c = scene.config;
-  const bool interhand = c.layout == "interhand";
+  const bool interhand = c.layout == CaptureConfig::Layout::interhand;
   const fs::path root(out_dir);
   // InterHand2.6M keeps split folders; the other layouts have one capture per folder.
   const fs::path images_dir = interhand ? root / "images" / c.split : root / "images";
   const fs::path annotations_dir = root / "annotations" / c.split;
   const fs::path regions_dir = interhand ? root / "regions" / c.split : root / "regions";
   const bool regions = c.effects.region_masks;
-  const bool left = c.hand == "left";  // written as the mirror image of the right hand (mirror.h)
+  const bool left = c.hand == Handedness::left;  // written as the mirror image of the right hand (mirror.h)
   const LensDistortion lens = synth_lens_distortion(c.layout);
   auto file_name = [&](const SynthFrame& frame, const SynthCamera& camera) {
     return interhand ? image_file_name(scene, frame, camera) : own_layout_image_name(frame, camera);
@@ -402,7 +402,7 @@ int64_t write_interhand_annotations(const SynthScene& scene,
   const SynthConfig& c = scene.config;
   const fs::path root(out_dir);
   const fs::path annotations_dir = root / "annotations" / c.split;
-  const bool left = c.hand == "left";
+  const bool left = c.hand == Handedness::left;
   const int64_t num_cameras = static_cast<int64_t>(scene.cameras.size());
   const int64_t num_images = static_cast<int64_t>(scene.frames.size()) * num_cameras;
 
@@ -426,7 +426,7 @@ int64_t write_interhand_annotations(const SynthScene& scene,
                            {"image_id", i},
                            {"bbox", numbers(boxes[i].data(), 4)},
                            {"joint_valid", joint_valid},
-                           {"hand_type", c.hand},
+                           {"hand_type", hand_name(c.hand)},
                            {"hand_type_valid", 1}});
   }
   const json data = {{"images", images}, {"annotations", annotations}};
@@ -470,7 +470,7 @@ int64_t write_interhand_annotations(const SynthScene& scene,
     const std::string key = std::to_string(f.frame_idx);
     joint_frames[key] = {{"world_coord", coords},
                          {"joint_valid", valid},
-                         {"hand_type", c.hand},
+                         {"hand_type", hand_name(c.hand)},
                          {"hand_type_valid", true}};
     const std::array<double, 48> pose = left ? mirror_mano_pose(f.annotated) : f.annotated;
     const std::array<double, 3> trans = left ? mirror_point(f.annotated_trans) : f.annotated_trans;

@@ -5,6 +5,13 @@
 
 namespace handscs {
 
+const ChoiceNames<CaptureConfig::Layout>& SynthConfig::layout_names() {
+  using Layout = CaptureConfig::Layout;
+  static const ChoiceNames<Layout> names = {
+      {"interhand", Layout::interhand}, {"handscs", Layout::handscs}, {"easymocap", Layout::easymocap}};
+  return names;
+}
+
 std::vector<std::string> synth_preset_names() {
   return {"tiny", "demo", "bench", "paper", "real_tiny", "real_demo", "real_bench", "real_paper"};
 }

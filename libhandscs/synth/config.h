@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "data/capture_config.h"
 #include "synth/effects.h"
 
 namespace handscs {
@@ -29,10 +30,10 @@ struct SynthConfig {
   int held_out_frames = 50;    // the novel-pose test tail (data.held_out_poses): gestures only
   // "left": the right-hand capture mirrored through the world's x = 0 plane (synth/mirror.h), so a
   // left-hand capture is the exact mirror image of the right one with the same settings.
-  std::string hand = "right";
+  Handedness hand = Handedness::right;
   // Files written (docs/CAPTURE_FORMAT.md): InterHand2.6M's, the project's own, or EasyMocap's
   // (whose images carry a known lens distortion, synth/own_layouts.h).
-  std::string layout = "interhand";
+  CaptureConfig::Layout layout = CaptureConfig::Layout::interhand;
   SynthEffects effects;
 
   template <class V>
@@ -54,13 +55,16 @@ struct SynthConfig {
     v.field("capture", capture, "capture number", 0, 1000000);
     v.field("frame_step", frame_step, "frame_idx step between frames", 1, 1000);
     v.field("held_out_frames", held_out_frames, "frames of the held-out tail", 0, 1000000);
-    v.choice("hand", hand, {"right", "left"},
+    v.choice("hand", hand, CaptureConfig::hand_names(),
              "hand in the capture (left: the right-hand capture mirrored through x = 0)");
-    v.choice("layout", layout, {"interhand", "handscs", "easymocap"},
+    v.choice("layout", layout, layout_names(),
              "files written: InterHand2.6M's layout, the project's own, or EasyMocap's (with a "
              "known lens distortion)");
     v.section("effects", effects, "how the ground truth differs from the rig");
   }
+
+  // The layouts a capture can be written in (data.layout's, without auto).
+  static const ChoiceNames<CaptureConfig::Layout>& layout_names();
 };
 
 // Named presets: "tiny" (4 cameras x 12 frames, 167x256, for CI), "demo" (12 x 100, 334x512),

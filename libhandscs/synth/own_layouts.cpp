@@ -16,8 +16,8 @@ namespace handscs {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-LensDistortion synth_lens_distortion(const std::string& layout) {
-  return layout == "easymocap" ? kSynthLensDistortion : LensDistortion{};
+LensDistortion synth_lens_distortion(CaptureConfig::Layout layout) {
+  return layout == CaptureConfig::Layout::easymocap ? kSynthLensDistortion : LensDistortion{};
 }
 
 std::string own_layout_image_name(const SynthFrame& frame, const SynthCamera& camera) {
@@ -25,15 +25,15 @@ std::string own_layout_image_name(const SynthFrame& frame, const SynthCamera& ca
 }
 
 Camera written_camera(const SynthScene& scene, const SynthCamera& camera) {
-  if (scene.config.hand != "left") return camera.camera;
+  if (scene.config.hand != Handedness::left) return camera.camera;
   return camera_from_interhand(mirror_interhand_camera(camera.raw, camera.camera.width),
                                camera.camera.width, camera.camera.height);
 }
 
 int64_t write_own_layout_annotations(const SynthScene& scene, const std::string& root) {
   const SynthConfig& c = scene.config;
-  const bool left = c.hand == "left";
-  const bool easymocap = c.layout == "easymocap";
+  const bool left = c.hand == Handedness::left;
+  const bool easymocap = c.layout == CaptureConfig::Layout::easymocap;
   json document = {{"format", kHandscsCaptureFormat},
                    {"version", kHandscsCaptureVersion},
                    // As the InterHand2.6M files: poses relative to hands_mean.
@@ -72,8 +72,8 @@ int64_t write_own_layout_annotations(const SynthScene& scene, const std::string&
         capture_hand_json(pose.data(), f.annotated_shape.data(), trans.data(), joints.data());
     frames.push_back({{"frame", f.frame_idx},
                       {"sequence", f.seq_name},
-                      {"hand_type", c.hand},
-                      {c.hand, hand}});
+                      {"hand_type", hand_name(c.hand)},
+                      {hand_name(c.hand), hand}});
   }
   document["frames"] = frames;
   const std::string text = document.dump();

@@ -19,7 +19,7 @@ namespace handscs {
 constexpr LensDistortion kSynthLensDistortion{{-0.25, 0.08, 1e-3, -8e-4, 0.0}};
 
 // The lens of `layout`'s capture: kSynthLensDistortion for easymocap, none otherwise.
-LensDistortion synth_lens_distortion(const std::string& layout);
+LensDistortion synth_lens_distortion(CaptureConfig::Layout layout);
 
 // "<camera>/<frame, six digits>.jpg": the image's path under images/ (a region mask's under
 // regions/ with .png).

@@ -56,7 +56,7 @@ int synth_command(int argc, char** argv) {
     SynthConfig config = synth_preset(preset);
     config.seed = seed;
     config = apply_synth_overrides(config, common.overrides);
-    if (!layout.empty()) config.layout = layout;
+    if (!layout.empty()) config.layout = choice_value(layout, SynthConfig::layout_names());
     generate_synth_capture(config, out, overwrite);
   } catch (const std::exception& e) {
     spdlog::error("{}", error_text(e));

@@ -56,7 +56,7 @@ inline const std::string& tiny_capture_in(const std::string& layout) {
                         .string();
     std::filesystem::remove_all(capture->root);
     handscs::SynthConfig config = handscs::synth_preset("tiny");
-    config.layout = layout;
+    config.layout = handscs::choice_value(layout, handscs::SynthConfig::layout_names());
     capture->scene = handscs::make_synth_scene(config);
     handscs::write_synth_capture(capture->scene, capture->root);
   }

@@ -27,7 +27,7 @@ TEST_CASE("capture config: JSON in and out, errors name the key") {
   config_from_json(file, "capture.json", config);
   CHECK(config.root == "/data/InterHand2.6M");
   CHECK(config.sequences == std::vector<std::string>{"ROM03_RT_No_Occlusion"});
-  CHECK(config.split_rule == "novel_view");
+  CHECK(config.split_rule == CaptureConfig::SplitRule::novel_view);
   CHECK_FALSE(config.mask_refine.largest_component);
   CHECK(config.mask_refine.low == 10);
   CHECK(config.cache.budget_mb == 512);

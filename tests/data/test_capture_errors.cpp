@@ -183,7 +183,7 @@ TEST_CASE("capture errors: monochrome cameras are detected and dropped") {
   CHECK(kept.grey_images().empty());
   // Held out as validation it would leave its validation images dropped: refused while dropped,
   // the test set while kept.
-  config.split_rule = "novel_view";
+  config.split_rule = CaptureConfig::SplitRule::novel_view;
   config.train_cameras = {"400002", "400004", "400008"};
   config.test_cameras = {"400006"};
   config.validation_cameras = {"400008"};
@@ -240,12 +240,12 @@ TEST_CASE("capture errors: bad configuration values name the key") {
         "9 poses before its 3 held-out ones)");
   config.validation_poses = 0;
   config.train_poses = 10;
-  config.split_rule = "novel_view";
+  config.split_rule = CaptureConfig::SplitRule::novel_view;
   CHECK(error_of([&] { Capture::open(config); }) ==
         "data.train_poses: only split_rule novel_pose selects poses (it is 10 with novel_view)");
 
   config = data_test::tiny_config(root);
-  config.split_rule = "novel_view";
+  config.split_rule = CaptureConfig::SplitRule::novel_view;
   config.train_cameras = {"400002"};
   CHECK(error_of([&] { Capture::open(config); }) ==
         "data.test_cameras: split_rule novel_view with train_cameras needs a list of test "
@@ -263,7 +263,7 @@ TEST_CASE("capture errors: bad configuration values name the key") {
   config.validation_cameras = {"400004"};
   CHECK(error_of([&] { Capture::open(config); }) ==
         "data.validation_cameras: holds out every training camera (1): none is left to train on");
-  config.split_rule = "novel_pose";
+  config.split_rule = CaptureConfig::SplitRule::novel_pose;
   CHECK(error_of([&] { Capture::open(config); }) ==
         "data.validation_cameras: only split_rule novel_view holds out cameras (it is novel_pose; "
         "novel_pose holds out poses: data.validation_poses)");
@@ -280,7 +280,7 @@ TEST_CASE("capture errors: bad configuration values name the key") {
         data + ": no images of capture 5 (data.capture); the file holds captures 0");
 
   config = data_test::tiny_config(root);
-  config.hand = "left";  // the tiny capture annotates only the right hand
+  config.hand = Handedness::left;  // the tiny capture annotates only the right hand
   const std::string message = error_of([&] { Capture::open(config); });
   CHECK(message.rfind(data + ": no usable images in capture 0 (48 considered; " + data +
                           ": skipped 48 of 48 images (null MANO 48): ",

@@ -70,13 +70,16 @@ std::string tiny_with_pngs(const std::string& layout, const std::string& name,
 TEST_CASE("capture layouts: auto detects each layout, and data.layout names it") {
   for (const char* layout : {"interhand", "handscs", "easymocap"}) {
     INFO(layout);
-    CHECK(detect_capture_layout(data_test::tiny_capture_in(layout), "auto") == layout);
+    CHECK(detect_capture_layout(data_test::tiny_capture_in(layout), CaptureConfig::Layout::automatic) ==
+          choice_value(layout, CaptureConfig::layout_names()));
   }
   const std::string interhand = data_test::tiny_capture_in("interhand");
-  CHECK(error_of([&] { detect_capture_layout(interhand, "colmap"); }) ==
-        "data.layout: unknown layout \"colmap\" (known: auto, interhand, handscs, easymocap)");
+  CHECK(error_of([&] {
+          CaptureConfig c;
+          config_from_json(json{{"layout", "colmap"}}, "data", c);
+        }) == "data: layout: unknown value \"colmap\" (known: auto, interhand, handscs, easymocap)");
   CaptureConfig config = data_test::tiny_config(interhand);
-  config.layout = "handscs";
+  config.layout = CaptureConfig::Layout::handscs;
   CHECK(error_of([&] { Capture::open(config); }) ==
         interhand + "/capture.json: missing (the handscs layout keeps its frames' MANO parameters "
                     "there; docs/CAPTURE_FORMAT.md)");
@@ -89,7 +92,7 @@ TEST_CASE("capture layouts: handscs and easymocap captures read as the InterHand
     INFO(layout);
     const bool exact = std::string(layout) == "handscs";
     Capture capture = Capture::open(data_test::tiny_config(data_test::tiny_capture_in(layout)));
-    CHECK(capture.layout() == layout);
+    CHECK(capture.layout() == choice_value(layout, CaptureConfig::layout_names()));
     CHECK(capture.region_subfolder().empty());
     REQUIRE(capture.frames().size() == reference.frames().size());
     CHECK(capture.num_poses() == reference.num_poses());
@@ -322,7 +325,7 @@ TEST_CASE("capture layouts: malformed EasyMocap calibration files are errors nam
 TEST_CASE("capture layouts: novel_view and sequence selection on a handscs capture") {
   const std::string root = data_test::tiny_capture_in("handscs");
   CaptureConfig config = data_test::tiny_config(root);
-  config.split_rule = "novel_view";
+  config.split_rule = CaptureConfig::SplitRule::novel_view;
   config.train_cameras = {"400002", "400004", "400006"};
   config.test_cameras = {"400008"};
   Capture capture = Capture::open(config);
@@ -343,12 +346,12 @@ TEST_CASE("capture layouts: a left-hand capture reads alike in the InterHand2.6M
   for (const char* layout : {"interhand", "handscs"}) {
     roots[layout] = data_test::fresh_dir(std::string("left_") + layout);
     SynthConfig config = synth_preset("tiny");
-    config.hand = "left";
-    config.layout = layout;
+    config.hand = Handedness::left;
+    config.layout = choice_value(layout, SynthConfig::layout_names());
     write_synth_capture(make_synth_scene(config), roots[layout]);
   }
   CaptureConfig config = data_test::tiny_config(roots["interhand"]);
-  config.hand = "left";
+  config.hand = Handedness::left;
   Capture reference = Capture::open(config);
   config.root = roots["handscs"];
   Capture capture = Capture::open(config);

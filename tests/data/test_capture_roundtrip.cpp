@@ -186,7 +186,7 @@ TEST_CASE("capture roundtrip: novel_view split, sequences and frame stride") {
   const auto& tiny = data_test::tiny_capture();
   CaptureConfig config = data_test::tiny_config(tiny.root);
   const auto ids = Capture::open(config).cameras();
-  config.split_rule = "novel_view";
+  config.split_rule = CaptureConfig::SplitRule::novel_view;
   config.test_cameras = {ids[3]};
   Capture view = Capture::open(config);
   CHECK(view.train().size() == 36);

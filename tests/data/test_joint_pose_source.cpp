@@ -22,7 +22,7 @@ namespace {
 
 CaptureConfig joints_config(const std::string& root, const std::string& cache) {
   CaptureConfig c = data_test::tiny_config(root);
-  c.pose_source = "joints";
+  c.pose_source = CaptureConfig::PoseSource::joints;
   c.annotation_cache = cache;
   return c;
 }

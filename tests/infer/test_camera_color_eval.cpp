@@ -58,7 +58,7 @@ TEST_CASE("camera colour eval: a training camera's transform applies, an unseen 
       ids.push_back(entry.path().filename().string().substr(3));
   std::sort(ids.begin(), ids.end());
   REQUIRE(ids.size() == 4);
-  config.data.split_rule = "novel_view";
+  config.data.split_rule = handscs::CaptureConfig::SplitRule::novel_view;
   config.data.train_cameras = {ids[0], ids[1], ids[2]};
   config.data.test_cameras = {ids[3]};
   config.train.iterations = 20;

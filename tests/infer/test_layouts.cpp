@@ -34,7 +34,7 @@ const std::string& tiny_in(const std::string& layout) {
   if (root.empty()) {
     root = fresh_dir("layout_" + layout);
     handscs::SynthConfig config = handscs::synth_preset("tiny");
-    config.layout = layout;
+    config.layout = handscs::choice_value(layout, handscs::SynthConfig::layout_names());
     config.effects.region_masks = true;
     handscs::generate_synth_capture(config, root);
   }

@@ -31,7 +31,7 @@ struct HandRun {
 HandRun train_and_score(const std::string& root, const std::string& hand) {
   handscs::RunConfig config = tiny_run_config();
   config.data.root = root;
-  config.data.hand = hand;
+  config.data.hand = handscs::choice_value(hand, handscs::CaptureConfig::hand_names());
   HandRun run;
   run.dir = fresh_dir("left_hand_run_" + hand);
   handscs::Trainer trainer(config, run.dir);
@@ -53,7 +53,7 @@ TEST_CASE("left hand: the mirrored tiny capture trains, scores and renders like 
   handscs::set_threads(2);
   const std::string left_root = fresh_dir("left_hand_capture");
   handscs::SynthConfig synth = handscs::synth_preset("tiny");
-  synth.hand = "left";
+  synth.hand = handscs::Handedness::left;
   handscs::generate_synth_capture(synth, left_root);
 
   const HandRun right = train_and_score(handscs_test::tiny_capture_dir(), "right");

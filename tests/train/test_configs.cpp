@@ -9,6 +9,7 @@
 
 #include "core/atomic_file.h"
 #include "core/config.h"
+#include "run/avatar_state_io.h"
 #include "run/run_config.h"
 
 namespace {
@@ -69,8 +70,8 @@ TEST_CASE("configs: the paper's InterHand2.6M protocol configs resolve to their 
     handscs::validate_run_config(config, path);
     CHECK(config.data.split == e.split);
     CHECK(config.data.capture == e.capture);
-    CHECK(config.data.split_rule == e.rule);
-    CHECK(config.data.hand == "right");
+    CHECK(config.data.split_rule == handscs::choice_value(e.rule, handscs::CaptureConfig::split_rule_names()));
+    CHECK(config.data.hand == handscs::Handedness::right);
     CHECK(config.data.held_out_poses == 50);
     CHECK(config.data.test_cameras.empty());  // novel_view: 10 train / 15 test chosen by id
     CHECK(config.data.novel_view_train_views == 10);
@@ -96,6 +97,53 @@ TEST_CASE("configs: cross-section mismatches are errors naming both keys") {
                     "or every mask would be empty");
   config.data.mask_refine.enabled = false;  // not refined: the bounds are unused
   CHECK_NOTHROW(handscs::validate_run_config(config, "x.json"));
+}
+
+TEST_CASE("configs: the old form with model.rig and model.flat_hand_mean still loads") {
+  // config.json files and checkpoints (meta "config") written before data.rig served the model
+  // carry model.rig and model.flat_hand_mean beside the data keys.
+  handscs::RunConfig defaults;
+  handscs::json old = handscs::config_to_json(defaults);
+  old["data"]["rig"] = "builtin:left";
+  old["data"]["hand"] = "left";
+  old["data"]["flat_hand_mean"] = true;
+  old["model"]["rig"] = "builtin:left";
+  old["model"]["flat_hand_mean"] = true;
+  handscs::RunConfig config;
+  handscs::config_from_json(old, "old.json", config);
+  CHECK(config.data.rig == "builtin:left");
+  CHECK(config.model.rig == "builtin:left");
+  CHECK(config.model.flat_hand_mean);
+  CHECK(config.data.hand == handscs::Handedness::left);
+  CHECK_NOTHROW(handscs::validate_run_config(config, "old.json"));
+  // Written back in the new form: one key each.
+  const handscs::json written = handscs::config_to_json(config);
+  CHECK_FALSE(written["model"].contains("rig"));
+  CHECK_FALSE(written["model"].contains("flat_hand_mean"));
+  CHECK(written["data"]["rig"] == "builtin:left");
+  CHECK(written["data"]["hand"] == "left");
+
+  // The same as a file, and as --set pairs the way the old README wrote them.
+  const std::string path = handscs_test::scratch_file("handscs_test_old_config", "old.json", old.dump(2));
+  CHECK_NOTHROW(config = handscs::load_config<handscs::RunConfig>(path, {}));
+  CHECK(config.model.rig == "builtin:left");
+  CHECK_NOTHROW(config = handscs::load_config<handscs::RunConfig>(
+                    "", {"data.rig=builtin:left", "model.rig=builtin:left", "data.hand=left"}));
+  CHECK(config.model.rig == "builtin:left");
+
+  // Disagreeing, they are an error naming both keys.
+  old["model"]["rig"] = "builtin";
+  CHECK_THROWS_WITH(handscs::config_from_json(old, "old.json", config),
+                    Catch::StartsWith("old.json: data.rig (\"builtin:left\") and model.rig (\"builtin\") must agree"));
+  old["model"]["rig"] = "builtin:left";
+  old["model"]["flat_hand_mean"] = false;
+  CHECK_THROWS_WITH(handscs::config_from_json(old, "old.json", config),
+                    Catch::StartsWith("old.json: data.flat_hand_mean (true) and model.flat_hand_mean (false) must agree"));
+  CHECK_THROWS_WITH(handscs::load_config<handscs::RunConfig>("", {"model.rig=mano_right.json"}),
+                    Catch::StartsWith("defaults + --set: data.rig (\"builtin\") and model.rig (\"mano_right.json\") must agree"));
+  // A trained avatar's rig is its checkpoint's: data.rig serves the model, so it is no override.
+  CHECK_THROWS_WITH(handscs::refuse_model_overrides({"data.rig=mano_right.json"}),
+                    Catch::StartsWith("--set data.rig=mano_right.json: the rig is the checkpoint's"));
 }
 
 TEST_CASE("configs: every point of every sweep file applies to its run config") {
