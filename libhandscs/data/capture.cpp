@@ -47,8 +47,9 @@ struct Candidate {
 
 // Reason order in the summary line.
 const std::vector<std::string> kReasonOrder = {
-    "null MANO",        "no joint_3d entry", "poor joint fit", "other hand",  "interacting",       "missing image",
-    "damaged JPEG",     "unreadable image", "wrong image size",  "black image", "hand outside image"};
+    "null MANO",       "no joint_3d entry", "poor joint fit",   "other hand",
+    "interacting",     "missing image",     "not a file",       "damaged JPEG",
+    "unreadable image", "wrong image size", "black image",      "hand outside image"};
 
 // Damaged JPEGs are each logged with what is wrong, up to this many lines (the summary counts all).
 constexpr size_t kDamageLines = 10;
@@ -361,10 +362,15 @@ std::vector<Candidate> annotated_candidates(const CaptureConfig& c, const Captur
     } else if (image.hand_type == "interacting" && !c.include_interacting) {
       reason = "interacting";
     } else if (std::error_code ec; !fs::is_regular_file(path, ec)) {
-      // A link loop or an unreadable folder is skipped like a missing image, its cause logged.
-      const bool absent = !ec || ec == std::errc::no_such_file_or_directory;
-      reason = absent ? "missing image" : "unreadable image";
-      if (!absent) spdlog::warn("{}: {}", path, ec.message());
+      // A link loop or an unreadable folder is skipped like a missing image, its cause logged; a
+      // named pipe, a device or a folder in the image's place is named as such.
+      std::error_code exists_ec;
+      const bool present = !ec && fs::exists(fs::symlink_status(path, exists_ec));
+      const bool absent = !present && (!ec || ec == std::errc::no_such_file_or_directory);
+      reason = absent ? "missing image" : present ? "not a file" : "unreadable image";
+      if (present)
+        spdlog::warn("{}: is not a regular file (a named pipe, a device, a folder or a broken link)", path);
+      else if (!absent) spdlog::warn("{}: {}", path, ec.message());
     }
     if (!reason.empty()) {
       skipped.push_back({path, reason});

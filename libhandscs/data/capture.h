@@ -71,8 +71,8 @@ struct FrameSample {
 struct SkippedImage {
   std::string path;
   std::string reason;  // "null MANO", "no joint_3d entry", "other hand", "interacting",
-                       // "missing image", "damaged JPEG", "unreadable image", "wrong image size",
-                       // "black image", "hand outside image", "poor joint fit"
+                       // "missing image", "not a file", "damaged JPEG", "unreadable image",
+                       // "wrong image size", "black image", "hand outside image", "poor joint fit"
 };
 
 // The rig source the capture poses for its masks (and the trainer should load): config.rig, with

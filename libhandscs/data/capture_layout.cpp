@@ -29,6 +29,14 @@ CaptureConfig::Layout detect_capture_layout(const std::string& root, CaptureConf
   if (setting != Layout::automatic) return setting;
   const fs::path base(root);
   std::error_code ec;
+  // A layout's file that is there but not a file (a named pipe, a device, a folder) is named, not
+  // passed over for another layout.
+  for (const char* name : {kEasyMocapIntrinsicsFile, kHandscsCaptureFile}) {
+    const fs::path path = base / name;
+    if (fs::exists(fs::symlink_status(path, ec)) && !fs::is_regular_file(path, ec))
+      throw Error(path.string() + ": is not a regular file (a named pipe, a device, a folder or a "
+                                  "broken link); give a file");
+  }
   if (fs::is_regular_file(base / kEasyMocapIntrinsicsFile, ec)) return Layout::easymocap;
   if (fs::is_regular_file(base / kHandscsCaptureFile, ec)) return Layout::handscs;
   return Layout::interhand;

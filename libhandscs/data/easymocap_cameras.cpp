@@ -1,5 +1,7 @@
 #include "data/easymocap_cameras.h"
 
+#include <filesystem>
+
 #include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/persistence.hpp>
@@ -19,10 +21,13 @@ constexpr double kRotationAgreement = 1e-4;
 class YamlFile {
  public:
   explicit YamlFile(const std::string& path) : path_(path) {
+    std::error_code ec;
+    if (std::filesystem::is_regular_file(path, ec) && std::filesystem::file_size(path, ec) == 0)
+      throw Error(path + ": is empty (expected OpenCV YAML: \"%YAML:1.0\", then the cameras' keys)");
     try {
       storage_.open(path, cv::FileStorage::READ);
     } catch (const cv::Exception& e) {
-      throw Error(path + ": cannot parse (" + std::string(e.what()) + ")");
+      throw Error(path + ": cannot parse (" + e.err + ")");  // OpenCV's message without its source
     }
     if (!storage_.isOpened()) throw Error(path + ": cannot open");
   }
@@ -49,8 +54,8 @@ class YamlFile {
     for (int length : lengths) length_ok = length_ok || n == length;
     if (!fits || !length_ok) {
       std::string wanted;
-      for (int length : lengths) wanted += (wanted.empty() ? "1x" : " or 1x") + std::to_string(length);
-      fail(key, "expected a " + wanted + " matrix, got " + shape(m));
+      for (int length : lengths) wanted += (wanted.empty() ? "" : " or ") + std::to_string(length);
+      fail(key, "expected " + wanted + " numbers (an n x 1 or 1 x n matrix), got " + shape(m));
     }
     return std::vector<double>(m.begin<double>(), m.end<double>());
   }
@@ -129,8 +134,12 @@ std::map<std::string, RecordCamera> read_easymocap_cameras(const std::string& in
     if (intri.has("H_" + name) || intri.has("W_" + name)) {
       camera.height = intri.integer("H_" + name);
       camera.width = intri.integer("W_" + name);
-      if (camera.width <= 0 || camera.height <= 0)
-        intri.fail("W_" + name, "image size must be positive");
+      // JPEG's largest side; a larger calibrated size is a typing error, not a camera.
+      constexpr int kMaxImageSide = 65535;
+      for (const auto& [key, side] : {std::pair<std::string, int>{"H_" + name, camera.height},
+                                      {"W_" + name, camera.width}})
+        if (side <= 0 || side > kMaxImageSide)
+          intri.fail(key, "image size " + std::to_string(side) + " is not in [1, 65535] pixels");
     }
     const std::vector<double> rvec = extri.vector("R_" + name, {3});
     cv::Mat rotation;

@@ -125,7 +125,7 @@ CaptureRecords read_handscs_capture(const std::string& root, CaptureConfig::Layo
     top.at("flat_hand_mean").fail(std::string("poses are stored with flat_hand_mean ") +
                                   (file_flat ? "true" : "false") + " but " + flat_key + " is " +
                                   (flat_hand_mean ? "true" : "false") +
-                                  " (set it, and model.flat_hand_mean, to match)");
+                                  " (set it to match)");
 
   if (easymocap) {
     const std::string intri = (base / kEasyMocapIntrinsicsFile).string();

@@ -91,14 +91,26 @@ void EmptyMaskWatch::record(const FrameInfo& frame, bool empty) {
     return;
   }
   ++empty_;
+  // A supplied mask file is what is empty; a rasterised one says the posed hand missed the view.
+  const bool supplied = !frame.mask_path.empty();
   if (!any_hand_ && seen_ >= steps_)
     throw Error("the hand masks of the first " + std::to_string(seen_) +
-                " training images are all empty (the last: " + frame.image_path +
-                "): nothing to learn from. The posed MANO hand covers no pixel of these views: "
-                "check the MANO annotation (shape, trans), data.hand, data.rig and the cameras");
-  if (any_hand_ && empty_ <= kEmptyMaskLines)
-    spdlog::warn("{}: the hand mask is empty (the posed hand covers no pixel); the step learns "
-                 "background only", frame.image_path);
+                " training images are all empty (the last: " +
+                (supplied ? "mask " + frame.mask_path + " of " : std::string()) + frame.image_path +
+                "): nothing to learn from. " +
+                (supplied ? std::string("The supplied masks hold no hand pixel: check the mask files "
+                                        "(non-zero = hand)")
+                          : std::string("The posed MANO hand covers no pixel of these views: check "
+                                        "the MANO annotation (shape, trans), data.hand, data.rig and "
+                                        "the cameras")));
+  if (any_hand_ && empty_ <= kEmptyMaskLines) {
+    if (supplied)
+      spdlog::warn("{}: the supplied mask of {} holds no hand pixel; the step learns background only",
+                   frame.mask_path, frame.image_path);
+    else
+      spdlog::warn("{}: the hand mask is empty (the posed hand covers no pixel); the step learns "
+                   "background only", frame.image_path);
+  }
 }
 
 }  // namespace handscs

@@ -2,6 +2,8 @@
 // reads back as the InterHand2.6M one (frames, split, cameras, MANO parameters, masks, images;
 // EasyMocap's after undistortion), supplied masks replace the mesh's, undistorted images are
 // cached, and malformed captures are errors naming the file, the key and what is wrong.
+#include <sys/stat.h>
+
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -83,6 +85,30 @@ TEST_CASE("capture layouts: auto detects each layout, and data.layout names it")
   CHECK(error_of([&] { Capture::open(config); }) ==
         interhand + "/capture.json: missing (the handscs layout keeps its frames' MANO parameters "
                     "there; docs/CAPTURE_FORMAT.md)");
+  // An image replaced by a named pipe is skipped as "not a file", not as missing.
+  {
+    const std::string root = data_test::copy_of_tiny_in("handscs", "piped_image");
+    std::string image;
+    for (const auto& entry : std::filesystem::recursive_directory_iterator(root + "/images"))
+      if (entry.path().extension() == ".jpg") image = entry.path().string();
+    REQUIRE_FALSE(image.empty());
+    std::filesystem::remove(image);
+    REQUIRE(::mkfifo(image.c_str(), 0600) == 0);
+    const Capture capture = Capture::open(data_test::tiny_config(root));
+    std::string reason;
+    for (const auto& skipped : capture.skipped())
+      if (skipped.path == image) reason = skipped.reason;
+    CHECK(reason == "not a file");
+  }
+  // A layout's file replaced by a named pipe is named, not passed over for another layout.
+  for (const std::string layout : {"handscs", "easymocap"}) {
+    const std::string root = data_test::copy_of_tiny_in(layout, "piped_" + layout);
+    const std::string file = root + (layout == "handscs" ? "/capture.json" : "/intri.yml");
+    std::filesystem::remove(file);
+    REQUIRE(::mkfifo(file.c_str(), 0600) == 0);
+    CHECK(error_of([&] { detect_capture_layout(root, CaptureConfig::Layout::automatic); }) ==
+          file + ": is not a regular file (a named pipe, a device, a folder or a broken link); give a file");
+  }
 }
 
 TEST_CASE("capture layouts: handscs and easymocap captures read as the InterHand2.6M one") {
@@ -271,7 +297,7 @@ TEST_CASE("capture layouts: malformed handscs captures are errors naming the fil
         file + ": frames[2].frame: frame 0 appears twice");
   CHECK(error_with([](json& c) { c["flat_hand_mean"] = true; }) ==
         file + ": flat_hand_mean: poses are stored with flat_hand_mean true but data.flat_hand_mean "
-               "is false (set it, and model.flat_hand_mean, to match)");
+               "is false (set it to match)");
   CHECK(error_with([](json& c) { c["cameras"]["400004"]["R"][0][0] = 2.0; })
             .rfind(file + ": cameras.400004.R: ", 0) == 0);
   // A key given twice would otherwise be read as its last value, without a word.
@@ -314,8 +340,15 @@ TEST_CASE("capture layouts: malformed EasyMocap calibration files are errors nam
     REQUIRE(to != std::string::npos);
     text.replace(from, to - from,
                  "dist_400002: !!opencv-matrix\n   rows: 1\n   cols: 3\n   dt: d\n   data: [ 0.1, 0.2, 0.3 ]\n");
-    CHECK(error_with(text, extri_text) == intri + ": dist_400002: expected a 1x5 or 1x4 matrix, got 1x3");
+    CHECK(error_with(text, extri_text) ==
+          intri + ": dist_400002: expected 5 or 4 numbers (an n x 1 or 1 x n matrix), got 1x3");
   }
+  CHECK(error_with(replaced(intri_text, "H_400004: 256", "H_400004: 0"), extri_text) ==
+        intri + ": H_400004: image size 0 is not in [1, 65535] pixels");
+  CHECK(error_with(replaced(intri_text, "W_400004: 167", "W_400004: 100000"), extri_text) ==
+        intri + ": W_400004: image size 100000 is not in [1, 65535] pixels");
+  CHECK(error_with(intri_text, "") == extri + ": is empty (expected OpenCV YAML: \"%YAML:1.0\", then "
+                                               "the cameras' keys)");
   CHECK(error_with(replaced(intri_text, "names:", "nomes:"), extri_text) == intri + ": names: missing key");
   std::filesystem::remove(extri);
   CHECK(error_of([&] { Capture::open(data_test::tiny_config(root)); }) ==

@@ -104,6 +104,18 @@ TEST_CASE("training checks: empty masks in the first steps fail the run, later o
   CHECK(some_hand.empty_count() == 10);
 }
 
+TEST_CASE("training checks: all-empty supplied masks are named as the mask files, not the hand") {
+  handscs::FrameInfo frame;
+  frame.image_path = "/data/images/cam1/7.jpg";
+  frame.mask_path = "/data/masks/cam1/7.png";
+  handscs::EmptyMaskWatch all_empty(2);
+  all_empty.record(frame, true);
+  CHECK(error_of([&] { all_empty.record(frame, true); }) ==
+        "the hand masks of the first 2 training images are all empty (the last: mask "
+        "/data/masks/cam1/7.png of /data/images/cam1/7.jpg): nothing to learn from. The supplied "
+        "masks hold no hand pixel: check the mask files (non-zero = hand)");
+}
+
 TEST_CASE("training checks: a capture whose masks are all empty stops at step 16 with an error") {
   // Plant an all-zero mask for every frame in the run's mask cache: the loader reads them as
   // the masks of the capture (as a hand posed outside every view would give).
