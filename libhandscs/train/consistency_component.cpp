@@ -27,10 +27,10 @@ ConsistencyComponent::ConsistencyComponent(const ConsistencyConfig& config, bool
 
 void ConsistencyComponent::prepare_loss(EntryContext& entry, LossInputs& inputs) {
   // One term per pose: the same for each of its views.
-  inputs.consistency = loss(entry, &entry.consistency_weight);
+  inputs.consistency = loss(entry);
 }
 
-torch::Tensor ConsistencyComponent::loss(const EntryContext& entry, double* pair_weight) {
+torch::Tensor ConsistencyComponent::loss(EntryContext& entry) {
   const Chain& prev = prev_[entry.entry];
   const AvatarState& state = *entry.state;
   auto& g = entry.avatar->gaussians();
@@ -43,7 +43,7 @@ torch::Tensor ConsistencyComponent::loss(const EntryContext& entry, double* pair
   torch::Tensor loss;
   const double weight =
       prev.descriptor.defined() ? pose_similarity(feature, prev.pose_feature, config_.delta) : 0.0;
-  if (prev.descriptor.defined()) *pair_weight = weight;
+  if (prev.descriptor.defined()) entry.consistency_weight = weight;
   if (prev.descriptor.defined() && prev.descriptor.size(0) == g.size() &&
       weight >= config_.min_weight) {
     torch::Tensor match;

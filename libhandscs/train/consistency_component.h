@@ -35,8 +35,9 @@ class ConsistencyComponent : public TrainingComponent {
     torch::Tensor decoded;  // [N] bool: rows decoded at that step (train.cull); undefined: all
   };
   // L_con of the entry against its chain (undefined when there is no pair or its weight is below
-  // min_weight); stores the entry's state as the chain's next link.
-  torch::Tensor loss(const EntryContext& entry, double* pair_weight);
+  // min_weight; the pair's weight goes to entry.consistency_weight); stores the entry's state as
+  // the chain's next link.
+  torch::Tensor loss(EntryContext& entry);
   void put_chains(Checkpoint& checkpoint) const;  // this rank's chains, by view
 
   ConsistencyConfig config_;

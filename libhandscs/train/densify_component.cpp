@@ -4,8 +4,7 @@
 
 namespace handscs {
 
-DensifyComponent::DensifyComponent(const DensifyConfig& config)
-    : config_(config), densifier_(config) {}
+DensifyComponent::DensifyComponent(const DensifyConfig& config) : densifier_(config) {}
 
 void DensifyComponent::before_render(const EntryContext& entry, ViewRender& view) {
   view.probe = torch::zeros({entry.avatar->gaussians().size(), 2}).requires_grad_(true);
@@ -63,8 +62,7 @@ void DensifyComponent::after_step(const StepContext& step) {
 void DensifyComponent::save(Checkpoint& checkpoint, int64_t) const { densifier_.save(checkpoint); }
 
 void DensifyComponent::load(const Checkpoint& checkpoint, const LoadContext&) {
-  densifier_ = Densifier(config_);
-  densifier_.load(checkpoint);
+  densifier_.load(checkpoint);  // replaces both statistics (undefined when the checkpoint has none)
   step_ = {};
 }
 

@@ -23,7 +23,6 @@ class DensifyComponent : public TrainingComponent {
   void load(const Checkpoint& checkpoint, const LoadContext& context) override;
 
  private:
-  DensifyConfig config_;
   Densifier densifier_;
   Densifier::ViewStatistics step_;  // this step's, summed over its entries (then its ranks)
 };

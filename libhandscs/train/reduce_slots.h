@@ -25,7 +25,6 @@ class ReduceSlots {
   // sizes, in any order.
   void add(const std::string& name, const torch::Tensor& values);
   void add_scalar(const std::string& name, double value);
-  bool has(const std::string& name) const { return index_.count(name) > 0; }
 
   // Sums every slot over the ranks in one all-reduce (slots are laid out sorted by name, so the
   // order of add() calls does not matter).
