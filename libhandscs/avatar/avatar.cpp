@@ -210,6 +210,18 @@ RasterOutput render_posed(const PosedGaussians& posed, const Camera& camera,
                              settings, means2d_probe);
 }
 
+PosedGaussians join_posed(const std::vector<const PosedGaussians*>& sets) {
+  require(!sets.empty(), "join_posed: no posed Gaussians");
+  if (sets.size() == 1) return *sets.front();
+  const auto join = [&](torch::Tensor PosedGaussians::*field) {
+    std::vector<torch::Tensor> parts;
+    for (const PosedGaussians* set : sets) parts.push_back(set->*field);
+    return torch::cat(parts, 0);
+  };
+  return {join(&PosedGaussians::means), join(&PosedGaussians::covariances),
+          join(&PosedGaussians::colors), join(&PosedGaussians::opacities)};
+}
+
 AvatarOutput Avatar::forward(const torch::Tensor& pose_in, const torch::Tensor& shape,
                              const torch::Tensor& trans, const Camera& camera,
                              const RasterSettings& settings, const torch::Tensor& means2d_probe,

@@ -33,6 +33,10 @@ struct PosedGaussians {
 RasterOutput render_posed(const PosedGaussians& posed, const Camera& camera,
                           const RasterSettings& settings, const torch::Tensor& means2d_probe = {});
 
+// Several posed sets as one, rows in order (two hands rendered in one rasteriser call, so that each
+// hides the other where it is in front). One set is returned as it is.
+PosedGaussians join_posed(const std::vector<const PosedGaussians*>& sets);
+
 // Everything one forward pass produces that losses and tools may need.
 struct AvatarState {
   PosedGaussians posed;

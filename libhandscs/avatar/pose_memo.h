@@ -24,6 +24,7 @@ class PoseMemo {
   double pose_ms() const { return pose_ms_; }
   int64_t computed() const { return computed_; }  // poses computed so far
   int64_t reused() const { return reused_; }      // calls answered from the previous pose
+  const AvatarState* last() const { return state_ ? &*state_ : nullptr; }  // the last call's
 
  private:
   static constexpr size_t kKeySize = 48 + 10 + 3;

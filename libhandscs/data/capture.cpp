@@ -25,6 +25,7 @@
 #include "data/scan_cache.h"
 #include "hand/lbs.h"
 #include "hand/rig.h"
+#include "hand/rig_mirror.h"
 
 namespace handscs {
 
@@ -40,7 +41,8 @@ constexpr int64_t kLbsBatch = 128;
 // An image that passed the annotation checks, before the image checks.
 struct Candidate {
   const RecordImage* image;
-  const RecordHand* hand;
+  const RecordHand* hand;  // the first of data.hand's hands the frame has
+  std::array<const RecordHand*, 2> hands{};  // data.hand both: by Handedness, null where absent
   std::string path;
   Camera camera;
 };
@@ -181,9 +183,27 @@ void split_frames(const std::vector<FrameInfo>& frames, CaptureConfig::SplitRule
 
 }  // namespace
 
-std::string capture_rig_source(const CaptureConfig& config) {
-  return (config.rig == "builtin" && config.hand == Handedness::left) ? std::string("builtin:left")
-                                                                     : config.rig;
+Rig capture_rig(const CaptureConfig& config, Handedness side, const std::string& config_key) {
+  const bool left = side == Handedness::left;
+  if (config.rig == "builtin") return load_rig_source(left ? "builtin:left" : "builtin");
+  Rig rig = load_rig_source(config.rig);
+  if (rig.handedness == side) return rig;
+  if (config.hand == CaptureConfig::Hands::both) return mirror_rig(rig);
+  throw Error(config_key + ".rig: rig \"" + config.rig + "\" is a " + hand_name(rig.handedness) +
+              " hand but " + config_key + ".hand is " +
+              hand_name(config.hand));
+}
+
+FrameInfo frame_of_hand(const FrameInfo& frame, Handedness side) {
+  FrameInfo out = frame;
+  if (const HandParams* hand = frame.hand(side)) {
+    out.pose = hand->pose;
+    out.shape = hand->shape;
+    out.trans = hand->trans;
+    out.joints = hand->joints;
+    out.joint_valid = hand->joint_valid;
+  }
+  return out;
 }
 
 void choose_novel_view_cameras(const std::set<std::string>& available, int train_views,
@@ -219,6 +239,7 @@ PoseRanges novel_pose_ranges(const CaptureConfig& c, int num_poses, const std::s
             key_name(prefix, name) + ": only split_rule novel_pose selects poses (it is " +
                 std::to_string(value) + " with " + split_rule_name(c.split_rule) + ")");
   PoseRanges r;
+  if (c.split_rule != CaptureConfig::SplitRule::novel_pose) return r;  // the split is by camera
   r.end = num_poses - c.held_out_poses;  // the training poses end where the held-out ones start
   if (c.validation_poses > 0) {
     if (c.validation_poses >= r.end)
@@ -338,7 +359,8 @@ CameraSplit choose_cameras(const CaptureConfig& c, const CaptureRecords& records
 std::vector<Candidate> annotated_candidates(const CaptureConfig& c, const CaptureRecords& records,
                                             const CameraSplit& cams,
                                             std::vector<SkippedImage>& skipped, size_t& considered) {
-  const bool right = c.hand == Handedness::right;
+  const bool both = c.hand == CaptureConfig::Hands::both;
+  const bool right = c.hand == CaptureConfig::Hands::right;
   const std::string other_hand = right ? "left" : "right";
   std::vector<Candidate> candidates;
   for (const auto& image : records.images) {
@@ -346,10 +368,20 @@ std::vector<Candidate> annotated_candidates(const CaptureConfig& c, const Captur
     ++considered;
     const std::string path = (fs::path(records.images_dir) / image.file_name).string();
     auto m = records.frames.find(image.frame_idx);
+    // data.hand both: a hand whose fit failed is absent and the other trains; the image is skipped
+    // for the first hand's reason only when neither is usable.
+    std::array<const RecordHand*, 2> hands{};  // by Handedness: right, left
     const RecordHand* hand = nullptr;
     if (m != records.frames.end())
-      hand = right ? (m->second.right ? &*m->second.right : nullptr)
-                   : (m->second.left ? &*m->second.left : nullptr);
+      hands = {m->second.right ? &*m->second.right : nullptr, m->second.left ? &*m->second.left : nullptr};
+    if (!both) {
+      hand = hands[right ? 0 : 1];
+    } else {
+      const RecordHand* first_present = hands[0] ? hands[0] : hands[1];
+      for (const RecordHand*& h : hands)
+        if (h && !h->fit_problem.empty()) h = nullptr;
+      hand = hands[0] ? hands[0] : hands[1] ? hands[1] : first_present;
+    }
     std::string reason;
     if (!hand) {
       reason = "null MANO";
@@ -357,9 +389,9 @@ std::vector<Candidate> annotated_candidates(const CaptureConfig& c, const Captur
       reason = "no joint_3d entry";
     } else if (!hand->fit_problem.empty()) {
       reason = hand->fit_problem;
-    } else if (image.hand_type == other_hand) {
+    } else if (!both && image.hand_type == other_hand) {
       reason = "other hand";
-    } else if (image.hand_type == "interacting" && !c.include_interacting) {
+    } else if (!both && image.hand_type == "interacting" && !c.include_interacting) {
       reason = "interacting";
     } else if (std::error_code ec; !fs::is_regular_file(path, ec)) {
       // A link loop or an unreadable folder is skipped like a missing image, its cause logged; a
@@ -384,7 +416,7 @@ std::vector<Candidate> annotated_candidates(const CaptureConfig& c, const Captur
     if (!implausible.empty())
       throw Error(record.where + " (with the " + std::to_string(image.width) + "x" +
                   std::to_string(image.height) + " image size of " + path + "): " + implausible);
-    candidates.push_back({&image, hand, path, camera});
+    candidates.push_back({&image, hand, both ? hands : std::array<const RecordHand*, 2>{}, path, camera});
   }
   return candidates;
 }
@@ -419,7 +451,7 @@ struct ImageSelection {
 ImageSelection select_usable_images(const CaptureConfig& c, const std::string& images_dir,
                                     const std::vector<Candidate>& candidates,
                                     const std::vector<int>& candidate_pose,
-                                    const std::vector<std::vector<float>>& posed, int64_t num_vertices,
+                                    const std::vector<std::vector<float>>& posed,
                                     std::vector<SkippedImage>& skipped) {
   const int64_t num_candidates = static_cast<int64_t>(candidates.size());
   std::vector<std::string> paths;
@@ -430,6 +462,7 @@ ImageSelection select_usable_images(const CaptureConfig& c, const std::string& i
 #pragma omp parallel for schedule(dynamic, 4)
   for (int64_t i = 0; i < num_candidates; ++i) {  // nothing here throws
     const std::vector<float>& vertices = posed[candidate_pose[i]];
+    const int64_t num_vertices = static_cast<int64_t>(vertices.size() / 3);
     in_view[i] = !projected_bounds(vertices.data(), num_vertices, candidates[i].camera).empty();
   }
 
@@ -480,6 +513,46 @@ ImageSelection select_usable_images(const CaptureConfig& c, const std::string& i
   return selection;
 }
 
+HandParams hand_params(const RecordHand& hand) {
+  HandParams p;
+  for (int k = 0; k < 48; ++k) p.pose[k] = static_cast<float>(hand.mano.pose[k]);
+  for (int k = 0; k < 10; ++k) p.shape[k] = static_cast<float>(hand.mano.shape[k]);
+  for (int k = 0; k < 3; ++k) p.trans[k] = static_cast<float>(hand.mano.trans[k]);
+  if (hand.has_joints) {
+    for (int k = 0; k < 63; ++k) p.joints[k] = static_cast<float>(hand.joints[k]);
+    p.joint_valid = hand.joint_valid;
+  }
+  return p;
+}
+
+// The rig of every hand data.hand selects posed once per kept pose: per pose, the present hands'
+// vertices one after the other (right first).
+std::vector<std::vector<float>> pose_hands(const CaptureConfig& c, const std::vector<Candidate>& candidates,
+                                           const std::map<int64_t, int>& strided_pose,
+                                           const std::string& config_key) {
+  const bool both = c.hand == CaptureConfig::Hands::both;
+  std::vector<std::vector<float>> posed(strided_pose.size());
+  for (const Handedness side : hand_sides(c.hand)) {
+    std::vector<const ManoParams*> params(strided_pose.size(), nullptr);
+    for (const auto& cand : candidates) {
+      const RecordHand* hand = both ? cand.hands[side == Handedness::right ? 0 : 1] : cand.hand;
+      if (hand) params[strided_pose.at(cand.image->frame_idx)] = &hand->mano;
+    }
+    std::vector<int> present;
+    std::vector<const ManoParams*> used;
+    for (size_t p = 0; p < params.size(); ++p)
+      if (params[p]) {
+        present.push_back(static_cast<int>(p));
+        used.push_back(params[p]);
+      }
+    const std::vector<std::vector<float>> vertices =
+        pose_rig(capture_rig(c, side, config_key), used, c.flat_hand_mean);
+    for (size_t k = 0; k < present.size(); ++k)
+      posed[present[k]].insert(posed[present[k]].end(), vertices[k].begin(), vertices[k].end());
+  }
+  return posed;
+}
+
 // Step 6: one usable image as a frame (units: metres; joints in MANO's 21-joint order).
 FrameInfo make_frame(const Candidate& cand, int64_t index, int pose_index, bool held_out) {
   const RecordImage& image = *cand.image;
@@ -497,14 +570,14 @@ FrameInfo make_frame(const Candidate& cand, int64_t index, int pose_index, bool 
   f.held_out = held_out;
   f.camera = cand.camera;
   for (int k = 0; k < 4; ++k) f.bbox[k] = static_cast<float>(image.bbox[k]);
-  const RecordHand& hand = *cand.hand;
-  for (int k = 0; k < 48; ++k) f.pose[k] = static_cast<float>(hand.mano.pose[k]);
-  for (int k = 0; k < 10; ++k) f.shape[k] = static_cast<float>(hand.mano.shape[k]);
-  for (int k = 0; k < 3; ++k) f.trans[k] = static_cast<float>(hand.mano.trans[k]);
-  if (hand.has_joints) {
-    for (int k = 0; k < 63; ++k) f.joints[k] = static_cast<float>(hand.joints[k]);
-    f.joint_valid = hand.joint_valid;
-  }
+  const HandParams first = hand_params(*cand.hand);
+  f.pose = first.pose;
+  f.shape = first.shape;
+  f.trans = first.trans;
+  f.joints = first.joints;
+  f.joint_valid = first.joint_valid;
+  for (int side = 0; side < 2; ++side)
+    if (cand.hands[side]) f.hands[side] = hand_params(*cand.hands[side]);
   return f;
 }
 
@@ -532,27 +605,23 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   const std::map<int64_t, int> strided_pose = apply_frame_stride(c.frame_stride, candidates);
 
   // The rig posed once per kept pose (masks and in-view checks).
-  std::vector<const ManoParams*> pose_params(strided_pose.size(), nullptr);
-  for (const auto& cand : candidates)
-    pose_params[strided_pose.at(cand.image->frame_idx)] = &cand.hand->mano;
-  const Rig rig = load_rig_source(capture_rig_source(c));
-  if (rig.handedness != c.hand)
-    throw Error(key_name(config_key, "rig") + ": rig \"" + c.rig + "\" is a " +
-                hand_name(rig.handedness) + " hand but " + key_name(config_key, "hand") + " is " +
-                hand_name(c.hand));
-  const std::vector<std::vector<float>> posed = pose_rig(rig, pose_params, c.flat_hand_mean);
-  impl->num_vertices = rig.num_vertices();
+  const std::vector<std::vector<float>> posed = pose_hands(c, candidates, strided_pose, config_key);
   {
+    const Rig rig = capture_rig(c, hand_sides(c.hand).front(), config_key);
+    impl->num_vertices = rig.num_vertices();
     torch::Tensor faces = rig.faces.to(torch::kInt64).contiguous();
     impl->faces.assign(faces.data_ptr<int64_t>(), faces.data_ptr<int64_t>() + faces.numel());
+    impl->faces_per_hand = faces.size(0);
+    if (c.hand == CaptureConfig::Hands::both) {  // the second hand's, its vertices after the first's
+      for (int64_t k = 0; k < faces.numel(); ++k) impl->faces.push_back(impl->faces[k] + impl->num_vertices);
+    }
   }
 
   std::vector<int> candidate_pose(candidates.size());
   for (size_t i = 0; i < candidates.size(); ++i)
     candidate_pose[i] = strided_pose.at(candidates[i].image->frame_idx);
   ImageSelection selection =
-      select_usable_images(c, records.images_dir, candidates, candidate_pose, posed, impl->num_vertices,
-                           skipped);
+      select_usable_images(c, records.images_dir, candidates, candidate_pose, posed, skipped);
   std::vector<size_t>& usable = selection.usable;
   impl->monochrome_cameras = selection.monochrome;
   impl->grey_images = selection.grey_in_colour;
@@ -670,6 +739,7 @@ const std::vector<float>& Capture::posed_vertices(int pose_index) const {
   return impl_->posed_vertices[pose_index];
 }
 const std::vector<int64_t>& Capture::faces() const { return impl_->faces; }
+int64_t Capture::num_faces(int pose_index) const { return impl_->num_faces(pose_index); }
 const CropCache& Capture::cache() const { return impl_->cache; }
 std::string Capture::mask_cache_folder() const { return impl_->mask_folder; }
 

@@ -19,6 +19,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <opencv2/core/mat.hpp>
 #include <set>
 #include <string>
@@ -28,8 +29,18 @@
 #include "data/camera_transforms.h"
 #include "data/capture_config.h"
 #include "data/crop_cache.h"
+#include "hand/rig.h"
 
 namespace handscs {
+
+// One hand's annotated parameters in a frame (data.hand both: FrameInfo::hands).
+struct HandParams {
+  std::array<float, 48> pose{};    // as FrameInfo::pose
+  std::array<float, 10> shape{};
+  std::array<float, 3> trans{};    // metres
+  std::array<float, 63> joints{};  // MANO21 order, metres (zeros, joint_valid 0, when none)
+  std::array<uint8_t, 21> joint_valid{};
+};
 
 // One usable image: where it is, its camera, and the hand's annotated pose.
 struct FrameInfo {
@@ -54,7 +65,21 @@ struct FrameInfo {
   std::array<float, 63> joints{};  // annotated joints, MANO21 order, metres, row-major [21, 3]
                                    // (zeros, joint_valid 0, when the capture has none)
   std::array<uint8_t, 21> joint_valid{};  // MANO21 order
+  // data.hand both: each hand's parameters, indexed by Handedness (right, left); a hand the frame
+  // has no usable parameters for is absent. The fields above then hold the first present hand's.
+  // Empty with one hand.
+  std::array<std::optional<HandParams>, 2> hands;
+  // data.hand both: the hand's parameters, null when the frame lacks it.
+  const HandParams* hand(Handedness side) const {
+    const auto& h = hands[side == Handedness::right ? 0 : 1];
+    return h ? &*h : nullptr;
+  }
 };
+
+// The frame as hand `side` sees it: a copy whose pose, shape, trans and joints are that hand's
+// (data.hand both), so that one-hand code reads them where it always has. A frame without `hands`
+// (one hand) is returned as it is.
+FrameInfo frame_of_hand(const FrameInfo& frame, Handedness side);
 
 // A decoded frame: image and mask as uint8 tensors, cropped to the ROI unless full_image.
 struct FrameSample {
@@ -75,9 +100,11 @@ struct SkippedImage {
                        // "wrong image size", "black image", "hand outside image", "poor joint fit"
 };
 
-// The rig source the capture poses for its masks (and the trainer should load): config.rig, with
-// "builtin" meaning "builtin:left" for a left hand.
-std::string capture_rig_source(const CaptureConfig& config);
+// The rig of hand `side`, one of config.hand's, that the capture poses for its masks and the
+// trainer builds that hand's avatar on: "builtin" is the built-in hand of that side; a rig file is
+// used for its own hand and mirrored for the other (data.hand both). Throws Error naming
+// <config_key>.rig when one hand is selected and the file's rig is of the other.
+Rig capture_rig(const CaptureConfig& config, Handedness side, const std::string& config_key = "data");
 
 // novel_view camera choice when the config names none: n = min(train + test, available) cameras
 // evenly spaced over the sorted ids; test views are spread among them in proportion (Bresenham),
@@ -126,9 +153,14 @@ class Capture {
   // Uncached building blocks (benchmarks, tests): full BGR image; mask [H, W] 0/1 (mesh + refine).
   cv::Mat decode_image(const FrameInfo& frame) const;
   cv::Mat compute_mask(const FrameInfo& frame, const cv::Mat& bgr) const;
-  // Posed rig vertices [V, 3] (world, m) of a pose and the rig's faces [F, 3].
+  // Posed rig vertices [V, 3] (world, m) of a pose and the rig's faces [F, 3]. data.hand both: the
+  // pose's hands one after the other (right first; V is a multiple of the one hand's count) and
+  // the faces of two hands; a pose with one hand uses the first half of the faces (the hands share
+  // a topology).
   const std::vector<float>& posed_vertices(int pose_index) const;
   const std::vector<int64_t>& faces() const;
+  // Faces [F, 3] of the mesh posed_vertices(pose_index) holds (a prefix of faces()).
+  int64_t num_faces(int pose_index) const;
 
   const CropCache& cache() const;
   std::string mask_cache_folder() const;  // "" when masks are not cached on disk

@@ -1,5 +1,7 @@
 #include "data/capture_config.h"
 
+#include "core/error.h"
+
 namespace handscs {
 
 const ChoiceNames<CaptureConfig::Layout>& CaptureConfig::layout_names() {
@@ -10,8 +12,9 @@ const ChoiceNames<CaptureConfig::Layout>& CaptureConfig::layout_names() {
   return names;
 }
 
-const ChoiceNames<Handedness>& CaptureConfig::hand_names() {
-  static const ChoiceNames<Handedness> names = {{"right", Handedness::right}, {"left", Handedness::left}};
+const ChoiceNames<CaptureConfig::Hands>& CaptureConfig::hand_names() {
+  static const ChoiceNames<Hands> names = {
+      {"right", Hands::right}, {"left", Hands::left}, {"both", Hands::both}};
   return names;
 }
 
@@ -29,7 +32,23 @@ const ChoiceNames<CaptureConfig::PoseSource>& CaptureConfig::pose_source_names()
 std::string layout_name(CaptureConfig::Layout layout) {
   return choice_name(layout, CaptureConfig::layout_names());
 }
-std::string hand_name(Handedness hand) { return choice_name(hand, CaptureConfig::hand_names()); }
+std::string hand_name(Handedness hand) { return hand == Handedness::right ? "right" : "left"; }
+std::string hand_name(CaptureConfig::Hands hands) { return choice_name(hands, CaptureConfig::hand_names()); }
+
+std::vector<Handedness> hand_sides(CaptureConfig::Hands hands) {
+  switch (hands) {
+    case CaptureConfig::Hands::right: return {Handedness::right};
+    case CaptureConfig::Hands::left: return {Handedness::left};
+    case CaptureConfig::Hands::both: break;
+  }
+  return {Handedness::right, Handedness::left};
+}
+
+Handedness single_hand(CaptureConfig::Hands hands, const std::string& what) {
+  if (hands == CaptureConfig::Hands::both)
+    throw Error(what + " handles one hand: data.hand is both (set right or left)");
+  return hands == CaptureConfig::Hands::left ? Handedness::left : Handedness::right;
+}
 std::string split_rule_name(CaptureConfig::SplitRule rule) {
   return choice_name(rule, CaptureConfig::split_rule_names());
 }

@@ -38,14 +38,19 @@ struct CaptureConfig {
   enum class SplitRule { novel_pose, novel_view };
   // Where each frame's hand pose comes from (InterHand2.6M layout).
   enum class PoseSource { mano, joints };
+  // The hands a run trains: one of them, or both (an avatar each, rendered together).
+  enum class Hands { right, left, both };
 
   std::string root;                        // dataset folder (see layout)
   Layout layout = Layout::automatic;
   std::string split = "test";              // InterHand split folder: train, test or val
   int capture = 0;                         // Capture{c} (InterHand2.6M layout only)
   std::vector<std::string> sequences;      // seq_name values to use (empty = all of the capture)
-  Handedness hand = Handedness::right;     // which hand's MANO parameters drive the avatar
-  bool include_interacting = false;        // also use frames annotated "interacting" (both hands)
+  // Which hands' MANO parameters drive the avatars. both: every frame with either hand, each hand
+  // its own avatar, masks and crops covering both; a hand without parameters in a frame is absent
+  // from it while the other trains.
+  Hands hand = Hands::right;
+  bool include_interacting = false;        // one hand: also use frames annotated "interacting"
   std::vector<std::string> train_cameras;  // camera ids for training (empty = all; see split_rule)
   std::vector<std::string> test_cameras;   // camera ids for testing (empty: as train_cameras)
   int frame_stride = 1;                    // keep every k-th pose (by frame index)
@@ -100,9 +105,10 @@ struct CaptureConfig {
     v.field("capture", capture, "InterHand2.6M capture number (images/{split}/Capture{c})", 0,
             1000000);
     v.field("sequences", sequences, "sequence names to use (empty = all)");
-    v.choice("hand", hand, hand_names(), "hand whose MANO parameters are used");
+    v.choice("hand", hand, hand_names(),
+             "hand whose MANO parameters are used; both: an avatar for each hand of every frame");
     v.field("include_interacting", include_interacting,
-            "also use frames whose hand_type is interacting (the other hand is in view)");
+            "one hand: also use frames whose hand_type is interacting (the other hand is in view)");
     v.field("train_cameras", train_cameras, "training camera ids (empty = all)");
     v.field("test_cameras", test_cameras,
             "test camera ids (novel_pose: empty = as train_cameras; novel_view: empty = chosen "
@@ -132,7 +138,7 @@ struct CaptureConfig {
             "pose_source joints: skip a hand whose mean joint residual (mm) exceeds this", 0.1, 1e6);
     v.field("rig", rig,
             "rig of the masks and the avatar: builtin (the hand of data.hand), builtin:left or a rig "
-            "file (hand must match)");
+            "file (hand must match; both: the file's mirror image is the other hand)");
     v.field("flat_hand_mean", flat_hand_mean,
             "poses are absolute (true) or relative to hands_mean (masks and avatar)");
     v.field("roi_margin", roi_margin, "pixels around the mask's bounding box", 0, 4096);
@@ -149,7 +155,7 @@ struct CaptureConfig {
 
   // Each choice's names as files write them (and --help lists them).
   static const ChoiceNames<Layout>& layout_names();
-  static const ChoiceNames<Handedness>& hand_names();
+  static const ChoiceNames<Hands>& hand_names();
   static const ChoiceNames<SplitRule>& split_rule_names();
   static const ChoiceNames<PoseSource>& pose_source_names();
 };
@@ -158,6 +164,12 @@ struct CaptureConfig {
 // "novel_view", "joints").
 std::string layout_name(CaptureConfig::Layout layout);
 std::string hand_name(Handedness hand);
+std::string hand_name(CaptureConfig::Hands hands);
+// The hands `hands` trains, right first.
+std::vector<Handedness> hand_sides(CaptureConfig::Hands hands);
+// The one hand of a one-hand selection; throws Error for both, naming `what` (the part of the
+// toolchain that handles one hand only).
+Handedness single_hand(CaptureConfig::Hands hands, const std::string& what);
 std::string split_rule_name(CaptureConfig::SplitRule rule);
 std::string pose_source_name(CaptureConfig::PoseSource source);
 

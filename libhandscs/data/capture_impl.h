@@ -20,9 +20,14 @@ struct Capture::Impl {
   CaptureConfig::Layout layout = CaptureConfig::Layout::interhand;  // as read (never automatic)
   std::vector<FrameInfo> frames, train, test;
   int num_poses = 0;
-  std::vector<std::vector<float>> posed_vertices;  // [pose][V * 3]
-  std::vector<int64_t> faces;                      // [F * 3]
-  int64_t num_vertices = 0;
+  std::vector<std::vector<float>> posed_vertices;  // [pose][V * 3] (Capture::posed_vertices)
+  std::vector<int64_t> faces;                      // [F * 3] (Capture::faces)
+  int64_t num_vertices = 0;                        // of one hand
+  int64_t faces_per_hand = 0;
+  // Faces of the mesh posed_vertices[pose] holds: one hand's per hand present.
+  int64_t num_faces(int pose) const {
+    return faces_per_hand * static_cast<int64_t>(posed_vertices.at(pose).size() / 3 / num_vertices);
+  }
   std::vector<std::string> cameras, monochrome_cameras;
   std::vector<std::string> grey_images;  // grey images of colour cameras (Capture::grey_images)
   std::vector<SkippedImage> skipped;

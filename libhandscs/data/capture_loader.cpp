@@ -97,8 +97,8 @@ cv::Mat Capture::Impl::decode(const FrameInfo& frame) const {
 
 cv::Mat Capture::Impl::compute_mask(const FrameInfo& frame, const cv::Mat& bgr) const {
   const std::vector<float>& vertices = posed_vertices.at(frame.pose_index);
-  cv::Mat mask = mesh_mask(vertices.data(), num_vertices, faces.data(),
-                           static_cast<int64_t>(faces.size() / 3), frame.camera);
+  cv::Mat mask = mesh_mask(vertices.data(), static_cast<int64_t>(vertices.size() / 3), faces.data(),
+                           num_faces(frame.pose_index), frame.camera);
   if (config.mask_refine.enabled) {
     cv::Mat refined = mask.clone();
     refine_mask(refined, bgr, config.mask_refine);

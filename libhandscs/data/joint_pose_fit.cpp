@@ -10,7 +10,7 @@
 #include "core/file_stamp.h"
 #include "core/hash.h"
 #include "data/cache_files.h"
-#include "data/capture.h"  // capture_rig_source
+#include "data/capture.h"  // capture_rig
 #include "data/interhand_records.h"  // interhand_hand_joints
 
 namespace handscs {
@@ -22,7 +22,7 @@ namespace {
 // Bumped when the cached fit's meaning changes (the solver, the file's fields).
 constexpr int kFitCacheVersion = 1;
 
-std::string cache_key(const std::string& joint_file, const CaptureConfig& c) {
+std::string cache_key(const std::string& joint_file, const CaptureConfig& c, Handedness side) {
   FileStamp stamp;
   read_file_stamp(joint_file, stamp);
   FileStamp rig_stamp;
@@ -30,19 +30,18 @@ std::string cache_key(const std::string& joint_file, const CaptureConfig& c) {
   KeypointFitConfig fit = c.joint_fit;
   const json key = {{"version", kFitCacheVersion}, {"joint_file", fs::absolute(joint_file).string()},
                     {"size", stamp.size}, {"mtime_ns", stamp.mtime_ns}, {"capture", c.capture},
-                    {"hand", hand_name(c.hand)}, {"rig", c.rig}, {"rig_size", rig_stamp.size},
+                    {"hand", hand_name(side)}, {"rig", c.rig}, {"rig_size", rig_stamp.size},
                     {"rig_mtime_ns", rig_stamp.mtime_ns}, {"flat_hand_mean", c.flat_hand_mean},
                     {"fit", config_to_json(fit)}};
   return key.dump();
 }
 
-}  // namespace
-
-std::map<int64_t, RecordFrame> fit_joint_frames(const std::map<int64_t, InterHandJoints>& joints,
-                                                const std::string& joint_3d_json, const CaptureConfig& c) {
-  const bool right = c.hand == Handedness::right;
-  const std::string hand = hand_name(c.hand);
-  const std::string key = cache_key(joint_3d_json, c);
+// One hand's fits into `out` (its frames, from the cache or fitted now).
+void fit_one_hand(const std::map<int64_t, InterHandJoints>& joints, const std::string& joint_3d_json,
+                  const CaptureConfig& c, Handedness side, std::map<int64_t, RecordFrame>& out) {
+  const bool right = side == Handedness::right;
+  const std::string hand = hand_name(side);
+  const std::string key = cache_key(joint_3d_json, c, side);
   const std::string name = fs::path(joint_3d_json).filename().string() + ".capture" + std::to_string(c.capture) +
                            ".fit-" + hand + "-" + std::to_string(fnv1a64(key)) + ".json";
   const std::vector<std::string> files = cache_files_for(c.annotation_cache, joint_3d_json, name, "annotations");
@@ -61,9 +60,7 @@ std::map<int64_t, RecordFrame> fit_joint_frames(const std::map<int64_t, InterHan
     }
   }
   if (fits.is_null()) {
-    const Rig rig = load_rig_source(capture_rig_source(c));
-    if (rig.handedness != c.hand)
-      throw Error("data.rig: " + c.rig + " is a " + hand_name(rig.handedness) + "-hand rig, data.hand is " + hand);
+    const Rig rig = capture_rig(c, side);
     const JointModel model = make_joint_model(rig);
     std::vector<int64_t> ids;
     std::vector<HandKeypoints> frames;
@@ -93,8 +90,6 @@ std::map<int64_t, RecordFrame> fit_joint_frames(const std::map<int64_t, InterHan
         write_first_writable(files, json{{"key", key}, {"frames", fits}}.dump() + "\n", problem).empty())
       spdlog::warn("{}: the joint fits could not be cached ({})", joint_3d_json, problem);
   }
-  std::map<int64_t, RecordFrame> out;
-  for (const auto& [frame, entry] : joints) out[frame] = RecordFrame{};
   for (const json& f : fits) {
     const int64_t frame = f["frame"].get<int64_t>();
     RecordHand hand;
@@ -107,6 +102,15 @@ std::map<int64_t, RecordFrame> fit_joint_frames(const std::map<int64_t, InterHan
     interhand_hand_joints(joints.at(frame), right, hand.joints, hand.joint_valid);
     (right ? out[frame].right : out[frame].left) = hand;
   }
+}
+
+}  // namespace
+
+std::map<int64_t, RecordFrame> fit_joint_frames(const std::map<int64_t, InterHandJoints>& joints,
+                                                const std::string& joint_3d_json, const CaptureConfig& c) {
+  std::map<int64_t, RecordFrame> out;
+  for (const auto& [frame, entry] : joints) out[frame] = RecordFrame{};
+  for (const Handedness side : hand_sides(c.hand)) fit_one_hand(joints, joint_3d_json, c, side, out);
   return out;
 }
 

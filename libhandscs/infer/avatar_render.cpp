@@ -10,10 +10,9 @@
 #include <torch/linalg.h>  // after types.h: it is not self-contained
 
 #include "avatar/avatar.h"
-#include "avatar/pose_memo.h"
+#include "infer/posed_hands.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "core/float_vector.h"
 #include "core/progress.h"
 #include "core/stop_signal.h"
 #include "data/mesh_mask.h"
@@ -89,9 +88,15 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
           "--ply-sh-degree " + std::to_string(options.ply_sh_degree) + ": must be 0.." +
               std::to_string(kMaxPlyShDegree));
   TrainedAvatar trained = open_trained_avatar(options.checkpoint);
-  Avatar& avatar = trained.avatar;
   const std::vector<PoseFrame> poses =
-      read_pose_source(options.poses, {&avatar.rig(), trained.config.model.flat_hand_mean});
+      read_pose_source(options.poses, {&trained.avatar.rig(), trained.config.model.flat_hand_mean});
+  const bool two_hands = !trained.left.empty();
+  for (size_t k = 0; k < poses.size(); ++k)
+    if (two_hands && !poses[k].hands[0] && !poses[k].hands[1])
+      throw Error(options.poses + ": pose " + std::to_string(k) + " is one hand's; the avatar has "
+                  "two (data.hand both): give each pose as {\"right\": {...}, \"left\": {...}} or "
+                  "select a capture with \"hand\": \"both\"");
+  PosedHands hands(trained);
 
   std::vector<Camera> cameras;
   if (!options.camera.empty()) {
@@ -100,9 +105,11 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
     // Orbit around the first pose: centre and long axis from its posed joints.
     c10::InferenceMode guard;
     const auto& f = poses.front();
-    const auto state = avatar.pose(float_vector(f.pose), float_vector(f.shape), float_vector(f.trans));
-    const auto joints = state.lbs.joints[0].to(torch::kFloat64);
-    const auto means = state.posed.means.to(torch::kFloat64);
+    const PosedGaussians posed = hands.pose(f, options.poses);
+    const AvatarState* first = hands.state(Handedness::right) ? hands.state(Handedness::right)
+                                                              : hands.state(Handedness::left);
+    const auto joints = first->lbs.joints[0].to(torch::kFloat64);
+    const auto means = posed.means.to(torch::kFloat64);
     const auto centre = means.mean(0);
     const auto axis = joints[18] - joints[0];  // wrist -> middle fingertip (MANO21)
     const double extent = (means.amax(0) - means.amin(0)).norm().item<double>();
@@ -137,7 +144,6 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
   // dropped (Mp4Writer removes its temporary file) and the render ends with an error saying where.
   const StopSignal stop_signal;
   c10::InferenceMode guard;
-  PoseMemo memo(avatar);
   for (int64_t k = 0; k < count; ++k) {
     if (StopSignal::requested())
       throw Error("render interrupted (SIGINT, SIGTERM or SIGHUP) after " + std::to_string(k) + " of " +
@@ -148,7 +154,7 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
     // Posed once per pose (an orbit shows one pose from every camera); each frame's forward time
     // is its pose's full cost plus its rasterisation.
     AvatarOutput out;
-    out.state = memo.pose(f.pose.data(), f.shape.data(), f.trans.data());
+    out.state.posed = hands.pose(f, options.poses + ": " + f.name);
     const auto t0 = std::chrono::steady_clock::now();
     out.render = render_posed(out.state.posed, camera, settings);
     if (cameras.empty() && !f.camera_id.empty())
@@ -157,7 +163,7 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
                                                *transform);
         ++transformed;
       }
-    forward_ms.push_back(memo.pose_ms() + std::chrono::duration<double, std::milli>(
+    forward_ms.push_back(hands.pose_ms() + std::chrono::duration<double, std::milli>(
                                               std::chrono::steady_clock::now() - t0).count());
     {
       // A camera facing away, or a pose far off: the posed Gaussians miss the image entirely.
@@ -202,7 +208,7 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
   write_file_atomic(options.out_dir + "/transforms.json",
                     nerfstudio_transforms(frame_cameras).dump(2));
   result.frames = count;
-  result.gaussians = avatar.gaussians().size();
+  result.gaussians = trained.gaussian_count();
   double total = 0;
   for (double ms : forward_ms) total += ms;
   result.fps = total > 0 ? count / (total / 1000.0) : 0;

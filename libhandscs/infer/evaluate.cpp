@@ -10,7 +10,7 @@
 #include <torch/types.h>
 
 #include "avatar/avatar.h"
-#include "avatar/pose_memo.h"
+#include "infer/posed_hands.h"
 #include "core/atomic_file.h"
 #include "core/config.h"
 #include "core/error.h"
@@ -85,7 +85,6 @@ ModelEvalResult evaluate_avatar(const RunConfig& config, const ModelEvalOptions&
 ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar trained,
                                 const ModelEvalOptions& options) {
   const std::string& ckpt_path = trained.path;
-  Avatar& avatar = trained.avatar;
   RunConfig config = config_in;
   // The architecture comes from the checkpoint; data and evaluation settings from the caller.
   RunConfig& stored = trained.config;
@@ -96,8 +95,10 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
   config.model = stored.model;
   config.data.rig = stored.data.rig;
   if (config.data.hand != stored.data.hand)
-    spdlog::warn("data.hand = {} but the checkpoint's avatar is a {} hand: evaluating the {} hand",
-                 hand_name(config.data.hand), hand_name(stored.data.hand), hand_name(stored.data.hand));
+    spdlog::warn("data.hand = {} but the checkpoint's avatar was trained with data.hand = {}: "
+                 "evaluating {}", hand_name(config.data.hand), hand_name(stored.data.hand),
+                 stored.data.hand == CaptureConfig::Hands::both ? "both hands"
+                                                                : "the " + hand_name(stored.data.hand) + " hand");
   config.data.hand = stored.data.hand;
   config.data.flat_hand_mean = stored.data.flat_hand_mean;
 
@@ -174,7 +175,7 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
   std::vector<double> forward_ms;
   ProgressBar bar("eval", static_cast<int64_t>(frames.size()));
   c10::InferenceMode guard;
-  PoseMemo memo(avatar);
+  PosedHands hands(trained);
   for (size_t i = 0; i < frames.size(); ++i) {
     const auto& frame = frames[i];
     if (i + 1 < frames.size()) capture.prefetch({frames[i + 1].index}, true);
@@ -195,10 +196,10 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
       const auto gt = sample.image.to(torch::kFloat32).div(255.0) * mask + bg_tensor * (1 - mask);
       // Posed once per pose (PoseMemo); the reported forward time of every image is its pose's
       // full cost plus its own rasterisation, as if each were rendered alone.
-      const auto& posed = memo.pose(frame.pose.data(), frame.shape.data(), frame.trans.data()).posed;
+      const auto& posed = hands.pose(frame, frame.image_path);
       const auto t0 = std::chrono::steady_clock::now();
       const RasterOutput render = render_posed(posed, sample.camera, settings);
-      forward_ms.push_back(memo.pose_ms() + std::chrono::duration<double, std::milli>(
+      forward_ms.push_back(hands.pose_ms() + std::chrono::duration<double, std::milli>(
                                                 std::chrono::steady_clock::now() - t0).count());
       const auto transform = colors.find(frame.camera_id);
       entry.sources["camera_color"] = transform ? camera_color_name(colors.mode) : "identity";
@@ -225,8 +226,7 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
     bar.update(static_cast<int64_t>(i + 1));
   }
   bar.finish();
-  spdlog::info("eval: {} images of {} poses (each posed once)", memo.computed() + memo.reused(),
-               memo.computed());
+  spdlog::info("eval: {} images, {} hand poses computed (each once)", frames.size(), hands.computed());
 
   result.frames = static_cast<int64_t>(forward_ms.size());
   if (!forward_ms.empty()) {
@@ -257,7 +257,7 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
   json["rendering"] = {{"frames", result.frames},
                        {"forward_ms_median", result.forward_ms},
                        {"fps", result.fps},
-                       {"gaussians", avatar.gaussians().size()},
+                       {"gaussians", trained.gaussian_count()},
                        {"width", frames.front().camera.width},
                        {"height", frames.front().camera.height}};
   write_file_atomic(options.out_dir + "/summary.json", json.dump(2) + "\n");

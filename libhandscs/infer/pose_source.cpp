@@ -90,6 +90,24 @@ std::string numbered(const char* prefix, size_t i) {
 
 PoseFrame pose_frame_from_json(const json& item, const std::string& where) {
   if (!item.is_object()) throw Error(where + ": expected object, got " + json_type_name(item));
+  if (item.contains("right") || item.contains("left")) {
+    PoseFrame frame;
+    for (auto it = item.begin(); it != item.end(); ++it)
+      if (it.key() != "right" && it.key() != "left" && it.key() != "name")
+        throw Error(where + "." + it.key() + ": unknown key in a two-hand pose (right, left, name)");
+    for (const Handedness side : {Handedness::left, Handedness::right}) {  // right's fields last
+      const std::string key = hand_name(side);
+      if (!item.contains(key) || item[key].is_null()) continue;
+      const PoseFrame hand = pose_frame_from_json(item[key], where + "." + key);
+      frame.pose = hand.pose;
+      frame.shape = hand.shape;
+      frame.trans = hand.trans;
+      frame.hands[side == Handedness::right ? 0 : 1] = HandParams{hand.pose, hand.shape, hand.trans, {}, {}};
+    }
+    if (!frame.hands[0] && !frame.hands[1]) throw Error(where + ": both hands are null");
+    frame.name = string_or(item, "name", "", where);
+    return frame;
+  }
   for (auto it = item.begin(); it != item.end(); ++it)
     if (it.key() != "pose" && it.key() != "shape" && it.key() != "trans" && it.key() != "name")
       throw Error(where + "." + it.key() + ": unknown key (pose, shape, trans, name)");
@@ -109,7 +127,14 @@ PoseFrame pose_frame_from_json(const json& item, const std::string& where) {
 }
 
 json pose_frame_to_json(const PoseFrame& frame) {
-  json item = {{"pose", frame.pose}, {"shape", frame.shape}, {"trans", frame.trans}};
+  json item;
+  if (frame.hands[0] || frame.hands[1]) {
+    for (const Handedness side : {Handedness::right, Handedness::left})
+      if (const auto& hand = frame.hands[side == Handedness::right ? 0 : 1])
+        item[hand_name(side)] = {{"pose", hand->pose}, {"shape", hand->shape}, {"trans", hand->trans}};
+  } else {
+    item = {{"pose", frame.pose}, {"shape", frame.shape}, {"trans", frame.trans}};
+  }
   if (!frame.name.empty()) item["name"] = frame.name;
   return item;
 }
@@ -200,6 +225,7 @@ std::vector<PoseFrame> read_pose_source_json(const json& root, const std::string
       frame.pose = f.pose;
       frame.shape = f.shape;
       frame.trans = f.trans;
+      frame.hands = f.hands;
       frame.camera = f.camera;
       frame.camera_id = f.camera_id;
       frame.name = f.file_name;

@@ -1,5 +1,6 @@
 // POSES files for handscs-render: the hand poses to render, from one of three JSON forms:
 //   {"poses": [{"pose": [48], "shape": [10], "trans": [3]}, ...]}      (a bare list works too)
+//     two hands (a data.hand both avatar): {"right": {pose...}, "left": {pose...}} per pose
 //   {"interpolate": {"from": {pose...}, "to": {pose...}, "steps": N}}  (per-joint slerp, linear trans/shape)
 //   {"capture": {CaptureConfig keys}, "frames": "test"|"train"|"all", "camera": "id", "max_frames": N}
 //   a keypoint file (fit/keypoint_file.h: "format": "handscs-keypoints"): the avatar's rig fitted to
@@ -15,6 +16,7 @@
 
 #include "core/camera.h"
 #include "core/config.h"
+#include "data/capture.h"  // HandParams
 #include "hand/rig.h"
 
 namespace handscs {
@@ -26,6 +28,9 @@ struct PoseFrame {
   std::optional<Camera> camera;  // from a capture selection
   std::string camera_id;         // ... and that camera's id (its colour transform, if trained)
   std::string name;              // e.g. "pose_0003" or the capture image's name
+  // Two hands: each hand's parameters by Handedness (right, left), absent where the pose lacks it
+  // (the fields above then hold the first present hand's); empty for a one-hand pose.
+  std::array<std::optional<HandParams>, 2> hands;
 };
 
 // What a keypoint file is fitted for: the avatar's rig (its handedness picks the file's hand) and
@@ -39,7 +44,8 @@ struct KeypointTarget {
 // numbers, got 45"). A keypoint file needs `target`.
 std::vector<PoseFrame> read_pose_source(const std::string& path, const KeypointTarget& target = {});
 
-// One pose object {"pose": [48], "shape": [10], "trans": [3], "name": "..."} with the checks every
+// One pose object {"pose": [48], "shape": [10], "trans": [3], "name": "..."}, or of two hands
+// {"right": {pose...}, "left": {pose...}, "name": "..."} (either hand may be left out), with the checks every
 // POSES file gets (numbers finite, within the MANO annotations' plausibility bounds, mano_problem);
 // errors start with `where` (e.g. "poses.json: poses[2]").
 PoseFrame pose_frame_from_json(const json& item, const std::string& where);

@@ -88,10 +88,34 @@ TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run,
   RunConfig config;
   config_from_json(stored, opened.path + " (stored config)" + (overrides.empty() ? "" : " + --set"),
                    config);
-  Avatar avatar = restore_avatar(opened.checkpoint, config.model,
-                                 load_rig_source(avatar_rig_source(config)), opened.path);
+  const std::vector<Handedness> sides = hand_sides(trained_config.data.hand);  // the weights' hands
+  Avatar avatar = restore_avatar(opened.checkpoint, config.model, avatar_rig(trained_config, sides.front()),
+                                 opened.path);
   CameraColorTable colors = CameraColorTable::from_checkpoint(opened.checkpoint, opened.path);
-  return {opened.path, std::move(config), std::move(trained_config), std::move(avatar), std::move(colors)};
+  std::vector<Avatar> left;
+  if (sides.size() > 1) {
+    const std::string section = hand_name(Handedness::left);
+    if (!opened.checkpoint.meta.contains(section))
+      throw Error(opened.path + ": checkpoint lacks the left hand (its data.hand is both)");
+    left.push_back(restore_avatar(checkpoint_section(opened.checkpoint, section), config.model,
+                                  avatar_rig(trained_config, Handedness::left), opened.path));
+  }
+  return {opened.path,         std::move(config), std::move(trained_config),
+          std::move(avatar),   std::move(colors), std::move(left)};
+}
+
+Handedness TrainedAvatar::first_hand() const { return hand_sides(trained_config.data.hand).front(); }
+
+int64_t TrainedAvatar::gaussian_count() {
+  int64_t count = avatar.gaussians().size();
+  for (Avatar& other : left) count += other.gaussians().size();
+  return count;
+}
+
+Avatar* TrainedAvatar::hand(Handedness side) {
+  if (first_hand() == side) return &avatar;
+  if (side == Handedness::left && !left.empty()) return &left.front();
+  return nullptr;
 }
 
 }  // namespace handscs

@@ -28,8 +28,14 @@ struct TrainedAvatar {
   std::string path;
   RunConfig config;          // stored, with the overrides
   RunConfig trained_config;  // stored, as the run trained (no overrides)
-  Avatar avatar;
+  Avatar avatar;             // the first hand's: data.hand's, or the right one of both
   CameraColorTable colors;
+  // data.hand both: the left hand's avatar (the checkpoint's "left" section); empty otherwise.
+  std::vector<Avatar> left;
+  Handedness first_hand() const;  // the hand `avatar` is
+  // The avatar of hand `side`; null when the checkpoint has none.
+  Avatar* hand(Handedness side);
+  int64_t gaussian_count();  // over the hands
 };
 TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run,
                                   const std::vector<std::string>& overrides = {});

@@ -52,6 +52,22 @@ std::string checkpoint_bytes(const Checkpoint& checkpoint) {
   return bytes;
 }
 
+void add_section(Checkpoint& checkpoint, const std::string& section, Checkpoint part) {
+  for (auto& [name, tensor] : part.tensors) checkpoint.tensors[section + "/" + name] = std::move(tensor);
+  checkpoint.meta[section] = std::move(part.meta);
+}
+
+Checkpoint checkpoint_section(const Checkpoint& checkpoint, const std::string& section) {
+  Checkpoint part;
+  const std::string prefix = section + "/";
+  for (const auto& [name, tensor] : checkpoint.tensors)
+    if (name.compare(0, prefix.size(), prefix) == 0) part.tensors[name.substr(prefix.size())] = tensor;
+  if (checkpoint.meta.contains(section) && checkpoint.meta[section].is_object()) part.meta = checkpoint.meta[section];
+  for (const char* key : {"iteration", "config"})
+    if (checkpoint.meta.contains(key)) part.meta[key] = checkpoint.meta[key];
+  return part;
+}
+
 void save_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
   write_file_atomic(path, checkpoint_bytes(checkpoint));
 }

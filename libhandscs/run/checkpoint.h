@@ -22,6 +22,13 @@ struct Checkpoint {
 // 60 million Gaussians, far beyond any hand avatar; a larger file is refused before it is read.
 constexpr std::uintmax_t kMaxCheckpointBytes = std::uintmax_t{64} << 30;
 
+// data.hand both: the second hand's state is a section of the checkpoint, its tensors named
+// "<section>/<name>" and its metadata under meta[section]. add_section() moves `part` in;
+// checkpoint_section() takes it out, with the checkpoint's iteration and config beside the
+// section's own metadata (an absent section gives no tensors and no metadata of its own).
+void add_section(Checkpoint& checkpoint, const std::string& section, Checkpoint part);
+Checkpoint checkpoint_section(const Checkpoint& checkpoint, const std::string& section);
+
 void save_checkpoint(const std::string& path, const Checkpoint& checkpoint);
 // Throws Error naming the path if the file is missing, truncated, corrupted or of another format.
 Checkpoint load_checkpoint(const std::string& path);

@@ -15,7 +15,11 @@ const std::vector<DeprecatedKey>& RunConfig::deprecated_keys() {
   return keys;
 }
 
-std::string avatar_rig_source(const RunConfig& config) { return capture_rig_source(config.data); }
+Rig avatar_rig(const RunConfig& config, Handedness side) { return capture_rig(config.data, side); }
+
+Handedness avatar_hand(const RunConfig& config, const std::string& what) {
+  return single_hand(config.data.hand, what);
+}
 
 std::vector<std::string> experiment_differences(const RunConfig& stored, const RunConfig& given) {
   // Caches, prefetching, crop margins and mask refinement change how images are read, not which.

@@ -38,9 +38,11 @@ struct RunConfig {
   static const std::vector<DeprecatedKey>& deprecated_keys();
 };
 
-// The rig the avatar is built on: data.rig (model.rig), with "builtin" meaning the built-in left
-// hand when data.hand is left (the same rig the capture poses its masks with, capture_rig_source).
-std::string avatar_rig_source(const RunConfig& config);
+// The rig hand `side`'s avatar is built on: data.rig (model.rig) as the capture poses it for
+// that hand's masks (capture_rig: "builtin" is the built-in hand of that side).
+Rig avatar_rig(const RunConfig& config, Handedness side);
+// A one-hand run's hand (data.hand); throws Error naming `what` for data.hand both.
+Handedness avatar_hand(const RunConfig& config, const std::string& what);
 
 // What makes two runs one experiment, beyond the model: the data.* keys that choose which images
 // train and which test (capture, split, held-out poses, cameras, hand, rig). The differences

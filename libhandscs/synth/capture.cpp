@@ -113,6 +113,8 @@ SynthScene make_synth_scene(const SynthConfig& config) {
   require(config.num_frames > 0 && config.num_cameras > 0, "synth: empty capture");
   require(config.num_sequences >= 1 && config.num_sequences <= config.num_frames,
           "synth: num_sequences must be in [1, num_frames]");
+  require(config.hand != CaptureConfig::Hands::both,
+          "synth: hand both is not generated yet (right or left: one hand per capture)");
   SynthScene scene;
   scene.config = config;
   scene.rig = load_rig_source("builtin");
@@ -296,7 +298,7 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
   const fs::path annotations_dir = root / "annotations" / c.split;
   const fs::path regions_dir = interhand ? root / "regions" / c.split : root / "regions";
   const bool regions = c.effects.region_masks;
-  const bool left = c.hand == Handedness::left;  // written as the mirror image of the right hand (mirror.h)
+  const bool left = c.hand == CaptureConfig::Hands::left;  // written as the mirror image of the right hand (mirror.h)
   const LensDistortion lens = synth_lens_distortion(c.layout);
   auto file_name = [&](const SynthFrame& frame, const SynthCamera& camera) {
     return interhand ? image_file_name(scene, frame, camera) : own_layout_image_name(frame, camera);
@@ -402,7 +404,7 @@ int64_t write_interhand_annotations(const SynthScene& scene,
   const SynthConfig& c = scene.config;
   const fs::path root(out_dir);
   const fs::path annotations_dir = root / "annotations" / c.split;
-  const bool left = c.hand == Handedness::left;
+  const bool left = c.hand == CaptureConfig::Hands::left;
   const int64_t num_cameras = static_cast<int64_t>(scene.cameras.size());
   const int64_t num_images = static_cast<int64_t>(scene.frames.size()) * num_cameras;
 

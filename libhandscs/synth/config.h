@@ -30,7 +30,7 @@ struct SynthConfig {
   int held_out_frames = 50;    // the novel-pose test tail (data.held_out_poses): gestures only
   // "left": the right-hand capture mirrored through the world's x = 0 plane (synth/mirror.h), so a
   // left-hand capture is the exact mirror image of the right one with the same settings.
-  Handedness hand = Handedness::right;
+  CaptureConfig::Hands hand = CaptureConfig::Hands::right;
   // Files written (docs/CAPTURE_FORMAT.md): InterHand2.6M's, the project's own, or EasyMocap's
   // (whose images carry a known lens distortion, synth/own_layouts.h).
   CaptureConfig::Layout layout = CaptureConfig::Layout::interhand;

@@ -25,14 +25,14 @@ std::string own_layout_image_name(const SynthFrame& frame, const SynthCamera& ca
 }
 
 Camera written_camera(const SynthScene& scene, const SynthCamera& camera) {
-  if (scene.config.hand != Handedness::left) return camera.camera;
+  if (scene.config.hand != CaptureConfig::Hands::left) return camera.camera;
   return camera_from_interhand(mirror_interhand_camera(camera.raw, camera.camera.width),
                                camera.camera.width, camera.camera.height);
 }
 
 int64_t write_own_layout_annotations(const SynthScene& scene, const std::string& root) {
   const SynthConfig& c = scene.config;
-  const bool left = c.hand == Handedness::left;
+  const bool left = c.hand == CaptureConfig::Hands::left;
   const bool easymocap = c.layout == CaptureConfig::Layout::easymocap;
   json document = {{"format", kHandscsCaptureFormat},
                    {"version", kHandscsCaptureVersion},

@@ -51,7 +51,8 @@ void DensifyComponent::receive(const ReduceSlots& slots, double) {
 }
 
 void DensifyComponent::after_step(const StepContext& step) {
-  densifier_.add(step_);
+  // A step whose entries did not show this hand (data.hand both) adds no statistics.
+  if (step_.visible.defined()) densifier_.add(step_);
   step_ = {};
   // Decided once, by rank 0, from statistics every rank holds; the others take its result.
   if (densifier_.due(step.iteration) && step.is_root)

@@ -52,13 +52,41 @@ torch::Tensor offset_regularizer(const DecodedOffsets& o, LossWeights::RegTerms 
 Objective::Objective(const LossWeights& weights, std::shared_ptr<const Lpips> lpips)
     : weights_(weights), lpips_(std::move(lpips)) {}
 
-LossResult Objective::compute(const LossInputs& in) const {
+namespace {
+
+// A loss being summed: its weighted parts, in order, and each term's unweighted value.
+struct LossParts {
   LossResult result;
   std::vector<torch::Tensor> parts;
-  auto add = [&](const char* name, double weight, const torch::Tensor& value) {
+  void add(const char* name, double weight, const torch::Tensor& value) {
     result.terms[name] = value.item<double>();
     parts.push_back(weight * value);
-  };
+  }
+  LossResult total(const torch::TensorOptions& options) {
+    result.total = parts.empty() ? torch::zeros({}, options) : parts[0];
+    for (size_t i = 1; i < parts.size(); ++i) result.total = result.total + parts[i];
+    return result;
+  }
+};
+
+void add_pose_terms(const LossWeights& weights, const LossInputs& in, LossParts& parts) {
+  if (weights.reg > 0 && in.offsets)
+    parts.add("reg", weights.reg, offset_regularizer(*in.offsets, weights.reg_terms, in.decoded_rows));
+  if (weights.consistency > 0 && in.consistency.defined())
+    parts.add("consistency", weights.consistency, in.consistency);
+}
+
+}  // namespace
+
+LossResult Objective::pose_terms(const LossInputs& in) const {
+  LossParts parts;
+  add_pose_terms(weights_, in, parts);
+  return parts.total(torch::TensorOptions().dtype(torch::kFloat32));
+}
+
+LossResult Objective::compute(const LossInputs& in) const {
+  LossParts loss;
+  auto add = [&](const char* name, double weight, const torch::Tensor& value) { loss.add(name, weight, value); };
   if (weights_.rgb > 0) add("rgb", weights_.rgb, (in.rgb - in.target).abs().mean());
   if (weights_.mask > 0) add("mask", weights_.mask, (in.alpha - in.mask).pow(2).mean());
   const bool lpips = uses_lpips() && in.lpips_step;
@@ -71,13 +99,8 @@ LossResult Objective::compute(const LossInputs& in) const {
           lpips_loss(*lpips_, area_scaled(pred, weights_.lpips_scale),
                      area_scaled(target, weights_.lpips_scale)));
   }
-  if (weights_.reg > 0 && in.offsets)
-    add("reg", weights_.reg, offset_regularizer(*in.offsets, weights_.reg_terms, in.decoded_rows));
-  if (weights_.consistency > 0 && in.consistency.defined())
-    add("consistency", weights_.consistency, in.consistency);
-  result.total = parts.empty() ? torch::zeros({}, in.rgb.options()) : parts[0];
-  for (size_t i = 1; i < parts.size(); ++i) result.total = result.total + parts[i];
-  return result;
+  add_pose_terms(weights_, in, loss);
+  return loss.total(in.rgb.options());
 }
 
 }  // namespace handscs

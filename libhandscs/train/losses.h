@@ -40,6 +40,9 @@ class Objective {
   // lpips may be null (LPIPS weight 0 or no weights file): the LPIPS term is then skipped.
   Objective(const LossWeights& weights, std::shared_ptr<const Lpips> lpips);
   LossResult compute(const LossInputs& in) const;
+  // The terms of the pose alone (L_reg on in.offsets, L_con): a second hand's, which its own
+  // decoding has (data.hand both; rgb, alpha, target and mask unused).
+  LossResult pose_terms(const LossInputs& in) const;
   const LossWeights& weights() const { return weights_; }
   bool uses_lpips() const { return lpips_ != nullptr && weights_.lpips > 0; }
 

@@ -4,7 +4,8 @@
 
 namespace handscs {
 
-void ReduceSlots::add(const std::string& name, const torch::Tensor& values) {
+void ReduceSlots::add(const std::string& unscoped, const torch::Tensor& values) {
+  const std::string name = scope_ + unscoped;
   require(!index_.count(name), "ReduceSlots: slot '" + name + "' added twice");
   index_[name] = slots_.size();
   slots_.emplace_back(name, values.detach().to(torch::kFloat32));
@@ -29,7 +30,8 @@ void ReduceSlots::all_reduce(ProcessGroup& group) {
   }
 }
 
-torch::Tensor ReduceSlots::get(const std::string& name) const {
+torch::Tensor ReduceSlots::get(const std::string& unscoped) const {
+  const std::string name = scope_ + unscoped;
   const auto it = index_.find(name);
   require(it != index_.end(), "ReduceSlots: no slot '" + name + "'");
   return slots_[it->second].second;

@@ -34,7 +34,12 @@ class ReduceSlots {
   double scalar(const std::string& name) const;
   bool all_finite() const;  // after all_reduce: every summed value is finite
 
+  // Names added and read from now on are "<scope><name>" (data.hand both: "left/" while the second
+  // hand's parts add and read theirs, so that the two hands' slots stay apart).
+  void set_scope(const std::string& scope) { scope_ = scope; }
+
  private:
+  std::string scope_;
   std::vector<std::pair<std::string, torch::Tensor>> slots_;
   std::map<std::string, size_t> index_;
 };

@@ -113,7 +113,17 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir, ProcessGro
     if (!batch_warning.empty()) spdlog::warn("{}", batch_warning);
   }
 
-  avatar_ = std::make_unique<Avatar>(config_.model, load_rig_source(avatar_rig_source(config_)));
+  // A rank whose entries lack a hand would add no slots for it to the step's all-reduce.
+  require(!group_ || config_.data.hand != CaptureConfig::Hands::both,
+          "data.hand both: data-parallel training (--world-size) is not supported for two hands yet; "
+          "train them in one process");
+  for (const Handedness side : hand_sides(config_.data.hand)) {
+    HandSlot hand;
+    hand.side = side;
+    hand.section = hands_.empty() ? "" : hand_name(side);
+    hand.avatar = std::make_unique<Avatar>(config_.model, avatar_rig(config_, side));
+    hands_.push_back(std::move(hand));
+  }
   make_components();
   build_optimizer();
 
@@ -132,10 +142,35 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir, ProcessGro
 }
 
 std::vector<std::string> Trainer::diagnostic_columns() const {
-  std::vector<std::string> columns(std::begin(kDiagnosticColumns), std::end(kDiagnosticColumns));
+  std::vector<std::string> columns;
+  for (const HandSlot& hand : hands_) {
+    const std::string prefix = hand.section.empty() ? "" : hand.section + "_";
+    for (const char* column : kDiagnosticColumns) columns.push_back(prefix + column);
+    for (const auto& component : hand.components)
+      for (const std::string& column : component->metrics_columns()) columns.push_back(prefix + column);
+  }
   for (const auto& component : components_)
     for (const std::string& column : component->metrics_columns()) columns.push_back(column);
   return columns;
+}
+
+Avatar& Trainer::avatar(Handedness side) {
+  for (HandSlot& hand : hands_)
+    if (hand.side == side) return *hand.avatar;
+  throw Error("the run trains no " + hand_name(side) + " hand (data.hand is " + hand_name(config_.data.hand) + ")");
+}
+
+std::vector<Adam*> Trainer::optimizers() {
+  std::vector<Adam*> out;
+  for (HandSlot& hand : hands_) out.push_back(hand.optimizer.get());
+  out.push_back(optimizer_.get());
+  return out;
+}
+
+template <class F>
+void Trainer::for_each_part(F&& f) {
+  for (HandSlot& hand : hands_) f(hand.components, hand.section, *hand.avatar);
+  f(components_, std::string(), *hands_.front().avatar);
 }
 
 void Trainer::write_run_files() {
@@ -153,16 +188,21 @@ Trainer::~Trainer() = default;
 
 void Trainer::make_components() {
   const TrainConfig& train = config_.train;
-  // In this order: pose refinement corrects the pose the cull, L_con and the decode then see;
-  // its penalty is added before the colour transforms'.
-  if (train.pose_refine.enabled)
-    components_.push_back(std::make_unique<PoseRefineComponent>(capture_->num_poses(),
-                                                                train.pose_refine, entries_per_step()));
-  if (train.cull.enabled) components_.push_back(std::make_unique<CullComponent>(train.cull.max_cos));
+  // Each hand's, in this order: pose refinement corrects the pose the cull, L_con and the decode
+  // then see; its penalty is added before the colour transforms'.
+  for (HandSlot& hand : hands_) {
+    auto& components = hand.components;
+    if (train.pose_refine.enabled)
+      components.push_back(std::make_unique<PoseRefineComponent>(capture_->num_poses(),
+                                                                 train.pose_refine, entries_per_step()));
+    if (train.cull.enabled) components.push_back(std::make_unique<CullComponent>(train.cull.max_cos));
+    if (train.loss.consistency > 0)
+      components.push_back(std::make_unique<ConsistencyComponent>(
+          train.consistency, config_.model.flat_hand_mean, train.batch_size, first_entry()));
+    if (train.densify.enabled)
+      components.push_back(std::make_unique<DensifyComponent>(train.densify));
+  }
   components_.push_back(std::make_unique<LpipsSchedule>(train.loss.lpips_every));
-  if (train.loss.consistency > 0)
-    components_.push_back(std::make_unique<ConsistencyComponent>(
-        train.consistency, config_.model.flat_hand_mean, train.batch_size, first_entry()));
   if (train.camera_color != TrainConfig::CameraColor::off) {
     std::set<std::string> ids;  // sorted: the same rows on every rank and every run
     for (const auto& frame : capture_->train()) ids.insert(frame.camera_id);
@@ -171,38 +211,41 @@ void Trainer::make_components() {
     camera_color_ = component.get();
     components_.push_back(std::move(component));
   }
-  if (train.densify.enabled)
-    components_.push_back(std::make_unique<DensifyComponent>(train.densify));
 }
 
 void Trainer::build_optimizer() {
   const auto& lr = config_.train.lr;
-  auto& g = avatar_->gaussians();
-  optimizer_ = std::make_unique<Adam>();
-  optimizer_->add_group("means", {&g.means}, lr.means, lr.means_final, true);
-  optimizer_->add_group("log_scales", {&g.log_scales}, lr.log_scales, lr.log_scales, true);
-  optimizer_->add_group("rotations", {&g.rotations}, lr.rotations, lr.rotations, true);
-  optimizer_->add_group("colors", {&g.colors}, lr.colors, lr.colors, true);
-  optimizer_->add_group("opacity", {&g.opacity_logits}, lr.opacity, lr.opacity, true);
-  optimizer_->add_group("embeddings", {&g.embed_geometry, &g.embed_appearance}, lr.embeddings,
-                        lr.embeddings, true);
-  network_params_.clear();
-  auto groups = avatar_->network_parameter_groups();
-  size_t total = 0;
-  for (auto& [name, params] : groups) total += params.size();
-  network_params_.reserve(total);  // pointers into this vector stay valid: no reallocation
-  for (auto& [name, params] : groups) {
-    std::vector<torch::Tensor*> pointers;
-    for (auto& p : params) {
-      network_params_.push_back(p);
-      pointers.push_back(&network_params_.back());
+  for (HandSlot& hand : hands_) {
+    auto& g = hand.avatar->gaussians();
+    hand.optimizer = std::make_unique<Adam>();
+    Adam& adam = *hand.optimizer;
+    adam.add_group("means", {&g.means}, lr.means, lr.means_final, true);
+    adam.add_group("log_scales", {&g.log_scales}, lr.log_scales, lr.log_scales, true);
+    adam.add_group("rotations", {&g.rotations}, lr.rotations, lr.rotations, true);
+    adam.add_group("colors", {&g.colors}, lr.colors, lr.colors, true);
+    adam.add_group("opacity", {&g.opacity_logits}, lr.opacity, lr.opacity, true);
+    adam.add_group("embeddings", {&g.embed_geometry, &g.embed_appearance}, lr.embeddings,
+                   lr.embeddings, true);
+    hand.network_params.clear();
+    auto groups = hand.avatar->network_parameter_groups();
+    size_t total = 0;
+    for (auto& [name, params] : groups) total += params.size();
+    hand.network_params.reserve(total);  // pointers into this vector stay valid: no reallocation
+    for (auto& [name, params] : groups) {
+      std::vector<torch::Tensor*> pointers;
+      for (auto& p : params) {
+        hand.network_params.push_back(p);
+        pointers.push_back(&hand.network_params.back());
+      }
+      if (name == "gates")
+        adam.add_group(name, pointers, lr.gates, lr.gates, false);
+      else
+        adam.add_group(name, pointers, lr.networks, lr.networks_final, false);
     }
-    if (name == "gates")
-      optimizer_->add_group(name, pointers, lr.gates, lr.gates, false);
-    else
-      optimizer_->add_group(name, pointers, lr.networks, lr.networks_final, false);
+    // After the avatar's, so that its groups are as without the components.
+    for (auto& component : hand.components) component->add_optimizer_groups(adam, lr);
   }
-  // After the avatar's, so that its groups are as without the components.
+  optimizer_ = std::make_unique<Adam>();
   for (auto& component : components_) component->add_optimizer_groups(*optimizer_, lr);
 }
 
@@ -215,6 +258,15 @@ int64_t Trainer::first_entry() const {
 }
 
 bool Trainer::stop_requested() const { return group_ ? stop_agreed_ : StopSignal::requested(); }
+
+// One hand's part of an entry: the frames as that hand sees them (frame_of_hand), its context
+// (the avatar, the pose, its views with their probes) and its decoded state.
+struct Trainer::HandEntry {
+  HandSlot* hand = nullptr;
+  FrameInfo frame;
+  EntryContext ctx;
+  AvatarState state;
+};
 
 // What one entry of a step leaves behind after its backward (its gradients are in the parameters).
 struct Trainer::EntryOutcome {
@@ -231,7 +283,7 @@ ViewTarget Trainer::load_view(const FrameInfo& frame, int64_t view_index) {
 }
 
 EntryContext Trainer::start_entry(int64_t entry, std::vector<ViewTarget>& targets,
-                                  StepResult& result) {
+                                  StepResult& result, std::vector<HandEntry>& hands) {
   const int64_t entry_index = iteration_ * entries_per_step() + first_entry() + entry;
   const std::vector<const FrameInfo*> frames = entry_order_->frames_for(entry_index);
   EntryContext ctx;
@@ -239,7 +291,7 @@ EntryContext Trainer::start_entry(int64_t entry, std::vector<ViewTarget>& target
   ctx.entry = entry;
   ctx.step_entry = first_entry() + entry;
   ctx.entries = config_.train.batch_size;
-  ctx.avatar = avatar_.get();
+  ctx.avatar = hands_.front().avatar.get();
   ctx.frame = frames.front();  // the pose, shape and translation of them all
   for (const FrameInfo* frame : frames) result.frames.push_back(frame->index);
   for (size_t k = 0; k < frames.size(); ++k) {
@@ -251,34 +303,86 @@ EntryContext Trainer::start_entry(int64_t entry, std::vector<ViewTarget>& target
     view.background = targets.back().background;
     ctx.views.push_back(std::move(view));
   }
+  // The hands the frames show (one hand: always its own). reserve: the contexts point into it.
+  hands.reserve(hands_.size());
+  for (HandSlot& hand : hands_) {
+    const bool present = hands_.size() == 1 || ctx.frame->hand(hand.side) != nullptr;
+    if (!present) continue;
+    hands.emplace_back();
+    HandEntry& h = hands.back();
+    h.hand = &hand;
+    h.frame = frame_of_hand(*ctx.frame, hand.side);
+    h.ctx = ctx;
+    h.ctx.avatar = hand.avatar.get();
+    h.ctx.frame = &h.frame;
+  }
   return ctx;
 }
 
-void Trainer::render_entry(EntryContext& ctx, AvatarState& state) {
-  // The pose is decoded once; each view rasterises the same posed Gaussians.
-  ctx.pose = float_vector(ctx.frame->pose);
-  ctx.trans = float_vector(ctx.frame->trans);
-  for (auto& component : components_) component->before_decode(ctx);
-  state = avatar_->pose(ctx.pose, float_vector(ctx.frame->shape), ctx.trans, ctx.need_descriptor,
-                        ctx.cull ? &*ctx.cull : nullptr);
-  ctx.state = &state;
-  ctx.decoded = decoded_mask(state);
-  for (ViewRender& view : ctx.views) {
+void Trainer::render_entry(EntryContext& ctx, std::vector<HandEntry>& hands) {
+  // Each hand's pose is decoded once; each view rasterises the hands' posed Gaussians together.
+  std::vector<const PosedGaussians*> posed;
+  for (HandEntry& h : hands) {
+    EntryContext& hand_ctx = h.ctx;
+    hand_ctx.pose = float_vector(h.frame.pose);
+    hand_ctx.trans = float_vector(h.frame.trans);
+    for (auto& component : h.hand->components) component->before_decode(hand_ctx);
+    h.state = h.hand->avatar->pose(hand_ctx.pose, float_vector(h.frame.shape), hand_ctx.trans,
+                                   hand_ctx.need_descriptor, hand_ctx.cull ? &*hand_ctx.cull : nullptr);
+    hand_ctx.state = &h.state;
+    hand_ctx.decoded = decoded_mask(h.state);
+    posed.push_back(&h.state.posed);
+  }
+  const bool single = hands.size() == 1;
+  if (single) ctx.state = &hands.front().state;
+  const PosedGaussians joined = join_posed(posed);
+  for (size_t k = 0; k < ctx.views.size(); ++k) {
+    ViewRender& view = ctx.views[k];
+    std::vector<torch::Tensor> probes;
+    for (HandEntry& h : hands) {
+      for (auto& component : h.hand->components) component->before_render(h.ctx, h.ctx.views[k]);
+      probes.push_back(h.ctx.views[k].probe);
+    }
     for (auto& component : components_) component->before_render(ctx, view);
+    // The hands' probes as one (a hand without one adds zeros that nothing reads).
+    torch::Tensor probe = probes.front();
+    if (!single && std::any_of(probes.begin(), probes.end(), [](const auto& t) { return t.defined(); })) {
+      for (size_t i = 0; i < probes.size(); ++i)
+        if (!probes[i].defined()) probes[i] = torch::zeros({posed[i]->means.size(0), 2});
+      probe = torch::cat(probes, 0);
+    } else if (!single) {
+      probe = torch::Tensor();
+    }
     RasterSettings settings;
     settings.background = view.background;
-    view.render = render_posed(state.posed, view.camera, settings, view.probe);
+    view.render = render_posed(joined, view.camera, settings, probe);
     view.image = view.render.rgb;
+    // Each hand's view holds the render with its own Gaussians' radii.
+    int64_t row = 0;
+    for (size_t i = 0; i < hands.size(); ++i) {
+      ViewRender& own = hands[i].ctx.views[k];
+      const int64_t rows = posed[i]->means.size(0);
+      own.render = view.render;
+      if (!single) own.render.radii = view.render.radii.slice(0, row, row + rows);
+      own.image = view.image;
+      row += rows;
+    }
     for (auto& component : components_) component->recolor(ctx, view);
   }
 }
 
-torch::Tensor Trainer::entry_loss(EntryContext& ctx, const std::vector<ViewTarget>& targets,
+torch::Tensor Trainer::entry_loss(EntryContext& ctx, std::vector<HandEntry>& hands,
+                                  const std::vector<ViewTarget>& targets,
                                   std::map<std::string, double>& terms) {
-  LossInputs shared;  // what the views' losses share: the pose's terms
-  shared.offsets = &ctx.state->offsets;
-  shared.decoded_rows = ctx.state->decoded_rows;
+  // What the views' losses share: the first hand's pose terms (as in a one-hand run), the LPIPS
+  // step. The other hand's pose terms are added once below.
+  LossInputs shared;
+  HandEntry& first = hands.front();
+  shared.offsets = &first.state.offsets;
+  shared.decoded_rows = first.state.decoded_rows;
+  for (auto& component : first.hand->components) component->prepare_loss(first.ctx, shared);
   for (auto& component : components_) component->prepare_loss(ctx, shared);
+  ctx.consistency_weight = first.ctx.consistency_weight;
   // The entry's loss is the mean over its views (the pose's terms, L_reg and L_con, are the same
   // in each, so they count once).
   const int64_t count = static_cast<int64_t>(ctx.views.size());
@@ -294,32 +398,52 @@ torch::Tensor Trainer::entry_loss(EntryContext& ctx, const std::vector<ViewTarge
     for (const auto& [name, value] : loss.terms) terms[name] += value / count;
   }
   if (count > 1) total = total * (1.0 / count);
-  for (auto& component : components_) {
-    std::map<std::string, torch::Tensor> penalties;
-    component->add_penalties(ctx, penalties);
-    for (const auto& [name, penalty] : penalties) {
-      terms[name] = penalty.item<double>();
-      total = total + penalty;
-    }
+  for (size_t i = 1; i < hands.size(); ++i) {
+    LossInputs own;
+    own.offsets = &hands[i].state.offsets;
+    own.decoded_rows = hands[i].state.decoded_rows;
+    for (auto& component : hands[i].hand->components) component->prepare_loss(hands[i].ctx, own);
+    const LossResult loss = objective_->pose_terms(own);
+    total = total + loss.total;
+    for (const auto& [name, value] : loss.terms) terms[name] += value;
   }
+  const auto add_penalties = [&](std::vector<std::unique_ptr<TrainingComponent>>& components,
+                                 const EntryContext& part) {
+    for (auto& component : components) {
+      std::map<std::string, torch::Tensor> penalties;
+      component->add_penalties(part, penalties);
+      for (const auto& [name, penalty] : penalties) {
+        terms[name] += penalty.item<double>();
+        total = total + penalty;
+      }
+    }
+  };
+  for (HandEntry& h : hands) add_penalties(h.hand->components, h.ctx);
+  add_penalties(components_, ctx);
   return total;
 }
 
 Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, StepResult& result) {
   const auto t0 = Clock::now();
   std::vector<ViewTarget> targets;
-  EntryContext ctx = start_entry(entry, targets, result);
+  std::vector<HandEntry> hands;
+  EntryContext ctx = start_entry(entry, targets, result, hands);
   const auto t1 = Clock::now();
-  AvatarState state;
-  render_entry(ctx, state);
+  render_entry(ctx, hands);
   const auto t2 = Clock::now();
   std::map<std::string, double> terms;
-  const torch::Tensor total = entry_loss(ctx, targets, terms);
+  const torch::Tensor total = entry_loss(ctx, hands, targets, terms);
   if (entry == 0) result.consistency_weight = ctx.consistency_weight;
   for (const auto& [name, value] : terms) result.terms[name] += value / ctx.entries;
   if (diagnostics) {
     // On the steps run() logs (each value is a reduction and a sync; no need on every step).
-    decoder_diagnostics(*avatar_, state, result.diagnostics);
+    for (HandEntry& h : hands) {
+      std::map<std::string, double> values;
+      decoder_diagnostics(*h.hand->avatar, h.state, values);
+      for (auto& component : h.hand->components) component->diagnostics(h.ctx, values);
+      const std::string prefix = h.hand->section.empty() ? "" : h.hand->section + "_";
+      for (const auto& [name, value] : values) result.diagnostics[prefix + name] = value;
+    }
     for (auto& component : components_) component->diagnostics(ctx, result.diagnostics);
   }
   const auto t3 = Clock::now();
@@ -340,6 +464,8 @@ Trainer::EntryOutcome Trainer::train_entry(int64_t entry, bool diagnostics, Step
       outcome.psnr += std::min(psnr_from_mse(mse), kMaxStepPsnr) / outcome.views;
     }
   }
+  for (HandEntry& h : hands)
+    for (auto& component : h.hand->components) component->after_backward(h.ctx);
   for (auto& component : components_) component->after_backward(ctx);
   result.times.data_ms += ms_between(t0, t1);
   result.times.forward_ms += ms_between(t1, t2);
@@ -356,14 +482,26 @@ bool Trainer::reduce_across_ranks(EntryOutcome& sums, bool finite, std::map<std:
   const auto grad_slot = [](const AdamGroup& group, size_t i) {
     return "grad/" + group.name + "/" + std::to_string(i);
   };
-  for (auto& group : optimizer_->groups())
-    for (size_t i = 0; i < group.params.size(); ++i) {
-      const torch::Tensor& p = *group.params[i];
-      const bool has = p.grad().defined();
-      slots.add(grad_slot(group, i), has ? p.grad() : torch::zeros(p.sizes()));
-      slots.add_scalar(grad_slot(group, i) + "/present", has ? 1 : 0);
+  // Each hand's parameters and components in its own scope; the shared optimiser's groups and
+  // the shared components' slots have names of their own.
+  const auto each_scope = [&](const auto& f) {
+    for (HandSlot& hand : hands_) {
+      slots.set_scope(hand.section.empty() ? "" : hand.section + "/");
+      f(*hand.optimizer, hand.components);
     }
-  for (const auto& component : components_) component->contribute(slots);
+    slots.set_scope("");
+    f(*optimizer_, components_);
+  };
+  each_scope([&](Adam& adam, auto& components) {
+    for (auto& group : adam.groups())
+      for (size_t i = 0; i < group.params.size(); ++i) {
+        const torch::Tensor& p = *group.params[i];
+        const bool has = p.grad().defined();
+        slots.add(grad_slot(group, i), has ? p.grad() : torch::zeros(p.sizes()));
+        slots.add_scalar(grad_slot(group, i) + "/present", has ? 1 : 0);
+      }
+    for (const auto& component : components) component->contribute(slots);
+  });
   slots.add_scalar("loss", sums.loss);
   slots.add_scalar("psnr", sums.psnr);
   slots.add_scalar("not_finite", finite ? 0 : 1);
@@ -388,15 +526,17 @@ bool Trainer::reduce_across_ranks(EntryOutcome& sums, bool finite, std::map<std:
     else
       terms.erase(name);
   }
-  for (auto& group : optimizer_->groups())
-    for (size_t i = 0; i < group.params.size(); ++i) {
-      torch::Tensor& p = *group.params[i];
-      if (slots.scalar(grad_slot(group, i) + "/present") > 0)
-        p.mutable_grad() = (slots.get(grad_slot(group, i)) * inverse_ranks).clone();
-      else
-        p.mutable_grad() = torch::Tensor();
-    }
-  for (auto& component : components_) component->receive(slots, inverse_ranks);
+  each_scope([&](Adam& adam, auto& components) {
+    for (auto& group : adam.groups())
+      for (size_t i = 0; i < group.params.size(); ++i) {
+        torch::Tensor& p = *group.params[i];
+        if (slots.scalar(grad_slot(group, i) + "/present") > 0)
+          p.mutable_grad() = (slots.get(grad_slot(group, i)) * inverse_ranks).clone();
+        else
+          p.mutable_grad() = torch::Tensor();
+      }
+    for (auto& component : components) component->receive(slots, inverse_ranks);
+  });
   return all_finite;
 }
 
@@ -425,7 +565,7 @@ Error Trainer::out_of_memory(const std::string& detail) const {
     request = text;
   }
   return Error("out of memory at step " + std::to_string(iteration_ + 1) + " with " +
-               std::to_string(avatar_->gaussians().size()) + " Gaussians" + request +
+               std::to_string(gaussian_count()) + " Gaussians" + request +
                ": the machine cannot hold this run. Fewer Gaussians (a lower "
                "train.densify.max_gaussians, a higher train.densify.grad_threshold, an earlier "
                "train.densify.stop), smaller decoders "
@@ -463,18 +603,24 @@ StepResult Trainer::take_step() {
   if (group_) {
     finite = reduce_across_ranks(sums, finite, result.terms);
   } else {
-    for (auto& group : optimizer_->groups())
-      for (auto* p : group.params)
-        if (finite && p->grad().defined() && !torch::isfinite(p->grad()).all().item<bool>())
-          finite = false;
-    for (const auto& component : components_)  // data parallel: the all-reduce's check covers them
-      if (finite && !component->finite()) finite = false;
+    for (Adam* adam : optimizers())
+      for (auto& group : adam->groups())
+        for (auto* p : group.params)
+          if (finite && p->grad().defined() && !torch::isfinite(p->grad()).all().item<bool>())
+            finite = false;
+    // Data parallel: the all-reduce's check covers the components.
+    for_each_part([&](auto& components, const std::string&, Avatar&) {
+      for (const auto& component : components)
+        if (finite && !component->finite()) finite = false;
+    });
   }
   result.loss = sums.loss / entries_per_step();
   result.psnr = sums.psnr / entries_per_step();
   if (!finite) {
-    optimizer_->zero_grad();
-    for (auto& component : components_) component->after_skipped_step();
+    for (Adam* adam : optimizers()) adam->zero_grad();
+    for_each_part([](auto& components, const std::string&, Avatar&) {
+      for (auto& component : components) component->after_skipped_step();
+    });
     ++skipped_total_;
     ++bad_in_a_row_;
     result.skipped = true;
@@ -489,27 +635,38 @@ StepResult Trainer::take_step() {
     }
   } else {
     bad_in_a_row_ = 0;
-    optimizer_->step(iteration_, total);
-    optimizer_->zero_grad();
+    for (Adam* adam : optimizers()) {
+      adam->step(iteration_, total);
+      adam->zero_grad();
+    }
     ++iteration_;
-    StepContext step_context;
-    step_context.iteration = iteration_;
-    step_context.avatar = avatar_.get();
-    step_context.optimizer = optimizer_.get();
-    step_context.is_root = is_root();
-    step_context.seed = static_cast<uint64_t>(config_.train.seed);
     bool may_change = false;
-    for (const auto& component : components_)
-      may_change = component->may_change_gaussians(iteration_) || may_change;
-    const int64_t before = avatar_->gaussians().size();
-    for (auto& component : components_) component->after_step(step_context);
+    std::vector<int64_t> before;
+    for (HandSlot& hand : hands_) {
+      for (const auto& component : hand.components)
+        may_change = component->may_change_gaussians(iteration_) || may_change;
+      before.push_back(hand.avatar->gaussians().size());
+    }
+    const auto after_step = [&](auto& components, Avatar& avatar, Adam& adam) {
+      StepContext step_context;
+      step_context.iteration = iteration_;
+      step_context.avatar = &avatar;
+      step_context.optimizer = &adam;
+      step_context.is_root = is_root();
+      step_context.seed = static_cast<uint64_t>(config_.train.seed);
+      for (auto& component : components) component->after_step(step_context);
+    };
+    for (HandSlot& hand : hands_) after_step(hand.components, *hand.avatar, *hand.optimizer);
+    after_step(components_, *hands_.front().avatar, *optimizer_);
     if (may_change) {
       if (group_) synchronize_state(/*keep_own_state=*/true);  // rank 0 decided: every rank takes it
-      if (avatar_->gaussians().size() != before) {
-        for (auto& component : components_) component->gaussians_changed();
+      for (size_t i = 0; i < hands_.size(); ++i) {
+        const int64_t now = hands_[i].avatar->gaussians().size();
+        if (now == before[i]) continue;
+        for (auto& component : hands_[i].components) component->gaussians_changed();
         if (is_root())
-          spdlog::debug("densify at step {}: {} -> {} Gaussians", iteration_, before,
-                        avatar_->gaussians().size());
+          spdlog::debug("densify at step {}: {} hand {} -> {} Gaussians", iteration_,
+                        hand_name(hands_[i].side), before[i], now);
       }
     }
     running_psnr_ = running_psnr_ == 0 ? result.psnr : 0.95 * running_psnr_ + 0.05 * result.psnr;
@@ -536,12 +693,12 @@ bool Trainer::rollback() {
   require(rollbacks_ < kMaxRollbacks,
           "training diverged: " + std::to_string(rollbacks_) +
               " rollbacks did not help; lower train.lr.* or check the data");
-  const double scale = optimizer_->lr_scale() * config_.train.rollback_lr_factor;
+  const double scale = hands_.front().optimizer->lr_scale() * config_.train.rollback_lr_factor;
   const int64_t rollbacks = rollbacks_ + 1;
   const int64_t skipped = skipped_total_;
   const auto restore = [&](const Checkpoint& checkpoint, const std::string& source) {
     load_from(checkpoint, source);
-    optimizer_->set_lr_scale(scale);
+    for (Adam* adam : optimizers()) adam->set_lr_scale(scale);
     rollbacks_ = rollbacks;
     skipped_total_ = skipped;
     bad_in_a_row_ = 0;
@@ -573,9 +730,17 @@ Checkpoint Trainer::make_checkpoint() {
   ckpt.meta["rollbacks"] = rollbacks_;
   ckpt.meta["running_psnr"] = running_psnr_;
   ckpt.meta["elapsed_seconds"] = elapsed_seconds_;
-  ckpt.meta["adam_steps"] = optimizer_->steps();
-  ckpt.meta["lr_scale"] = optimizer_->lr_scale();
-  store_avatar(*avatar_, ckpt);
+  ckpt.meta["adam_steps"] = hands_.front().optimizer->steps();
+  ckpt.meta["lr_scale"] = hands_.front().optimizer->lr_scale();
+  // The first hand's state as a one-hand run writes it, the second hand's in its section.
+  for (HandSlot& hand : hands_) {
+    Checkpoint part;
+    Checkpoint& into = hand.section.empty() ? ckpt : part;
+    store_avatar(*hand.avatar, into);
+    hand.optimizer->save(into);
+    for (const auto& component : hand.components) component->save(into, iteration_);
+    if (!hand.section.empty()) add_section(ckpt, hand.section, std::move(part));
+  }
   optimizer_->save(ckpt);
   for (const auto& component : components_) component->save(ckpt, iteration_);
   return ckpt;
@@ -607,22 +772,44 @@ void Trainer::load_from(const Checkpoint& ckpt, const std::string& source, bool 
     throw Error(source + ": its model differs from the config given (checkpoint -> given):" +
                 differences + "\nresume with the checkpoint's model settings");
   }
-  avatar_ = std::make_unique<Avatar>(
-      restore_avatar(ckpt, config_.model, load_rig_source(avatar_rig_source(config_)), source));
   LoadContext context;
   context.source = source;
-  context.avatar = avatar_.get();
   context.iteration = ckpt.meta.at("iteration").get<int64_t>();
   context.data_parallel_root = group_ && group_->is_root();
   context.keep_own_state = keep_own_state;
+  // The avatars and components first (densification may have changed the Gaussian counts), then
+  // the optimisers built on them.
+  std::vector<Checkpoint> sections;
+  sections.reserve(hands_.size());
+  for (HandSlot& hand : hands_) {
+    if (!hand.section.empty() && !ckpt.meta.contains(hand.section))
+      throw Error(source + ": checkpoint lacks the " + hand.section + " hand (data.hand is " +
+                  hand_name(config_.data.hand) + ")");
+    sections.push_back(hand.section.empty() ? Checkpoint{} : checkpoint_section(ckpt, hand.section));
+    const Checkpoint& own = hand.section.empty() ? ckpt : sections.back();
+    hand.avatar = std::make_unique<Avatar>(
+        restore_avatar(own, config_.model, avatar_rig(config_, hand.side), source));
+    context.avatar = hand.avatar.get();
+    for (auto& component : hand.components) component->load(own, context);
+  }
+  context.avatar = hands_.front().avatar.get();
   for (auto& component : components_) component->load(ckpt, context);
   build_optimizer();
-  std::vector<std::string> fresh_groups;  // optimiser state the components start afresh
-  for (const auto& component : components_)
-    for (const std::string& group : component->fresh_optimizer_groups()) fresh_groups.push_back(group);
-  optimizer_->load(ckpt, source, fresh_groups);
-  optimizer_->set_steps(ckpt.meta.at("adam_steps").get<int64_t>());
-  optimizer_->set_lr_scale(ckpt.meta.at("lr_scale").get<double>());
+  const auto fresh_groups = [](const auto& components) {
+    std::vector<std::string> groups;  // optimiser state the components start afresh
+    for (const auto& component : components)
+      for (const std::string& group : component->fresh_optimizer_groups()) groups.push_back(group);
+    return groups;
+  };
+  for (size_t i = 0; i < hands_.size(); ++i) {
+    const Checkpoint& own = hands_[i].section.empty() ? ckpt : sections[i];
+    hands_[i].optimizer->load(own, source, fresh_groups(hands_[i].components));
+  }
+  optimizer_->load(ckpt, source, fresh_groups(components_));
+  for (Adam* adam : optimizers()) {
+    adam->set_steps(ckpt.meta.at("adam_steps").get<int64_t>());
+    adam->set_lr_scale(ckpt.meta.at("lr_scale").get<double>());
+  }
   iteration_ = context.iteration;
   skipped_total_ = ckpt.meta.value("skipped_steps", int64_t{0});
   rollbacks_ = ckpt.meta.value("rollbacks", int64_t{0});
@@ -686,10 +873,19 @@ void Trainer::validate() {
   const FrameInfo& frame = frames.front();
   c10::InferenceMode guard;
   FrameSample sample = capture_->load(frame, /*full_image=*/true);
-  auto out = avatar_->forward(float_vector(frame.pose), float_vector(frame.shape),
-                              float_vector(frame.trans), sample.camera, RasterSettings{});
-  const auto rgb = camera_color_ ? camera_color_->as_recorded(frame.camera_id, out.render, {0, 0, 0})
-                                 : out.render.rgb;
+  std::vector<AvatarState> states;
+  states.reserve(hands_.size());
+  std::vector<const PosedGaussians*> posed;
+  for (HandSlot& hand : hands_) {
+    if (hands_.size() > 1 && !frame.hand(hand.side)) continue;
+    const FrameInfo own = frame_of_hand(frame, hand.side);
+    states.push_back(hand.avatar->pose(float_vector(own.pose), float_vector(own.shape),
+                                       float_vector(own.trans)));
+    posed.push_back(&states.back().posed);
+  }
+  const RasterOutput render = render_posed(join_posed(posed), sample.camera, RasterSettings{});
+  const auto rgb = camera_color_ ? camera_color_->as_recorded(frame.camera_id, render, {0, 0, 0})
+                                 : render.rgb;
   const auto mask = sample.mask.to(torch::kFloat32).unsqueeze(2);
   const auto gt = sample.image.to(torch::kFloat32).div(255.0) * mask;
   const auto pred = rgb.clamp(0, 1);
@@ -718,10 +914,10 @@ void Trainer::log_step(const StepResult& r) {
   set("loss", r.loss);
   for (const auto& [term, value] : r.terms) set(term, value);
   set("psnr", r.psnr);
-  set("gaussians", avatar_->gaussians().size());
+  set("gaussians", gaussian_count());
   set("skipped", skipped_total_);
   set("rollbacks", rollbacks_);
-  set("lr_scale", optimizer_->lr_scale());
+  set("lr_scale", hands_.front().optimizer->lr_scale());
   set("data_ms", r.times.data_ms);
   set("forward_ms", r.times.forward_ms);
   set("losses_ms", r.times.losses_ms);
@@ -735,6 +931,18 @@ void Trainer::log_step(const StepResult& r) {
   }
   std::ofstream out(run_dir_ + "/metrics.csv", std::ios::app);
   out << join(row, ",") << "\n";
+}
+
+int64_t Trainer::gaussian_count() const {
+  int64_t count = 0;
+  for (const HandSlot& hand : hands_) count += hand.avatar->gaussians().size();
+  return count;
+}
+
+void Trainer::gather_components() {
+  for_each_part([&](auto& components, const std::string&, Avatar&) {
+    for (auto& component : components) component->gather(*group_, iteration_);
+  });
 }
 
 TrainSummary Trainer::run() {
@@ -762,12 +970,12 @@ TrainSummary Trainer::run() {
     elapsed_seconds_ = elapsed_before + ms_between(start, Clock::now()) / 1000.0;
     const bool checkpoint_due = iteration_ % config_.train.checkpoint_every == 0;
     if (group_ && checkpoint_due) {  // every rank takes part
-      for (auto& component : components_) component->gather(*group_, iteration_);
+      gather_components();
       gathered_at = iteration_;
     }
     if (!root) continue;
     std::snprintf(status, sizeof(status), "loss %.4f psnr %.2f (avg %.2f) N %lld%s", r.loss, r.psnr,
-                  running_psnr_, static_cast<long long>(avatar_->gaussians().size()),
+                  running_psnr_, static_cast<long long>(gaussian_count()),
                   skipped_total_ ? (" skipped " + std::to_string(skipped_total_)).c_str() : "");
     bar->update(iteration_, status);
     if (iteration_ % config_.train.log_every == 0 || r.skipped) log_step(r);
@@ -777,11 +985,15 @@ TrainSummary Trainer::run() {
   }
   const bool interrupted = stop_requested() && iteration_ < total;
   // For the final checkpoint (every rank gets here), unless the loop's last step just gathered.
-  if (group_ && gathered_at != iteration_)
-    for (auto& component : components_) component->gather(*group_, iteration_);
+  if (group_ && gathered_at != iteration_) gather_components();
   if (root) {
     if (last_checkpoint_.find(checkpoint_name(iteration_)) == std::string::npos) save_checkpoint();
-    for (const auto& component : components_) component->finish(run_dir_);
+    for_each_part([&](auto& components, const std::string& section, Avatar&) {
+      // The second hand's files go in a folder of its own.
+      const std::string folder = section.empty() ? run_dir_ : run_dir_ + "/" + section;
+      if (folder != run_dir_ && config_.train.pose_refine.enabled) ensure_directory(folder);
+      for (const auto& component : components) component->finish(folder);
+    });
     bar->finish(status);
   }
   if (interrupted && root)
@@ -792,7 +1004,7 @@ TrainSummary Trainer::run() {
   summary.seconds = ms_between(start, Clock::now()) / 1000.0;
   summary.skipped_steps = skipped_total_;
   summary.rollbacks = rollbacks_;
-  summary.gaussians = avatar_->gaussians().size();
+  summary.gaussians = gaussian_count();
   summary.interrupted = interrupted;
   summary.checkpoint = last_checkpoint_;
   summary.steps = iteration_ - first_iteration;

@@ -16,6 +16,12 @@
 // (training_component.h): each adds its part at fixed points of the step, its own slots to the
 // all-reduce and its own section to checkpoints. The Trainer keeps the loop, the data, the avatar
 // and the run folder.
+//
+// Two hands (data.hand both): each hand has its own avatar, optimiser and components (pose
+// refinement, the cull, L_con, densification); the LPIPS schedule and the per-camera colour are
+// shared. Each view rasterises both hands' Gaussians in one call, so that each hides the other;
+// a frame without one of the hands trains the other. The second hand's state is the checkpoint
+// section "left" (run/checkpoint.h), its metrics.csv diagnostics are prefixed "left_".
 #pragma once
 
 #include <array>
@@ -111,7 +117,10 @@ class Trainer {
   void on_first_checkpoint(std::function<void()> hook) { first_checkpoint_hook_ = std::move(hook); }
   bool is_root() const { return !group_ || group_->is_root(); }  // writes the run folder
   int64_t iteration() const { return iteration_; }
-  Avatar& avatar() { return *avatar_; }
+  Avatar& avatar() { return *hands_.front().avatar; }  // the first hand's (right with both)
+  Avatar& avatar(Handedness side);  // Error when the run does not train that hand
+  int hand_count() const { return static_cast<int>(hands_.size()); }
+  int64_t gaussian_count() const;  // of every hand
   Capture& capture() { return *capture_; }
   // train.camera_color: the per-camera colour transforms; null when off.
   const CameraColors* camera_colors() const {
@@ -125,18 +134,22 @@ class Trainer {
   // views_per_pose + the view's place in the entry.
   ViewTarget load_view(const FrameInfo& frame, int64_t view_index);
   struct EntryOutcome;
+  struct HandEntry;
   // Entry `entry` of this rank's step: its frames' pose decoded once, each frame rasterised, the
   // losses averaged over them and backpropagated (scaled to the step's mean over entries).
   EntryOutcome train_entry(int64_t entry, bool diagnostics, StepResult& result);
   StepResult take_step();  // step() without its out-of-memory message
   Error out_of_memory(const std::string& detail) const;
   // The entry's frames (their indices appended to result.frames) and their targets.
-  EntryContext start_entry(int64_t entry, std::vector<ViewTarget>& targets, StepResult& result);
-  // Decodes the entry's pose into `state` and renders each of its views.
-  void render_entry(EntryContext& ctx, AvatarState& state);
-  // The entry's loss: the mean over its views, plus the components' penalties (terms: each term's
-  // value, unweighted).
-  torch::Tensor entry_loss(EntryContext& ctx, const std::vector<ViewTarget>& targets,
+  // `hands`: a context per hand the frames show, with its views.
+  EntryContext start_entry(int64_t entry, std::vector<ViewTarget>& targets, StepResult& result,
+                           std::vector<HandEntry>& hands);
+  // Decodes each hand's pose and renders each view of the entry (the hands together).
+  void render_entry(EntryContext& ctx, std::vector<HandEntry>& hands);
+  // The entry's loss: the mean over its views, plus each hand's pose terms and the components'
+  // penalties (terms: each term's value, unweighted, summed over the hands).
+  torch::Tensor entry_loss(EntryContext& ctx, std::vector<HandEntry>& hands,
+                           const std::vector<ViewTarget>& targets,
                            std::map<std::string, double>& terms);
   // Sums this rank's gradients, loss, PSNR, loss terms, flags and the components' slots with the
   // other ranks' in one all-reduce and divides the gradients and terms by the world size. Returns
@@ -149,6 +162,8 @@ class Trainer {
   // The components train.* turns on, in the order the step asks them.
   void make_components();
   bool stop_requested() const;
+  // Data parallel, every rank, when a checkpoint is due: each component gathers what rank 0 saves.
+  void gather_components();
   int64_t entries_per_step() const;  // batch_size on each of the ranks
   int64_t first_entry() const;       // this rank's first entry of a step
   void build_optimizer();
@@ -170,10 +185,28 @@ class Trainer {
   std::string run_dir_;
   ProcessGroup* group_ = nullptr;  // null: a single process
   bool stop_agreed_ = false;       // data parallel: a rank asked to stop (agreed in the all-reduce)
+  // One hand's avatar and what trains it.
+  struct HandSlot {
+    Handedness side = Handedness::right;
+    // "" for the first hand; the second's checkpoint section and metrics.csv prefix ("left").
+    std::string section;
+    std::unique_ptr<Avatar> avatar;
+    std::unique_ptr<Adam> optimizer;  // its own: densification selects and appends its rows
+    std::vector<torch::Tensor> network_params;  // the optimiser points into this vector
+    std::vector<std::unique_ptr<TrainingComponent>> components;
+  };
+  // Every optimiser: each hand's, then the shared components'.
+  std::vector<Adam*> optimizers();
+  // Calls `f(components, section, avatar)` for each hand's components and then for the shared
+  // ones (section "", the first hand's avatar).
+  template <class F>
+  void for_each_part(F&& f);
+
   std::unique_ptr<Capture> capture_;
-  std::unique_ptr<Avatar> avatar_;
-  std::unique_ptr<Adam> optimizer_;
+  std::vector<HandSlot> hands_;  // right first
+  std::unique_ptr<Adam> optimizer_;  // the shared components' parameters
   std::unique_ptr<Objective> objective_;
+  // The components the hands share: the LPIPS schedule, the per-camera colour.
   std::vector<std::unique_ptr<TrainingComponent>> components_;
   CameraColorComponent* camera_color_ = nullptr;  // among components_; null when off
   std::unique_ptr<EmptyMaskWatch> empty_masks_;
@@ -187,7 +220,6 @@ class Trainer {
   bool run_files_written_ = false;
   std::vector<std::string> metrics_columns_;  // metrics.csv's header, the order of its cells
   std::string initial_state_;  // a fresh run's step-0 checkpoint, serialised: rollback's last resort
-  std::vector<torch::Tensor> network_params_;  // the optimiser points into this vector
   double elapsed_seconds_ = 0;                 // training wall time, across resumes
   std::unique_ptr<EntryOrder> entry_order_;  // the frames each entry renders
   int64_t views_rendered_ = 0;  // by this process, over its lifetime

@@ -30,6 +30,7 @@ std::vector<PoseFrame> held_out_poses(const RunConfig& config) {
       frame.pose = f.pose;
       frame.shape = f.shape;
       frame.trans = f.trans;
+      frame.hands = f.hands;
       char name[32];
       std::snprintf(name, sizeof(name), "held_out_%03d", f.pose_index);
       frame.name = name;
@@ -47,16 +48,17 @@ ViewScene::ViewScene(TrainedAvatar trained, std::vector<PoseFrame> held_out)
     : trained_(std::move(trained)),
       held_out_(std::move(held_out)),
       axes_(rig_axes(trained_.avatar.rig())),
-      memo_(trained_.avatar) {
+      hands_(trained_) {
   if (!held_out_.empty()) {
     base_.shape = held_out_.front().shape;
     base_.trans = held_out_.front().trans;
+    base_.hands = held_out_.front().hands;  // two hands: the other hand stays as captured
   }
   const torch::Tensor means = trained_.avatar.gaussians().means.detach().to(torch::kFloat64);
   const torch::Tensor centre = means.mean(0);
   for (int d = 0; d < 3; ++d) rest_centre_[d] = centre[d].item<double>();
   const double extent = (means.amax(0) - means.amin(0)).norm().item<double>();
-  gaussians_ = means.size(0);
+  gaussians_ = trained_.gaussian_count();
   default_view_.distance = fitting_distance(extent, default_view_.width, default_view_.height);
 }
 
@@ -105,11 +107,23 @@ PoseFrame ViewScene::pose_of(const ViewRequest& request) const {
   PoseFrame frame = base_;
   frame.pose = controls_pose(trained_.avatar.rig(), axes_, trained_.avatar.config().flat_hand_mean,
                              request.controls);
+  // Two hands: the controls pose the first hand (the right), the other keeps its captured pose.
+  auto& first = frame.hands[trained_.first_hand() == Handedness::right ? 0 : 1];
+  if (!trained_.left.empty()) {
+    if (!first) first = HandParams{{}, frame.shape, frame.trans, {}, {}};
+    first->pose = frame.pose;
+  }
   return frame;
 }
 
-const AvatarState& ViewScene::posed(const PoseFrame& frame) {
-  return memo_.pose(frame.pose.data(), frame.shape.data(), frame.trans.data());
+const PosedGaussians& ViewScene::posed(const PoseFrame& frame) {
+  return hands_.pose(frame, "pose " + frame.name);
+}
+
+const AvatarState& ViewScene::first_hand_state() const {
+  const AvatarState* state = hands_.state(trained_.first_hand());
+  if (!state) state = hands_.state(Handedness::left);
+  return *state;
 }
 
 Camera ViewScene::camera_for(const AvatarState& state, const OrbitView& view) const {
@@ -129,7 +143,8 @@ Camera ViewScene::camera_of(const ViewRequest& request) {
   const PoseFrame frame = pose_of(request);
   std::lock_guard<std::mutex> lock(mutex_);
   c10::InferenceMode guard;
-  return camera_for(posed(frame), request.view);
+  posed(frame);
+  return camera_for(first_hand_state(), request.view);
 }
 
 ViewFrame ViewScene::render(const ViewRequest& request) {
@@ -137,11 +152,11 @@ ViewFrame ViewScene::render(const ViewRequest& request) {
   std::lock_guard<std::mutex> lock(mutex_);
   c10::InferenceMode guard;
   const auto t0 = std::chrono::steady_clock::now();
-  const AvatarState& state = posed(frame);
-  const Camera camera = camera_for(state, request.view);
+  const PosedGaussians& gaussians = posed(frame);
+  const Camera camera = camera_for(first_hand_state(), request.view);
   // As handscs-render: black background, the avatar's own colours (no camera's colour transform).
   const RasterSettings settings;
-  const RasterOutput out = render_posed(state.posed, camera, settings);
+  const RasterOutput out = render_posed(gaussians, camera, settings);
   const cv::Mat bgr = rgb_tensor_to_mat(out.rgb.clamp(0, 1));
   std::vector<uchar> bytes;
   const bool png = request.format == ImageFormat::png;

@@ -11,6 +11,7 @@
 
 #include "avatar/pose_memo.h"
 #include "infer/pose_source.h"
+#include "infer/posed_hands.h"
 #include "run/avatar_state_io.h"
 #include "synth/hand_axes.h"
 #include "view/view_request.h"
@@ -47,7 +48,10 @@ class ViewScene {
   ViewFrame render(const ViewRequest& request);
 
  private:
-  const AvatarState& posed(const PoseFrame& frame);  // under mutex_
+  // The frame's hands posed and joined (under mutex_); first_hand_state() is then the first of
+  // them, whose root the camera orbits.
+  const PosedGaussians& posed(const PoseFrame& frame);
+  const AvatarState& first_hand_state() const;
   Camera camera_for(const AvatarState& state, const OrbitView& view) const;
 
   TrainedAvatar trained_;
@@ -58,7 +62,7 @@ class ViewScene {
   OrbitView default_view_;
   int64_t gaussians_ = 0;
   std::mutex mutex_;
-  PoseMemo memo_;
+  PosedHands hands_;
 };
 
 }  // namespace handscs

@@ -44,8 +44,8 @@ TEST_CASE("capture config: JSON in and out, errors name the key") {
   CHECK(error({{"cache", {{"budget_mbb", 5}}}}) == "capture.json: cache.budget_mbb: unknown key");
   CHECK(error({{"split_rule", "novel"}}) ==
         "capture.json: split_rule: unknown value \"novel\" (known: novel_pose, novel_view)");
-  CHECK(error({{"hand", "both"}}) ==
-        "capture.json: hand: unknown value \"both\" (known: right, left)");
+  CHECK(error({{"hand", "each"}}) ==
+        "capture.json: hand: unknown value \"each\" (known: right, left, both)");
   CHECK(error({{"frame_stride", 0}}) ==
         "capture.json: frame_stride: value 0 out of range [1, 1e+06]");
   CHECK(error({{"train_cameras", {400262}}}) ==

@@ -280,7 +280,7 @@ TEST_CASE("capture errors: bad configuration values name the key") {
         data + ": no images of capture 5 (data.capture); the file holds captures 0");
 
   config = data_test::tiny_config(root);
-  config.hand = Handedness::left;  // the tiny capture annotates only the right hand
+  config.hand = CaptureConfig::Hands::left;  // the tiny capture annotates only the right hand
   const std::string message = error_of([&] { Capture::open(config); });
   CHECK(message.rfind(data + ": no usable images in capture 0 (48 considered; " + data +
                           ": skipped 48 of 48 images (null MANO 48): ",

@@ -379,12 +379,12 @@ TEST_CASE("capture layouts: a left-hand capture reads alike in the InterHand2.6M
   for (const char* layout : {"interhand", "handscs"}) {
     roots[layout] = data_test::fresh_dir(std::string("left_") + layout);
     SynthConfig config = synth_preset("tiny");
-    config.hand = Handedness::left;
+    config.hand = CaptureConfig::Hands::left;
     config.layout = choice_value(layout, SynthConfig::layout_names());
     write_synth_capture(make_synth_scene(config), roots[layout]);
   }
   CaptureConfig config = data_test::tiny_config(roots["interhand"]);
-  config.hand = Handedness::left;
+  config.hand = CaptureConfig::Hands::left;
   Capture reference = Capture::open(config);
   config.root = roots["handscs"];
   Capture capture = Capture::open(config);

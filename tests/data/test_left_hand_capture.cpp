@@ -17,7 +17,7 @@ const std::string& left_tiny_root() {
   static const std::string root = [] {
     const std::string dir = data_test::fresh_dir("left_tiny");
     SynthScene scene = data_test::tiny_capture().scene;
-    scene.config.hand = Handedness::left;
+    scene.config.hand = CaptureConfig::Hands::left;
     write_synth_capture(scene, dir);
     return dir;
   }();
@@ -29,7 +29,7 @@ const std::string& left_tiny_root() {
 TEST_CASE("left hand: the mirrored tiny capture reads back as the right one's mirror image") {
   const CaptureConfig right_config = data_test::tiny_config(data_test::tiny_capture().root);
   CaptureConfig left_config = data_test::tiny_config(left_tiny_root());
-  left_config.hand = Handedness::left;
+  left_config.hand = CaptureConfig::Hands::left;
   Capture right = Capture::open(right_config);
   Capture left = Capture::open(left_config);
   REQUIRE(left.frames().size() == right.frames().size());
@@ -93,7 +93,7 @@ TEST_CASE("left hand: the mirrored tiny capture reads back as the right one's mi
 
 TEST_CASE("left hand: a rig of the other hand is refused, naming data.rig and data.hand") {
   CaptureConfig config = data_test::tiny_config(left_tiny_root());
-  config.hand = Handedness::left;
+  config.hand = CaptureConfig::Hands::left;
   config.rig = "builtin:right";
   CHECK(data_test::error_of([&] { Capture::open(config); }) ==
         "data.rig: rig \"builtin:right\" is a right hand but data.hand is left");

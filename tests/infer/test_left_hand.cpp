@@ -53,7 +53,7 @@ TEST_CASE("left hand: the mirrored tiny capture trains, scores and renders like 
   handscs::set_threads(2);
   const std::string left_root = fresh_dir("left_hand_capture");
   handscs::SynthConfig synth = handscs::synth_preset("tiny");
-  synth.hand = handscs::Handedness::left;
+  synth.hand = handscs::CaptureConfig::Hands::left;
   handscs::generate_synth_capture(synth, left_root);
 
   const HandRun right = train_and_score(handscs_test::tiny_capture_dir(), "right");

@@ -71,7 +71,7 @@ TEST_CASE("configs: the paper's InterHand2.6M protocol configs resolve to their 
     CHECK(config.data.split == e.split);
     CHECK(config.data.capture == e.capture);
     CHECK(config.data.split_rule == handscs::choice_value(e.rule, handscs::CaptureConfig::split_rule_names()));
-    CHECK(config.data.hand == handscs::Handedness::right);
+    CHECK(config.data.hand == handscs::CaptureConfig::Hands::right);
     CHECK(config.data.held_out_poses == 50);
     CHECK(config.data.test_cameras.empty());  // novel_view: 10 train / 15 test chosen by id
     CHECK(config.data.novel_view_train_views == 10);
@@ -114,7 +114,7 @@ TEST_CASE("configs: the old form with model.rig and model.flat_hand_mean still l
   CHECK(config.data.rig == "builtin:left");
   CHECK(config.model.rig == "builtin:left");
   CHECK(config.model.flat_hand_mean);
-  CHECK(config.data.hand == handscs::Handedness::left);
+  CHECK(config.data.hand == handscs::CaptureConfig::Hands::left);
   CHECK_NOTHROW(handscs::validate_run_config(config, "old.json"));
   // Written back in the new form: one key each.
   const handscs::json written = handscs::config_to_json(config);
