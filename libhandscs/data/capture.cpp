@@ -219,6 +219,9 @@ PoseRanges novel_pose_ranges(const CaptureConfig& c, int num_poses, const std::s
             key_name(prefix, name) + ": only split_rule novel_pose selects poses (it is " +
                 std::to_string(value) + " with " + split_rule_name(c.split_rule) + ")");
   PoseRanges r;
+  // novel_view splits by camera: every pose on both sides, whatever held_out_poses says (a capture
+  // of one instant has fewer poses than its default).
+  if (c.split_rule != CaptureConfig::SplitRule::novel_pose) return {0, num_poses, num_poses};
   r.end = num_poses - c.held_out_poses;  // the training poses end where the held-out ones start
   if (c.validation_poses > 0) {
     if (c.validation_poses >= r.end)
