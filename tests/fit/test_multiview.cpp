@@ -1,5 +1,5 @@
 // Multi-view hands: grouping detections whose labels cannot be trusted, the NeuS/IDR camera
-// archive (read against FMHR's own int_i / ext_i), and the real FMHR capture end to end.
+// archive's numpy reader, and the real FMHR capture end to end (its cameras: tests/data).
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -87,30 +87,6 @@ TEST_CASE("npz: FMHR's camera archive reads as numpy wrote it") {
   CHECK(k0.values[5] == Approx(2348.24172).epsilon(1e-8));
   CHECK(arrays.at("ext_1").values[3] == Approx(0.26338636).epsilon(1e-7));
   CHECK_THROWS_WITH(read_npz(kFmhr + "/img/00.png"), Catch::Contains("not a ZIP archive"));
-}
-
-TEST_CASE("camera_from_projection: FMHR's world_mat_i decomposes into its int_i and ext_i") {
-  const auto arrays = read_npz(kFmhr + "/camera/param.npz");
-  for (int i = 0; i < 16; ++i) {
-    const auto& W = arrays.at("world_mat_" + std::to_string(i)).values;
-    const auto& K = arrays.at("int_" + std::to_string(i)).values;
-    const auto& E = arrays.at("ext_" + std::to_string(i)).values;
-    double P[12];
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 4; ++c) P[4 * r + c] = -2.5 * W[4 * r + c];  // any scale, either sign
-    const Camera cam = camera_from_projection(P, 1280, 1024, "test");
-    INFO("view " << i);
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) {
-        CHECK(cam.K[3 * r + c] == Approx(K[4 * r + c]).margin(1e-6 * K[0]));
-        CHECK(cam.R[3 * r + c] == Approx(E[4 * r + c]).margin(1e-6));
-      }
-      CHECK(cam.t[r] == Approx(E[4 * r + 3]).margin(1e-6));
-    }
-  }
-  const double flat[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0};  // rows 2 and 3 equal: singular
-  CHECK_THROWS_WITH(camera_from_projection(flat, 100, 100, "cameras.npz: view 3"),
-                    Catch::Contains("cameras.npz: view 3: the projection's left 3x3 block is singular"));
 }
 
 TEST_CASE("FMHR: both hands fitted from the 16 views' landmarks, closer to them than plain DLT") {
