@@ -167,7 +167,8 @@ Camera camera_from_projection(const double* P, int width, int height, const std:
   return cam;
 }
 
-NeusViews read_neus_views(const std::string& root) {
+NeusViews read_neus_views(const std::string& root, const std::string& frame_dir) {
+  const std::string& folder = frame_dir.empty() ? root : frame_dir;
   NeusViews out;
   out.archive = find_neus_camera_archive(root);
   const std::string& archive = out.archive;
@@ -180,9 +181,9 @@ NeusViews read_neus_views(const std::string& root) {
       if (key_index(key, prefix) >= 0) indices.insert(key_index(key, prefix));
   if (indices.empty())
     throw Error(archive + ": no world_mat_<i> or int_<i>/ext_<i> (is this a NeuS/IDR camera archive?)");
-  out.image_dir = first_existing(root, {"img", "image", "images"});
-  if (out.image_dir.empty()) throw Error(root + ": no image folder (img/ or image/) beside " + archive);
-  const std::string mask_dir = first_existing(root, {"mask", "masks"});
+  out.image_dir = first_existing(folder, {"img", "image", "images"});
+  if (out.image_dir.empty()) throw Error(folder + ": no image folder (img/ or image/) for " + archive);
+  const std::string mask_dir = first_existing(folder, {"mask", "masks"});
   const auto images = numbered_images(out.image_dir);
   for (const auto& [number, image] : images)
     if (!indices.count(number))

@@ -3,6 +3,7 @@
 //        3x4 or 4x4, any scale) and/or int_i and ext_i (4x4 intrinsics, world-to-camera [R | t])
 //   <root>/img/NN.png | image/NNN.png (or .jpg)                 the views' images
 //   <root>/mask/NN.png                                          optional masks (255 = hand)
+// or, for several instants sharing the cameras, the images and masks in <root>/<frame>/img/, mask/.
 // scale_mat_i is not read: world_mat_i alone projects world points (metres in FMHR's archives).
 // OpenCV's K centres pixels on integers: cx and cy gain 0.5 for the project's convention
 // (docs/CAPTURE_FORMAT.md).
@@ -37,11 +38,12 @@ std::string find_neus_camera_archive(const std::string& root);
 // exists ("" when none does or dir is "").
 std::string neus_view_file(const std::string& dir, int i, const std::string& extension);
 
-// The views of `root`. Throws Error naming the archive and key for a camera that does not
+// The views of `root`, their images and masks from `frame_dir` (a folder holding img/ and mask/;
+// "" = root itself). Throws Error naming the archive and key for a camera that does not
 // decompose into a plausible pinhole camera (singular, skewed, non-finite, implausible for its
 // image's size), world_mat_i and int_i/ext_i that disagree, an image numbered without a camera,
 // or no view with an image. A camera whose image is missing is skipped with a warning naming it.
-NeusViews read_neus_views(const std::string& root);
+NeusViews read_neus_views(const std::string& root, const std::string& frame_dir = "");
 
 // K, R, t of a 3x4 projection P = s K [R | t] (row-major), by RQ decomposition of its left 3x3:
 // K upper triangular with positive diagonal and K[2][2] = 1, R a rotation. Throws Error naming

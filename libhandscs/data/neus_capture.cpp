@@ -1,6 +1,7 @@
 #include "data/neus_capture.h"
 
 #include <filesystem>
+#include <map>
 
 #include "core/config.h"
 #include "core/error.h"
@@ -33,11 +34,37 @@ void check_hands_in_front(const CaptureRecords& records, const std::string& hand
     }
 }
 
+// The instants of `root` and their folders: {0, root} when root holds img/ or image/, else each
+// sub-folder named by a number ("3", "000003") that holds one, by that number.
+std::map<int64_t, std::string> frame_folders(const std::string& root) {
+  std::error_code ec;
+  for (const char* name : {"img", "image", "images"})
+    if (fs::is_directory(fs::path(root) / name, ec)) return {{0, root}};
+  std::map<int64_t, std::string> out;
+  for (const auto& entry : fs::directory_iterator(root, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.empty() || name.size() > 9 || name.find_first_not_of("0123456789") != std::string::npos) continue;
+    bool has_images = false;
+    for (const char* images : {"img", "image", "images"}) has_images = has_images || fs::is_directory(entry.path() / images, ec);
+    if (!has_images) continue;
+    const int64_t frame = std::stoll(name);
+    if (!out.emplace(frame, entry.path().string()).second)
+      throw Error(entry.path().string() + ": a second folder of frame " + std::to_string(frame) + " (with " +
+                  out.at(frame) + ")");
+  }
+  if (out.empty())
+    throw Error(root + ": no image folder (img/ or image/), nor frame folders holding one (<frame>/img/)");
+  return out;
+}
+
 }  // namespace
 
 CaptureRecords read_neus_capture(const CaptureConfig& c, const std::string& prefix) {
   const std::string hands_key = prefix + ".hands_file";
-  const NeusViews views = read_neus_views(c.root);
+  const std::map<int64_t, std::string> folders = frame_folders(c.root);
+  std::map<int64_t, NeusViews> views;
+  for (const auto& [frame, folder] : folders) views[frame] = read_neus_views(c.root, folder);
+  const std::string& archive = views.begin()->second.archive;
   if (c.hands_file.empty())
     throw Error(hands_key + ": not set, and the neus layout of " + c.root +
                 " has no hand poses: fit them with `handscs-fit --multiview " + c.root +
@@ -53,34 +80,39 @@ CaptureRecords read_neus_capture(const CaptureConfig& c, const std::string& pref
 
   CaptureRecords records;
   records.layout = CaptureConfig::Layout::neus;
-  records.images_dir = views.image_dir;
-  records.index_file = views.archive;
+  records.images_dir = c.root;
+  records.index_file = archive;
   records.scope = c.root;
-  records.source_files = {views.archive, c.hands_file};
+  records.source_files = {archive, c.hands_file};
   const JsonView frames = top.at("frames");
-  std::string sequence, hand_type;
-  for (const CaptureFrameEntry& entry : read_capture_frames(frames)) {
-    if (entry.frame != 0)
-      frames.fail("frame " + std::to_string(entry.frame) + ": " + c.root +
-                  " (neus layout) holds one instant, frame 0");
-    records.frames[0] = entry.record;
-    sequence = entry.sequence;
-    hand_type = entry.hand_type;
+  std::map<int64_t, CaptureFrameEntry> entries;
+  for (CaptureFrameEntry& entry : read_capture_frames(frames)) {
+    if (!folders.count(entry.frame))
+      frames.fail("frame " + std::to_string(entry.frame) + ": " + c.root + " (neus layout) " +
+                  (folders.begin()->second == c.root ? std::string("holds one instant, frame 0")
+                                                     : "has no folder of that frame (<frame>/img/)"));
+    records.frames[entry.frame] = entry.record;
+    entries.emplace(entry.frame, std::move(entry));
   }
-  for (const NeusView& view : views.views) {
-    const std::string id = "view" + view.name;
-    records.cameras[id] = RecordCamera{view.camera, LensDistortion{}, view.where};
-    RecordImage image;
-    image.id = static_cast<int64_t>(records.images.size());
-    image.file_name = fs::path(view.image).filename().string();
-    image.mask_path = view.mask;
-    image.width = view.camera.width;
-    image.height = view.camera.height;
-    image.seq_name = sequence;
-    image.camera = id;
-    image.frame_idx = 0;
-    image.hand_type = hand_type;
-    records.images.push_back(std::move(image));
+  for (const auto& [frame, frame_views] : views) {
+    const auto entry = entries.find(frame);  // a frame without hands is skipped by Capture::open
+    for (const NeusView& view : frame_views.views) {
+      const std::string id = "view" + view.name;
+      records.cameras.emplace(id, RecordCamera{view.camera, LensDistortion{}, view.where});  // the first frame's
+      RecordImage image;
+      image.id = static_cast<int64_t>(records.images.size());
+      image.file_name = fs::relative(view.image, c.root).string();
+      image.mask_path = view.mask;
+      image.width = view.camera.width;
+      image.height = view.camera.height;
+      image.camera = id;
+      image.frame_idx = frame;
+      if (entry != entries.end()) {
+        image.seq_name = entry->second.sequence;
+        image.hand_type = entry->second.hand_type;
+      }
+      records.images.push_back(std::move(image));
+    }
   }
   check_hands_in_front(records, c.hands_file);
   return records;

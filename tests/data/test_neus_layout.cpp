@@ -72,9 +72,11 @@ data_test::NpzArray world_mat(double f, double cx, double cy, double angle) {
   return out;
 }
 
-void write_image(const std::string& path, int width, int height) {
+// A plain colour image, or (grey = 255) a mask marking every pixel as hand.
+void write_image(const std::string& path, int width, int height, int grey = -1) {
   fs::create_directories(fs::path(path).parent_path());
-  REQUIRE(cv::imwrite(path, cv::Mat(height, width, CV_8UC3, cv::Scalar(90, 120, 150))));
+  const cv::Scalar colour = grey < 0 ? cv::Scalar(90, 120, 150) : cv::Scalar::all(grey);
+  REQUIRE(cv::imwrite(path, cv::Mat(height, width, CV_8UC3, colour)));
 }
 
 // A synthetic neus folder: cameras.npz with `views` views (64 x 48 images, f = 60 px), img/NN.png
@@ -88,7 +90,7 @@ std::string synthetic_neus(const std::string& name, int views = 3) {
     arrays["world_mat_" + std::to_string(i)] = world_mat(60, 31.5, 23.5, 0.3 * i);
     arrays["scale_mat_" + std::to_string(i)] = {{4, 4}, {2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 1}};
     write_image(root + "/img/" + stem + ".png", 64, 48);
-    write_image(root + "/mask/" + stem + ".png", 64, 48);
+    write_image(root + "/mask/" + stem + ".png", 64, 48, 255);
   }
   data_test::write_npz(root + "/cameras.npz", arrays);
   write_hands(root + "/hands.json", {0, 0, 0});
@@ -261,4 +263,51 @@ TEST_CASE("neus layout: a view without its image is left out, without its mask r
   c.layout = CaptureConfig::Layout::interhand;
   CHECK_THAT(error_of([&] { Capture::open(c); }),
              Catch::Contains("data.hands_file: only the neus layout reads it (this capture is interhand)"));
+}
+
+TEST_CASE("neus layout: one folder per instant shares the root's cameras") {
+  const std::string root = synthetic_neus("neus_frames");
+  for (const char* frame : {"000000", "000003"}) {
+    fs::create_directories(root + "/" + frame);
+    fs::copy(root + "/img", root + "/" + frame + "/img");
+    fs::copy(root + "/mask", root + "/" + frame + "/mask");
+  }
+  fs::remove_all(root + "/img");
+  fs::remove_all(root + "/mask");
+  fs::remove(root + "/000003/mask/02.png");
+  CaptureConfig c = neus_config(root);
+  json hands = parse_json_file(c.hands_file);
+  hands["frames"].push_back(hands["frames"][0]);
+  hands["frames"][1]["frame"] = 3;
+  hands["frames"][1]["right"]["trans"] = {0.01, 0.0, 0.0};
+  data_test::write_text(c.hands_file, hands.dump());
+
+  const CaptureRecords records = read_records(c);
+  REQUIRE(records.images.size() == 6);
+  CHECK(records.cameras.size() == 3);
+  CHECK(records.images[4].file_name == "000003/img/01.png");
+  CHECK(records.images[4].frame_idx == 3);
+  CHECK(records.images[4].mask_path == root + "/000003/mask/01.png");
+  CHECK(records.images[5].mask_path.empty());
+  CHECK(records.frames.at(3).right->mano.trans[0] == 0.01);
+
+  c.test_cameras = {"view01"};
+  Capture capture = Capture::open(c, data_test::fresh_dir("neus_frames_masks"));
+  CHECK(capture.frames().size() == 6);
+  CHECK(capture.train().size() == 4);
+  CHECK(capture.test().size() == 2);
+  // The supplied mask covers the whole image; the rasterised hand, ~20 px across, a part of it.
+  for (const FrameInfo& f : capture.frames()) {
+    INFO(f.file_name);
+    const double covered = capture.load(f, true).mask.to(torch::kFloat).mean().item<double>();
+    if (f.file_name == "000003/img/02.png")
+      CHECK((covered > 0.02 && covered < 0.5));
+    else
+      CHECK(covered == 1.0);
+  }
+
+  hands["frames"][1]["frame"] = 5;
+  data_test::write_text(c.hands_file, hands.dump());
+  CHECK(error_of([&] { read_records(c); }) ==
+        c.hands_file + ": frames: frame 5: " + root + " (neus layout) has no folder of that frame (<frame>/img/)");
 }
