@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "data/capture.h"
 #include "fit/fit_command.h"
 #include "fit/multiview_capture.h"
 #include "hand/procedural_hand.h"
@@ -112,4 +113,18 @@ TEST_CASE("FMHR: both hands fitted from the 16 views' landmarks, closer to them 
   CHECK(fs::exists(o.out + "/capture.json"));
   CHECK(fs::exists(o.out + "/overlay/view00.png"));
   CHECK(fs::is_symlink(o.out + "/images/view00/000000.png"));
+
+  // The capture.json written is the neus layout's hands file as it is: FMHR's folder trains in place.
+  CaptureConfig c;
+  c.root = kFmhr;
+  c.hands_file = o.out + "/capture.json";
+  c.split_rule = CaptureConfig::SplitRule::novel_view;
+  c.include_interacting = true;  // both hands were fitted
+  c.test_cameras = {"view02", "view06", "view10", "view14"};
+  c.scan_cache = handscs_test::scratch_path("fit_fmhr", "scans");
+  c.cache.prefetch_threads = 0;
+  const Capture capture = Capture::open(c, handscs_test::scratch_path("fit_fmhr", "masks"));
+  CHECK(capture.layout() == CaptureConfig::Layout::neus);
+  CHECK(capture.train().size() == 12);
+  CHECK(capture.test().size() == 4);
 }
