@@ -115,6 +115,10 @@ std::string find_neus_camera_archive(const std::string& root) {
   return first_existing(root, {std::begin(kArchiveNames), std::end(kArchiveNames)});
 }
 
+std::string find_neus_image_folder(const std::string& dir) {
+  return first_existing(dir, {"img", "image", "images"});
+}
+
 std::string neus_view_file(const std::string& dir, int i, const std::string& extension) {
   if (dir.empty()) return "";
   std::error_code ec;
@@ -181,7 +185,7 @@ NeusViews read_neus_views(const std::string& root, const std::string& frame_dir)
       if (key_index(key, prefix) >= 0) indices.insert(key_index(key, prefix));
   if (indices.empty())
     throw Error(archive + ": no world_mat_<i> or int_<i>/ext_<i> (is this a NeuS/IDR camera archive?)");
-  out.image_dir = first_existing(folder, {"img", "image", "images"});
+  out.image_dir = find_neus_image_folder(folder);
   if (out.image_dir.empty()) throw Error(folder + ": no image folder (img/ or image/) for " + archive);
   const std::string mask_dir = first_existing(folder, {"mask", "masks"});
   const auto images = numbered_images(out.image_dir);

@@ -34,6 +34,9 @@ struct NeusViews {
 // The camera archive under `root` ("" when it holds none of the names above).
 std::string find_neus_camera_archive(const std::string& root);
 
+// The image folder of `dir` (img/, image/ or images/; "" when it holds none).
+std::string find_neus_image_folder(const std::string& dir);
+
 // "<dir>/NN<extension>", "<dir>/NNN<extension>" or "<dir>/NNNNNN<extension>" for view i, whichever
 // exists ("" when none does or dir is "").
 std::string neus_view_file(const std::string& dir, int i, const std::string& extension);

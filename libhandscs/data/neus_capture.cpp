@@ -37,16 +37,13 @@ void check_hands_in_front(const CaptureRecords& records, const std::string& hand
 // The instants of `root` and their folders: {0, root} when root holds img/ or image/, else each
 // sub-folder named by a number ("3", "000003") that holds one, by that number.
 std::map<int64_t, std::string> frame_folders(const std::string& root) {
+  if (!find_neus_image_folder(root).empty()) return {{0, root}};
   std::error_code ec;
-  for (const char* name : {"img", "image", "images"})
-    if (fs::is_directory(fs::path(root) / name, ec)) return {{0, root}};
   std::map<int64_t, std::string> out;
   for (const auto& entry : fs::directory_iterator(root, ec)) {
     const std::string name = entry.path().filename().string();
     if (name.empty() || name.size() > 9 || name.find_first_not_of("0123456789") != std::string::npos) continue;
-    bool has_images = false;
-    for (const char* images : {"img", "image", "images"}) has_images = has_images || fs::is_directory(entry.path() / images, ec);
-    if (!has_images) continue;
+    if (!entry.is_directory(ec) || find_neus_image_folder(entry.path().string()).empty()) continue;
     const int64_t frame = std::stoll(name);
     if (!out.emplace(frame, entry.path().string()).second)
       throw Error(entry.path().string() + ": a second folder of frame " + std::to_string(frame) + " (with " +
