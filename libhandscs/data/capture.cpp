@@ -18,6 +18,7 @@
 #include "core/text.h"
 #include "data/capture_impl.h"
 #include "data/capture_layout.h"
+#include "data/neus_capture.h"
 #include "data/handscs_capture.h"
 #include "data/image_checks.h"
 #include "data/interhand_records.h"
@@ -239,7 +240,9 @@ PoseRanges novel_pose_ranges(const CaptureConfig& c, int num_poses, const std::s
             key_name(prefix, name) + ": only split_rule novel_pose selects poses (it is " +
                 std::to_string(value) + " with " + split_rule_name(c.split_rule) + ")");
   PoseRanges r;
-  if (c.split_rule != CaptureConfig::SplitRule::novel_pose) return r;  // the split is by camera
+  // novel_view splits by camera: every pose on both sides, whatever held_out_poses says (a capture
+  // of one instant has fewer poses than its default).
+  if (c.split_rule != CaptureConfig::SplitRule::novel_pose) return {0, num_poses, num_poses};
   r.end = num_poses - c.held_out_poses;  // the training poses end where the held-out ones start
   if (c.validation_poses > 0) {
     if (c.validation_poses >= r.end)
@@ -265,12 +268,16 @@ PoseRanges novel_pose_ranges(const CaptureConfig& c, int num_poses, const std::s
 // Step 1: the capture's records in its layout (data/capture_layout.h).
 CaptureRecords read_capture_records(const CaptureConfig& c, const std::string& prefix) {
   const CaptureConfig::Layout layout = detect_capture_layout(c.root, c.layout, key_name(prefix, "root"));
+  require(c.hands_file.empty() || layout == CaptureConfig::Layout::neus,
+          key_name(prefix, "hands_file") + ": only the neus layout reads it (this capture is " + layout_name(layout) + ")");
   if (layout == CaptureConfig::Layout::interhand) return read_interhand_records(c, prefix);
   if (c.pose_source == CaptureConfig::PoseSource::joints)
     throw Error(key_name(prefix, "pose_source") + ": joints is read from InterHand2.6M's joint_3d.json; a " + layout_name(layout) +
                 " capture carries its poses in capture.json (fit keypoints into one with handscs-fit)");
   CaptureRecords records =
-      read_handscs_capture(c.root, layout, c.flat_hand_mean, key_name(prefix, "flat_hand_mean"));
+      layout == CaptureConfig::Layout::neus
+          ? read_neus_capture(c, prefix)
+          : read_handscs_capture(c.root, layout, c.flat_hand_mean, key_name(prefix, "flat_hand_mean"));
   if (c.sequences.empty()) return records;
   std::set<std::string> present;
   for (const auto& image : records.images) present.insert(image.seq_name);

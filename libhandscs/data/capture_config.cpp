@@ -8,7 +8,8 @@ const ChoiceNames<CaptureConfig::Layout>& CaptureConfig::layout_names() {
   static const ChoiceNames<Layout> names = {{"auto", Layout::automatic},
                                             {"interhand", Layout::interhand},
                                             {"handscs", Layout::handscs},
-                                            {"easymocap", Layout::easymocap}};
+                                            {"easymocap", Layout::easymocap},
+                                            {"neus", Layout::neus}};
   return names;
 }
 

@@ -32,8 +32,9 @@ struct CropCacheConfig {
 
 struct CaptureConfig {
   // The capture folder's layout (docs/CAPTURE_FORMAT.md). automatic ("auto" in files): easymocap
-  // when root holds intri.yml, handscs when it holds capture.json, else interhand.
-  enum class Layout { automatic, interhand, handscs, easymocap };
+  // when root holds intri.yml, handscs when it holds capture.json, neus when it holds a NeuS/IDR
+  // camera archive, else interhand.
+  enum class Layout { automatic, interhand, handscs, easymocap, neus };
   // novel_pose: the last held_out_poses poses are the test set; novel_view: test cameras are.
   enum class SplitRule { novel_pose, novel_view };
   // Where each frame's hand pose comes from (InterHand2.6M layout).
@@ -43,6 +44,7 @@ struct CaptureConfig {
 
   std::string root;                        // dataset folder (see layout)
   Layout layout = Layout::automatic;
+  std::string hands_file;                  // neus layout: the hands' MANO parameters (capture.json form)
   std::string split = "test";              // InterHand split folder: train, test or val
   int capture = 0;                         // Capture{c} (InterHand2.6M layout only)
   std::vector<std::string> sequences;      // seq_name values to use (empty = all of the capture)
@@ -99,8 +101,11 @@ struct CaptureConfig {
   void visit(V& v) {
     v.field("root", root, "capture folder (docs/CAPTURE_FORMAT.md)");
     v.choice("layout", layout, layout_names(),
-             "capture layout; auto: easymocap with intri.yml, handscs with capture.json, else "
-             "interhand");
+             "capture layout; auto: easymocap with intri.yml, handscs with capture.json, neus with "
+             "camera/param.npz, cameras.npz or cameras_sphere.npz, else interhand");
+    v.field("hands_file", hands_file,
+            "neus layout: JSON file of the hands' MANO parameters (frames as in capture.json; "
+            "handscs-fit --multiview writes one)");
     v.choice("split", split, {"train", "test", "val"}, "InterHand2.6M split folder");
     v.field("capture", capture, "InterHand2.6M capture number (images/{split}/Capture{c})", 0,
             1000000);

@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "core/error.h"
+#include "data/neus_cameras.h"
 
 namespace handscs {
 
@@ -39,6 +40,7 @@ CaptureConfig::Layout detect_capture_layout(const std::string& root, CaptureConf
   }
   if (fs::is_regular_file(base / kEasyMocapIntrinsicsFile, ec)) return Layout::easymocap;
   if (fs::is_regular_file(base / kHandscsCaptureFile, ec)) return Layout::handscs;
+  if (!find_neus_camera_archive(root).empty()) return Layout::neus;
   return Layout::interhand;
 }
 

@@ -15,7 +15,8 @@ constexpr char kEasyMocapIntrinsicsFile[] = "intri.yml";
 constexpr char kEasyMocapExtrinsicsFile[] = "extri.yml";
 
 // The layout of `root`: `setting` as given, or for automatic easymocap when root holds intri.yml,
-// else handscs when it holds capture.json, else interhand (never automatic).
+// else handscs when it holds capture.json, else neus when it holds a NeuS/IDR camera archive
+// (data/neus_cameras.h), else interhand (never automatic).
 // Throws Error naming root_key for an empty or missing root.
 CaptureConfig::Layout detect_capture_layout(const std::string& root, CaptureConfig::Layout setting,
                                             const std::string& root_key = "data.root");

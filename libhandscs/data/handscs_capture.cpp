@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 #include "core/camera_checks.h"
 #include "core/config.h"
@@ -93,6 +94,53 @@ std::string frame_file_stem(int64_t frame) {
   return stem;
 }
 
+void check_capture_header(const JsonView& top, bool required, bool flat_hand_mean,
+                          const std::string& flat_key) {
+  if (required || top.has("format")) {
+    const std::string format = top.at("format").string();
+    if (format != kHandscsCaptureFormat)
+      top.at("format").fail("expected \"" + std::string(kHandscsCaptureFormat) + "\", got \"" + format + "\"");
+  }
+  if (required || top.has("version")) {
+    const int64_t version = top.at("version").integer();
+    if (version != kHandscsCaptureVersion)
+      top.at("version").fail("version " + std::to_string(version) + " is not one this build reads (it reads " +
+                             std::to_string(kHandscsCaptureVersion) + ")");
+  }
+  if (required || top.has("flat_hand_mean")) {
+    const bool file_flat = top.at("flat_hand_mean").flag();
+    if (file_flat != flat_hand_mean)
+      top.at("flat_hand_mean").fail(std::string("poses are stored with flat_hand_mean ") +
+                                    (file_flat ? "true" : "false") + " but " + flat_key + " is " +
+                                    (flat_hand_mean ? "true" : "false") + " (set it to match)");
+  }
+}
+
+std::vector<CaptureFrameEntry> read_capture_frames(const JsonView& frames) {
+  const size_t num_frames = frames.size();
+  if (num_frames == 0) frames.fail("no frames");
+  std::vector<CaptureFrameEntry> out;
+  std::set<int64_t> seen;
+  for (size_t k = 0; k < num_frames; ++k) {
+    const JsonView entry = frames.at(k);
+    entry.require_known_keys({"frame", "sequence", "hand_type", "right", "left"});
+    CaptureFrameEntry e;
+    e.frame = entry.at("frame").integer();
+    if (e.frame < 0) entry.at("frame").fail("frame numbers must be >= 0");
+    if (!seen.insert(e.frame).second) entry.at("frame").fail("frame " + std::to_string(e.frame) + " appears twice");
+    e.record.right = read_hand(entry, "right");
+    e.record.left = read_hand(entry, "left");
+    if (entry.has("hand_type")) {
+      e.hand_type = entry.at("hand_type").string();
+      if (e.hand_type != "right" && e.hand_type != "left" && e.hand_type != "interacting")
+        entry.at("hand_type").fail("expected \"right\", \"left\" or \"interacting\", got \"" + e.hand_type + "\"");
+    }
+    e.sequence = entry.has("sequence") ? entry.at("sequence").string() : "";
+    out.push_back(std::move(e));
+  }
+  return out;
+}
+
 CaptureRecords read_handscs_capture(const std::string& root, CaptureConfig::Layout layout,
                                     bool flat_hand_mean, const std::string& flat_key) {
   const fs::path base(root);
@@ -113,19 +161,7 @@ CaptureRecords read_handscs_capture(const std::string& root, CaptureConfig::Layo
     top.require_known_keys({"format", "version", "flat_hand_mean", "frames"});
   else
     top.require_known_keys({"format", "version", "flat_hand_mean", "cameras", "frames"});
-  const std::string format = top.at("format").string();
-  if (format != kHandscsCaptureFormat)
-    top.at("format").fail("expected \"" + std::string(kHandscsCaptureFormat) + "\", got \"" + format + "\"");
-  const int64_t version = top.at("version").integer();
-  if (version != kHandscsCaptureVersion)
-    top.at("version").fail("version " + std::to_string(version) + " is not one this build reads (it reads " +
-                           std::to_string(kHandscsCaptureVersion) + ")");
-  const bool file_flat = top.at("flat_hand_mean").flag();
-  if (file_flat != flat_hand_mean)
-    top.at("flat_hand_mean").fail(std::string("poses are stored with flat_hand_mean ") +
-                                  (file_flat ? "true" : "false") + " but " + flat_key + " is " +
-                                  (flat_hand_mean ? "true" : "false") +
-                                  " (set it to match)");
+  check_capture_header(top, true, flat_hand_mean, flat_key);
 
   if (easymocap) {
     const std::string intri = (base / kEasyMocapIntrinsicsFile).string();
@@ -150,28 +186,11 @@ CaptureRecords read_handscs_capture(const std::string& root, CaptureConfig::Layo
                   ")");
   }
 
-  const JsonView frames = top.at("frames");
-  const size_t num_frames = frames.size();
-  if (num_frames == 0) frames.fail("no frames");
   const fs::path masks_dir = base / "masks";
   const bool has_masks = fs::is_directory(masks_dir, ec);
-  for (size_t k = 0; k < num_frames; ++k) {
-    const JsonView entry = frames.at(k);
-    entry.require_known_keys({"frame", "sequence", "hand_type", "right", "left"});
-    const int64_t frame = entry.at("frame").integer();
-    if (frame < 0) entry.at("frame").fail("frame numbers must be >= 0");
-    if (records.frames.count(frame)) entry.at("frame").fail("frame " + std::to_string(frame) + " appears twice");
-    RecordFrame record;
-    record.right = read_hand(entry, "right");
-    record.left = read_hand(entry, "left");
-    std::string hand_type;
-    if (entry.has("hand_type")) {
-      hand_type = entry.at("hand_type").string();
-      if (hand_type != "right" && hand_type != "left" && hand_type != "interacting")
-        entry.at("hand_type").fail("expected \"right\", \"left\" or \"interacting\", got \"" + hand_type + "\"");
-    }
-    const std::string sequence = entry.has("sequence") ? entry.at("sequence").string() : "";
-    records.frames[frame] = record;
+  for (const CaptureFrameEntry& entry : read_capture_frames(top.at("frames"))) {
+    const int64_t frame = entry.frame;
+    records.frames[frame] = entry.record;
     const std::string stem = frame_file_stem(frame);
     for (const auto& [name, camera] : records.cameras) {
       RecordImage image;
@@ -183,10 +202,10 @@ CaptureRecords read_handscs_capture(const std::string& root, CaptureConfig::Layo
       }
       image.width = camera.camera.width;
       image.height = camera.camera.height;
-      image.seq_name = sequence;
+      image.seq_name = entry.sequence;
       image.camera = name;
       image.frame_idx = frame;
-      image.hand_type = hand_type;
+      image.hand_type = entry.hand_type;
       records.images.push_back(std::move(image));
     }
   }

@@ -79,7 +79,7 @@ TEST_CASE("capture layouts: auto detects each layout, and data.layout names it")
   CHECK(error_of([&] {
           CaptureConfig c;
           config_from_json(json{{"layout", "colmap"}}, "data", c);
-        }) == "data: layout: unknown value \"colmap\" (known: auto, interhand, handscs, easymocap)");
+        }) == "data: layout: unknown value \"colmap\" (known: auto, interhand, handscs, easymocap, neus)");
   CaptureConfig config = data_test::tiny_config(interhand);
   config.layout = CaptureConfig::Layout::handscs;
   CHECK(error_of([&] { Capture::open(config); }) ==

@@ -1,5 +1,5 @@
 // Multi-view hands: grouping detections whose labels cannot be trusted, the NeuS/IDR camera
-// archive (read against FMHR's own int_i / ext_i), and the real FMHR capture end to end.
+// archive's numpy reader, and the real FMHR capture end to end (its cameras: tests/data).
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "data/capture.h"
 #include "fit/fit_command.h"
 #include "fit/multiview_capture.h"
 #include "hand/procedural_hand.h"
@@ -89,30 +90,6 @@ TEST_CASE("npz: FMHR's camera archive reads as numpy wrote it") {
   CHECK_THROWS_WITH(read_npz(kFmhr + "/img/00.png"), Catch::Contains("not a ZIP archive"));
 }
 
-TEST_CASE("camera_from_projection: FMHR's world_mat_i decomposes into its int_i and ext_i") {
-  const auto arrays = read_npz(kFmhr + "/camera/param.npz");
-  for (int i = 0; i < 16; ++i) {
-    const auto& W = arrays.at("world_mat_" + std::to_string(i)).values;
-    const auto& K = arrays.at("int_" + std::to_string(i)).values;
-    const auto& E = arrays.at("ext_" + std::to_string(i)).values;
-    double P[12];
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 4; ++c) P[4 * r + c] = -2.5 * W[4 * r + c];  // any scale, either sign
-    const Camera cam = camera_from_projection(P, 1280, 1024, "test");
-    INFO("view " << i);
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) {
-        CHECK(cam.K[3 * r + c] == Approx(K[4 * r + c]).margin(1e-6 * K[0]));
-        CHECK(cam.R[3 * r + c] == Approx(E[4 * r + c]).margin(1e-6));
-      }
-      CHECK(cam.t[r] == Approx(E[4 * r + 3]).margin(1e-6));
-    }
-  }
-  const double flat[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0};  // rows 2 and 3 equal: singular
-  CHECK_THROWS_WITH(camera_from_projection(flat, 100, 100, "cameras.npz: view 3"),
-                    Catch::Contains("cameras.npz: view 3: the projection's left 3x3 block is singular"));
-}
-
 TEST_CASE("FMHR: both hands fitted from the 16 views' landmarks, closer to them than plain DLT") {
   const MultiviewCapture cap = read_multiview_capture(kFmhr);
   REQUIRE(cap.cameras.size() == 16);
@@ -136,4 +113,18 @@ TEST_CASE("FMHR: both hands fitted from the 16 views' landmarks, closer to them 
   CHECK(fs::exists(o.out + "/capture.json"));
   CHECK(fs::exists(o.out + "/overlay/view00.png"));
   CHECK(fs::is_symlink(o.out + "/images/view00/000000.png"));
+
+  // The capture.json written is the neus layout's hands file as it is: FMHR's folder trains in place.
+  CaptureConfig c;
+  c.root = kFmhr;
+  c.hands_file = o.out + "/capture.json";
+  c.split_rule = CaptureConfig::SplitRule::novel_view;
+  c.include_interacting = true;  // both hands were fitted
+  c.test_cameras = {"view02", "view06", "view10", "view14"};
+  c.scan_cache = handscs_test::scratch_path("fit_fmhr", "scans");
+  c.cache.prefetch_threads = 0;
+  const Capture capture = Capture::open(c, handscs_test::scratch_path("fit_fmhr", "masks"));
+  CHECK(capture.layout() == CaptureConfig::Layout::neus);
+  CHECK(capture.train().size() == 12);
+  CHECK(capture.test().size() == 4);
 }
