@@ -9,6 +9,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <spdlog/spdlog.h>
+
 #include "core/atomic_file.h"  // ensure_directory
 #include "core/error.h"
 #include "data/capture_impl.h"
@@ -95,10 +97,32 @@ cv::Mat Capture::Impl::decode(const FrameInfo& frame) const {
   return undistorted(frame, maps->second);
 }
 
-cv::Mat Capture::Impl::compute_mask(const FrameInfo& frame, const cv::Mat& bgr) const {
+cv::Mat Capture::Impl::posed_mesh_mask(const FrameInfo& frame) const {
   const std::vector<float>& vertices = posed_vertices.at(frame.pose_index);
-  cv::Mat mask = mesh_mask(vertices.data(), static_cast<int64_t>(vertices.size() / 3), faces.data(),
-                           num_faces(frame.pose_index), frame.camera);
+  return mesh_mask(vertices.data(), static_cast<int64_t>(vertices.size() / 3), faces.data(),
+                   num_faces(frame.pose_index), frame.camera);
+}
+
+void Capture::Impl::check_supplied_mask(const FrameInfo& frame, const cv::Mat& mask) const {
+  const cv::Mat mesh = posed_mesh_mask(frame);
+  const double both = cv::countNonZero(mask & mesh);
+  const double either = cv::countNonZero(mask | mesh);
+  const double iou = either > 0 ? both / either : 1.0;
+  spdlog::debug("{}: IoU {:.3f} with the posed hands", frame.mask_path, iou);
+  if (iou >= kMinSuppliedMaskIou) return;
+  {
+    std::lock_guard<std::mutex> lock(mask_warned_mutex);
+    if (!mask_warned.insert(frame.mask_path).second) return;  // once per mask
+  }
+  const double pixels = static_cast<double>(mask.total());
+  spdlog::warn("{}: the mask covers {:.1f}% of the image, the posed hands {:.1f}% (IoU {:.2f}): the "
+               "mask or the pose is wrong (remove the mask file to rasterise it from the posed "
+               "meshes)", frame.mask_path, 100.0 * cv::countNonZero(mask) / pixels,
+               100.0 * cv::countNonZero(mesh) / pixels, iou);
+}
+
+cv::Mat Capture::Impl::compute_mask(const FrameInfo& frame, const cv::Mat& bgr) const {
+  cv::Mat mask = posed_mesh_mask(frame);
   if (config.mask_refine.enabled) {
     cv::Mat refined = mask.clone();
     refine_mask(refined, bgr, config.mask_refine);
@@ -127,6 +151,7 @@ cv::Mat Capture::Impl::mask_for(const FrameInfo& frame, const cv::Mat& bgr) cons
     }
     cv::Mat mask;
     cv::threshold(stored, mask, 127, 1, cv::THRESH_BINARY);
+    check_supplied_mask(frame, mask);
     return mask;
   }
   if (mask_folder.empty()) return compute_mask(frame, bgr);

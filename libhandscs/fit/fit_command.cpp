@@ -262,7 +262,7 @@ void write_multiview_outputs(const FitCommandOptions& o, const MultiviewCapture&
                              const std::vector<TriangulatedHand>& hands, const std::array<int, 2>& side_of_hand,
                              const std::array<SideResult, 2>& results, const std::array<Rig, 2>& rigs,
                              const std::array<JointModel, 2>& models) {
-  // capture.json in the project's layout, with links to the images.
+  // capture.json in the project's layout, with links to the images and masks.
   json cameras = json::object();
   for (size_t v = 0; v < cap.cameras.size(); ++v) cameras["view" + cap.views[v]] = capture_camera_json(cap.cameras[v]);
   json frame = {{"frame", 0}, {"hand_type", side_of_hand[0] >= 0 && side_of_hand[1] >= 0 ? "interacting"
@@ -277,13 +277,33 @@ void write_multiview_outputs(const FitCommandOptions& o, const MultiviewCapture&
                         {"flat_hand_mean", o.flat_hand_mean}, {"cameras", cameras},
                         {"frames", json::array({frame})}};
   write_file_atomic((fs::path(o.out) / "capture.json").string(), capture.dump(1) + "\n");
+  bool with_regions = false;
   for (size_t v = 0; v < cap.cameras.size(); ++v) {
     const fs::path dir = fs::path(o.out) / "images" / ("view" + cap.views[v]);
     fs::create_directories(dir);
     const fs::path link = dir / (frame_file_stem(0) + fs::path(cap.images[v]).extension().string());
     fs::remove(link);
     fs::create_symlink(fs::absolute(cap.images[v]), link);
+    // The capture's own masks (both hands in one) stand in for masks rasterised from the meshes,
+    // and are the region "hands" that handscs-eval scores apart (docs/METRICS.md).
+    if (cap.masks[v].empty()) continue;
+    const fs::path mask_dir = fs::path(o.out) / "masks" / ("view" + cap.views[v]);
+    fs::create_directories(mask_dir);
+    const fs::path mask_link = mask_dir / (frame_file_stem(0) + ".png");
+    fs::remove(mask_link);
+    fs::create_symlink(fs::absolute(cap.masks[v]), mask_link);
+    const cv::Mat mask = cv::imread(cap.masks[v], cv::IMREAD_GRAYSCALE);
+    if (mask.empty()) throw Error(cap.masks[v] + ": cannot read the mask");
+    const fs::path region_dir = fs::path(o.out) / "regions" / ("view" + cap.views[v]);
+    fs::create_directories(region_dir);
+    const cv::Mat region = (mask > 127) / 255;  // bit 1: the region "hands"
+    write_png((region_dir / (frame_file_stem(0) + ".png")).string(), region);
+    with_regions = true;
   }
+  if (with_regions)
+    write_file_atomic((fs::path(o.out) / "regions" / "regions.json").string(),
+                      json{{"regions", {{{"name", "hands"}, {"bit", 1},
+                                         {"description", "the capture's own hand mask"}}}}}.dump(1) + "\n");
   // Reprojection of the triangulated and the fitted joints against every view's landmarks.
   std::string csv = "view,hand,joints,triangulated_median_px,triangulated_p90_px,fitted_median_px,fitted_p90_px\n";
   json reprojection = json::object();

@@ -32,6 +32,7 @@
 #include "hand/lbs_one_pose.h"
 #include "scs/descriptor.h"
 #include "bench_timing.h"
+#include "grown_avatar.h"
 #include "train_step_timing.h"
 
 namespace {
@@ -40,31 +41,6 @@ using bench::Clock;
 using bench::median;
 using bench::ms_since;
 using bench::seconds_since;
-
-// Grows the avatar to n Gaussians by duplicating random ones with a small jitter (as clones would).
-void grow(handscs::Avatar& avatar, int64_t n) {
-  auto& g = avatar.gaussians();
-  if (n <= g.size()) {
-    g = g.select(torch::arange(n, torch::kInt64));
-    return;
-  }
-  torch::NoGradGuard no_grad;
-  const auto index = torch::randint(g.size(), {n - g.size()}, torch::kInt64);
-  auto extra = g.select(index);
-  extra.means = (extra.means.detach() + torch::randn_like(extra.means) * 0.002).requires_grad_(true);
-  extra.log_scales = (extra.log_scales.detach() - std::log(2.0)).requires_grad_(true);
-  g.append(extra);
-}
-
-handscs::Camera capture_camera(int width, int height) {
-  handscs::Camera camera;
-  camera.width = width;
-  camera.height = height;
-  const double f = 1.2 * std::max(width, height);  // InterHand-like focal for 512x334
-  camera.K = {f, 0, width / 2.0, 0, f, height / 2.0, 0, 0, 1};
-  camera.t = {0, 0, 0.55};
-  return camera;
-}
 
 }  // namespace
 
@@ -130,7 +106,7 @@ int main(int argc, char** argv) {
   result["train_step_views_per_pose"] = train_step.views_per_pose;
   result["train_step_cull"] = train_step.cull;
   result["cull_max_cos"] = train_step.cull_max_cos;
-  const auto camera = capture_camera(width, height);
+  const auto camera = bench::capture_camera(width, height);
   const auto pose = torch::randn({48}) * 0.2;
   const auto shape = torch::zeros({10});
   const auto trans = torch::zeros({3});
@@ -148,12 +124,8 @@ int main(int argc, char** argv) {
       handscs::config_from_json(json, "--decoder-precision", config);
     }
     handscs::Avatar avatar(config, handscs::load_rig_source("builtin"));
-    grow(avatar, n);
-    {
-      torch::NoGradGuard no_grad;
-      for (auto& p : avatar.decoders()->parameters())
-        if (p.numel() == 1) p.fill_(0.05);  // open gates: realistic, non-zero offsets
-    }
+    bench::grow(avatar, n);
+    bench::open_gates(avatar);
     // One forward + backward of the full step (no losses), timed as a whole; gradients cleared.
     // With cull: what training does with train.cull (the Gaussians facing away from the camera are
     // neither decoded nor rasterised).

@@ -18,6 +18,7 @@
 #include "synth/config.h"
 #include "train/trainer.h"
 #include "bench_timing.h"
+#include "../train/two_hand_capture.h"
 
 namespace bench {
 
@@ -32,16 +33,21 @@ struct TrainStepOptions {
   int64_t views_per_pose = 1;  // train.views_per_pose: cameras of one pose per step, one decoding
   bool cull = false;           // train.cull.enabled: back-facing Gaussians skipped
   double cull_max_cos = handscs::CullConfig{}.max_cos;  // train.cull.max_cos
+  // data.hand: both needs a capture from make_train_step_capture(dir, true); N is then per hand.
+  handscs::CaptureConfig::Hands hand = handscs::CaptureConfig::Hands::right;
 };
 
-// Writes the capture into dir (replacing what is there) and returns dir.
-inline std::string make_train_step_capture(const std::string& dir) {
+// Writes the capture into dir (replacing what is there) and returns dir. two_hands: in the
+// project's layout, each frame with a left hand beside the right (train/two_hand_capture.h).
+inline std::string make_train_step_capture(const std::string& dir, bool two_hands = false) {
   std::filesystem::remove_all(dir);
   auto config = handscs::synth_preset("bench");
   config.num_cameras = 4;  // four cameras x 30 poses: 120 images, ~3 s to generate
   config.num_frames = 30;
   config.held_out_frames = 5;
+  if (two_hands) config.layout = handscs::CaptureConfig::Layout::handscs;
   handscs::generate_synth_capture(config, dir);
+  if (two_hands) handscs_test::add_left_hands(dir);
   return dir;
 }
 
@@ -56,6 +62,7 @@ inline nlohmann::json time_train_steps(int64_t n, const TrainStepOptions& opt) {
   handscs::RunConfig config;
   config.data.root = opt.capture_dir;
   config.data.held_out_poses = 5;
+  config.data.hand = opt.hand;
   config.model.decoder_hidden = opt.decoder_hidden;
   {
     auto json = handscs::config_to_json(config.model);
@@ -81,6 +88,7 @@ inline nlohmann::json time_train_steps(int64_t n, const TrainStepOptions& opt) {
   const auto run_dir = opt.capture_dir + "_run";
   std::filesystem::remove_all(run_dir);
   handscs::Trainer trainer(config, run_dir);
+  const int64_t hands = trainer.hand_count();
   if (trainer.avatar().gaussians().size() > n) return nullptr;
   std::vector<double> step, data, forward, losses, backward, optimizer;
   size_t views = 0;
@@ -98,8 +106,9 @@ inline nlohmann::json time_train_steps(int64_t n, const TrainStepOptions& opt) {
     optimizer.push_back(r.times.optimizer_ms);
   }
   std::filesystem::remove_all(run_dir);
-  const int64_t reached = trainer.avatar().gaussians().size();
-  if (reached != n) spdlog::warn("train step: the avatar grew to {} Gaussians, not {}", reached, n);
+  const int64_t reached = trainer.gaussian_count();
+  if (reached != n * hands)
+    spdlog::warn("train step: the avatar grew to {} Gaussians, not {}", reached, n * hands);
   double total = 0;
   for (double ms : step) total += ms;
   return {{"gaussians", reached},

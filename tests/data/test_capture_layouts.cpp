@@ -18,6 +18,7 @@
 #include "data/easymocap_cameras.h"
 #include "data/handscs_capture.h"
 #include "data/lens_distortion.h"
+#include "captured_warnings.h"
 #include "data_test_helpers.h"
 #include "synth/own_layouts.h"
 #include "synth_fixture.h"
@@ -266,6 +267,40 @@ TEST_CASE("capture layouts: masks supplied with a handscs capture replace the me
   CHECK(sample.roi.x0 == 40 - 16);  // the ROI follows the supplied mask (roi_margin 16)
   CHECK(sample.roi.y0 == 60 - 16);
   CHECK(sample.mask.sum().item<int64_t>() == 30 * 40);
+}
+
+TEST_CASE("capture layouts: a supplied mask the posed hand disagrees with is named once") {
+  const std::string root = data_test::copy_of_tiny_in("handscs", "disagreeing_masks");
+  CaptureConfig config = data_test::tiny_config(root);
+  config.mask_refine.enabled = false;  // the mesh's own mask
+  Capture plain = Capture::open(config);
+  // Frame 4 gets the mesh's own mask (it agrees), frame 5 a box beside the hand (it does not).
+  const auto mask_file = [&](const FrameInfo& f) {
+    return root + "/masks/" + f.camera_id + "/" + frame_file_stem(f.frame_idx) + ".png";
+  };
+  const FrameInfo& agreeing = plain.frames()[4];
+  const FrameInfo& wrong = plain.frames()[5];
+  const cv::Mat mesh = plain.compute_mask(agreeing, plain.decode_image(agreeing));
+  cv::Mat box(wrong.camera.height, wrong.camera.width, CV_8UC1, cv::Scalar(0));
+  box(cv::Rect(2, 2, 12, 12)).setTo(255);
+  for (const auto& [frame, mask] : {std::pair<const FrameInfo*, cv::Mat>{&agreeing, mesh * 255}, {&wrong, box}}) {
+    std::filesystem::create_directories(std::filesystem::path(mask_file(*frame)).parent_path());
+    cv::imwrite(mask_file(*frame), mask);
+  }
+  {
+    handscs_test::CapturedWarnings warnings;
+    Capture capture = Capture::open(config);
+    (void)capture.load(capture.frames()[4]);
+    (void)capture.load(capture.frames()[5]);
+    (void)capture.load(capture.frames()[5], /*full_image=*/true);  // named once
+    const std::string text = warnings.text();
+    INFO(text);
+    CHECK(text.find(mask_file(agreeing)) == std::string::npos);
+    const size_t at = text.find(mask_file(wrong) + ": the mask covers ");
+    REQUIRE(at != std::string::npos);
+    CHECK(text.find(mask_file(wrong), at + 1) == std::string::npos);
+    CHECK(text.find("the mask or the pose is wrong (remove the mask file") != std::string::npos);
+  }
 }
 
 TEST_CASE("capture layouts: malformed handscs captures are errors naming the file and key") {

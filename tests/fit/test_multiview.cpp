@@ -7,6 +7,8 @@
 #include <fstream>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "data/capture.h"
 #include "fit/fit_command.h"
@@ -113,6 +115,16 @@ TEST_CASE("FMHR: both hands fitted from the 16 views' landmarks, closer to them 
   CHECK(fs::exists(o.out + "/capture.json"));
   CHECK(fs::exists(o.out + "/overlay/view00.png"));
   CHECK(fs::is_symlink(o.out + "/images/view00/000000.png"));
+  // The capture's masks linked, and again as the region "hands" (bit 1) that handscs-eval scores.
+  CHECK(fs::read_symlink(o.out + "/masks/view03/000000.png") == fs::absolute(kFmhr + "/mask/03.png"));
+  const auto legend = nlohmann::json::parse(std::ifstream(o.out + "/regions/regions.json"));
+  CHECK(legend["regions"][0]["name"] == "hands");
+  CHECK(legend["regions"][0]["bit"] == 1);
+  const cv::Mat mask = cv::imread(kFmhr + "/mask/03.png", cv::IMREAD_GRAYSCALE);
+  const cv::Mat region = cv::imread(o.out + "/regions/view03/000000.png", cv::IMREAD_UNCHANGED);
+  REQUIRE(region.type() == CV_8UC1);
+  CHECK(cv::countNonZero(region != ((mask > 127) / 255)) == 0);
+  CHECK(cv::countNonZero(region) > 0);
 
   // The capture.json written is the neus layout's hands file as it is: FMHR's folder trains in place.
   CaptureConfig c;

@@ -24,12 +24,8 @@ struct TwoHandCaptureSpec {
   bool no_left = false;            // every frame's left hand null
 };
 
-// Writes the capture into `dir` (replaced) and returns it.
-inline std::string make_two_hand_capture(const std::string& dir, const TwoHandCaptureSpec& spec = {}) {
-  std::filesystem::remove_all(dir);
-  handscs::SynthConfig synth = handscs::synth_preset("tiny");
-  synth.layout = handscs::CaptureConfig::Layout::handscs;
-  handscs::generate_synth_capture(synth, dir);
+// Gives every frame of the capture.json in `dir` (the project's layout) a left hand as the spec says.
+inline void add_left_hands(const std::string& dir, const TwoHandCaptureSpec& spec = {}) {
   const std::string path = dir + "/capture.json";
   nlohmann::json capture = nlohmann::json::parse(std::ifstream(path));
   for (auto& frame : capture["frames"]) {
@@ -49,6 +45,15 @@ inline std::string make_two_hand_capture(const std::string& dir, const TwoHandCa
     frame["left"] = left;
   }
   handscs::write_file_atomic(path, capture.dump(1));
+}
+
+// Writes the tiny capture with left hands into `dir` (replaced) and returns it.
+inline std::string make_two_hand_capture(const std::string& dir, const TwoHandCaptureSpec& spec = {}) {
+  std::filesystem::remove_all(dir);
+  handscs::SynthConfig synth = handscs::synth_preset("tiny");
+  synth.layout = handscs::CaptureConfig::Layout::handscs;
+  handscs::generate_synth_capture(synth, dir);
+  add_left_hands(dir, spec);
   return dir;
 }
 

@@ -3,10 +3,11 @@
 
 Points are named <row>.s<seed>; this groups the sweep's results.csv by row and writes, next to it:
   ablation.md   mean +- sample std (n seeds) of PSNR / SSIM / LPIPS per row, the paper's numbers
-                (HandSCS Tables 3 and 4, test/Capture0) beside the rows they correspond to, and the
-                region PSNRs (crease / contact / shadow: each region's PSNR of its pooled MSE) when the
-                runs' eval/summary.json has them; a cell that only some seeds have a finite value for
-                says "(k of n seeds)";
+                (HandSCS Tables 3 and 4, test/Capture0) beside the rows they correspond to, the
+                region PSNR / SSIM / LPIPS (e.g. crease / contact / shadow, or the hands of a real
+                capture; each region's PSNR of its pooled MSE) when the runs' eval/summary.json has
+                them, and the training wall time and peak memory; a cell that only some seeds have a
+                finite value for says "(k of n seeds)";
   ablation.csv  the same numbers, one line per row, with how many seeds each mean is over;
   ablation.png / ablation.pdf  each row's mean with its spread (error bar = std, dots = seeds).
 Usage: /usr/bin/python3 tools/study/ablation_table.py SWEEP_OUT [--title TEXT]
@@ -57,6 +58,8 @@ LABELS = {
     "scs_open": "(b) + SCS, decoders open (lambda_reg = 0, no L_con)",
 }
 METRICS = ("psnr", "ssim", "lpips")
+# What each run cost (results.csv): training wall time (s) and peak resident memory (MB).
+COSTS = ("train_wall_s", "peak_rss_mb")
 
 
 def fmt(stats, digits, seeds):
@@ -84,7 +87,7 @@ def read_rows(out):
             if row not in groups:
                 groups[row] = []
                 order.append(row)
-            entry = {k: float(r[k]) for k in METRICS if r.get(k)}
+            entry = {k: float(r[k]) for k in METRICS + COSTS if r.get(k)}
             entry["seed"] = seed
             # handscs-bench keeps each run (--keep-runs) in runs/<point>_<budget>/.
             summary = os.path.join(out, "runs", f"{r['point']}_{r['budget']}", "eval", "summary.json")
@@ -111,7 +114,9 @@ def main():
     region_names = sorted({k.rsplit("_", 1)[0] for g in groups.values() for e in g for k in e
                            if k.endswith(("_psnr",)) and k != "psnr"})
     header = ["row", "seeds", "PSNR", "SSIM", "LPIPS", "paper PSNR / SSIM / LPIPS"]
-    header += [f"{r} PSNR" for r in region_names]
+    for r in region_names:
+        header += [f"{r} PSNR", f"{r} SSIM", f"{r} LPIPS"]
+    header += ["train s", "peak MB"]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     csv_rows = []
     for row in order:
@@ -122,7 +127,10 @@ def main():
         cells = [LABELS.get(row, row), str(n), fmt(stats["psnr"], 2, n), fmt(stats["ssim"], 4, n),
                  fmt(stats["lpips"], 4, n), f"{paper[0]:.2f} / {paper[1]:.3f} / {paper[2]:.4f}" if paper else ""]
         for r in region_names:
-            cells.append(fmt(finite_mean_std([e.get(f"{r}_psnr") for e in entries]), 2, n))
+            for k, digits in (("psnr", 2), ("ssim", 4), ("lpips", 4)):
+                cells.append(fmt(finite_mean_std([e.get(f"{r}_{k}") for e in entries]), digits, n))
+        for k in COSTS:
+            cells.append(fmt(finite_mean_std([e.get(k) for e in entries]), 0, n))
         lines.append("| " + " | ".join(cells) + " |")
         csv_rows.append([row, len(entries)] + [x for k in METRICS for x in stats[k]])
     with open(os.path.join(args.out, "ablation.md"), "w") as f:
