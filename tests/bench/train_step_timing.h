@@ -63,6 +63,7 @@ inline nlohmann::json time_train_steps(int64_t n, const TrainStepOptions& opt) {
   config.data.root = opt.capture_dir;
   config.data.held_out_poses = 5;
   config.data.hand = opt.hand;
+  config.data.include_interacting = true;  // a two-hand capture's frames show both hands
   config.model.decoder_hidden = opt.decoder_hidden;
   {
     auto json = handscs::config_to_json(config.model);
