@@ -532,14 +532,16 @@ HandParams hand_params(const RecordHand& hand) {
   return p;
 }
 
-// The rig of every hand data.hand selects posed once per kept pose: per pose, the present hands'
-// vertices one after the other (right first).
-std::vector<std::vector<float>> pose_hands(const CaptureConfig& c, const std::vector<Candidate>& candidates,
-                                           const std::map<int64_t, int>& strided_pose,
-                                           const std::string& config_key) {
+// The rig of every hand data.hand selects (`rigs`, in hand_sides order) posed once per kept pose:
+// per pose, the present hands' vertices one after the other (right first).
+std::vector<std::vector<float>> pose_hands(const CaptureConfig& c, const std::vector<Rig>& rigs,
+                                           const std::vector<Candidate>& candidates,
+                                           const std::map<int64_t, int>& strided_pose) {
   const bool both = c.hand == CaptureConfig::Hands::both;
+  const std::vector<Handedness> sides = hand_sides(c.hand);
   std::vector<std::vector<float>> posed(strided_pose.size());
-  for (const Handedness side : hand_sides(c.hand)) {
+  for (size_t h = 0; h < sides.size(); ++h) {
+    const Handedness side = sides[h];
     std::vector<const ManoParams*> params(strided_pose.size(), nullptr);
     for (const auto& cand : candidates) {
       const RecordHand* hand = both ? cand.hands[side == Handedness::right ? 0 : 1] : cand.hand;
@@ -553,7 +555,7 @@ std::vector<std::vector<float>> pose_hands(const CaptureConfig& c, const std::ve
         used.push_back(params[p]);
       }
     const std::vector<std::vector<float>> vertices =
-        pose_rig(capture_rig(c, side, config_key), used, c.flat_hand_mean);
+        pose_rig(rigs[h], used, c.flat_hand_mean);
     for (size_t k = 0; k < present.size(); ++k)
       posed[present[k]].insert(posed[present[k]].end(), vertices[k].begin(), vertices[k].end());
   }
@@ -612,9 +614,11 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   const std::map<int64_t, int> strided_pose = apply_frame_stride(c.frame_stride, candidates);
 
   // The rig posed once per kept pose (masks and in-view checks).
-  const std::vector<std::vector<float>> posed = pose_hands(c, candidates, strided_pose, config_key);
+  std::vector<Rig> rigs;
+  for (const Handedness side : hand_sides(c.hand)) rigs.push_back(capture_rig(c, side, config_key));
+  const std::vector<std::vector<float>> posed = pose_hands(c, rigs, candidates, strided_pose);
   {
-    const Rig rig = capture_rig(c, hand_sides(c.hand).front(), config_key);
+    const Rig& rig = rigs.front();
     impl->num_vertices = rig.num_vertices();
     torch::Tensor faces = rig.faces.to(torch::kInt64).contiguous();
     impl->faces.assign(faces.data_ptr<int64_t>(), faces.data_ptr<int64_t>() + faces.numel());

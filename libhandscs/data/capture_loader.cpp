@@ -104,16 +104,17 @@ cv::Mat Capture::Impl::posed_mesh_mask(const FrameInfo& frame) const {
 }
 
 void Capture::Impl::check_supplied_mask(const FrameInfo& frame, const cv::Mat& mask) const {
+  {
+    // Once per mask: a crop loaded again (cache eviction, full image) does not rasterise again.
+    std::lock_guard<std::mutex> lock(mask_checked_mutex);
+    if (!mask_checked.insert(frame.mask_path).second) return;
+  }
   const cv::Mat mesh = posed_mesh_mask(frame);
   const double both = cv::countNonZero(mask & mesh);
   const double either = cv::countNonZero(mask | mesh);
   const double iou = either > 0 ? both / either : 1.0;
   spdlog::debug("{}: IoU {:.3f} with the posed hands", frame.mask_path, iou);
   if (iou >= kMinSuppliedMaskIou) return;
-  {
-    std::lock_guard<std::mutex> lock(mask_warned_mutex);
-    if (!mask_warned.insert(frame.mask_path).second) return;  // once per mask
-  }
   const double pixels = static_cast<double>(mask.total());
   spdlog::warn("{}: the mask covers {:.1f}% of the image, the posed hands {:.1f}% (IoU {:.2f}): the "
                "mask or the pose is wrong (remove the mask file to rasterise it from the posed "

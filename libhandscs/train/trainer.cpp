@@ -169,8 +169,8 @@ std::vector<Adam*> Trainer::optimizers() {
 
 template <class F>
 void Trainer::for_each_part(F&& f) {
-  for (HandSlot& hand : hands_) f(hand.components, hand.section, *hand.avatar);
-  f(components_, std::string(), *hands_.front().avatar);
+  for (HandSlot& hand : hands_) f(hand.components, hand.section);
+  f(components_, std::string());
 }
 
 void Trainer::write_run_files() {
@@ -609,7 +609,7 @@ StepResult Trainer::take_step() {
           if (finite && p->grad().defined() && !torch::isfinite(p->grad()).all().item<bool>())
             finite = false;
     // Data parallel: the all-reduce's check covers the components.
-    for_each_part([&](auto& components, const std::string&, Avatar&) {
+    for_each_part([&](auto& components, const std::string&) {
       for (const auto& component : components)
         if (finite && !component->finite()) finite = false;
     });
@@ -618,7 +618,7 @@ StepResult Trainer::take_step() {
   result.psnr = sums.psnr / entries_per_step();
   if (!finite) {
     for (Adam* adam : optimizers()) adam->zero_grad();
-    for_each_part([](auto& components, const std::string&, Avatar&) {
+    for_each_part([](auto& components, const std::string&) {
       for (auto& component : components) component->after_skipped_step();
     });
     ++skipped_total_;
@@ -940,7 +940,7 @@ int64_t Trainer::gaussian_count() const {
 }
 
 void Trainer::gather_components() {
-  for_each_part([&](auto& components, const std::string&, Avatar&) {
+  for_each_part([&](auto& components, const std::string&) {
     for (auto& component : components) component->gather(*group_, iteration_);
   });
 }
@@ -988,7 +988,7 @@ TrainSummary Trainer::run() {
   if (group_ && gathered_at != iteration_) gather_components();
   if (root) {
     if (last_checkpoint_.find(checkpoint_name(iteration_)) == std::string::npos) save_checkpoint();
-    for_each_part([&](auto& components, const std::string& section, Avatar&) {
+    for_each_part([&](auto& components, const std::string& section) {
       // The second hand's files go in a folder of its own.
       const std::string folder = section.empty() ? run_dir_ : run_dir_ + "/" + section;
       if (folder != run_dir_ && config_.train.pose_refine.enabled) ensure_directory(folder);

@@ -197,8 +197,8 @@ class Trainer {
   };
   // Every optimiser: each hand's, then the shared components'.
   std::vector<Adam*> optimizers();
-  // Calls `f(components, section, avatar)` for each hand's components and then for the shared
-  // ones (section "", the first hand's avatar).
+  // Calls `f(components, section)` for each hand's components and then for the shared ones
+  // (section "").
   template <class F>
   void for_each_part(F&& f);
 
