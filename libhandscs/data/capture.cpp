@@ -144,6 +144,8 @@ std::string mask_folder(const CaptureConfig& c, const CaptureRecords& records,
   settings << "|" << c.rig << "|" << hand_name(c.hand) << "|" << c.flat_hand_mean << "|"
            << c.mask_refine.enabled << "|" << c.mask_refine.low << "|" << c.mask_refine.high << "|"
            << c.mask_refine.largest_component;
+  // Two hands are refined hand by hand (capture_loader.cpp): a key older two-hand caches lack.
+  if (c.hand == CaptureConfig::Hands::both) settings << "|refined per hand";
   return cache_folder(cache_dir, "masks", settings.str());
 }
 

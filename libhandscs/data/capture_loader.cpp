@@ -123,13 +123,20 @@ void Capture::Impl::check_supplied_mask(const FrameInfo& frame, const cv::Mat& m
 }
 
 cv::Mat Capture::Impl::compute_mask(const FrameInfo& frame, const cv::Mat& bgr) const {
-  cv::Mat mask = posed_mesh_mask(frame);
-  if (config.mask_refine.enabled) {
-    cv::Mat refined = mask.clone();
+  if (!config.mask_refine.enabled) return posed_mesh_mask(frame);
+  // Hand by hand: the largest component of a pair is one hand when the two stand apart.
+  const std::vector<float>& vertices = posed_vertices.at(frame.pose_index);
+  const int64_t hands = num_faces(frame.pose_index) / faces_per_hand;
+  cv::Mat mask;
+  for (int64_t h = 0; h < hands; ++h) {
+    cv::Mat hand = mesh_mask(vertices.data(), static_cast<int64_t>(vertices.size() / 3),
+                             faces.data() + h * faces_per_hand * 3, faces_per_hand, frame.camera);
+    cv::Mat refined = hand.clone();
     refine_mask(refined, bgr, config.mask_refine);
-    // A refinement that removes everything (e.g. a badly exposed frame) would leave the frame
-    // without supervision: keep the mesh mask then.
-    if (cv::countNonZero(refined) > 0) mask = refined;
+    // A refinement that removes everything (e.g. a badly exposed frame) would leave the hand
+    // without supervision: keep its mesh mask then.
+    if (cv::countNonZero(refined) > 0) hand = refined;
+    mask = mask.empty() ? hand : (mask | hand);
   }
   return mask;
 }

@@ -11,6 +11,7 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <limits>
 #include <optional>
 
 #include "core/atomic_file.h"
@@ -25,6 +26,7 @@
 #include "hand/lbs.h"
 #include "synth/fit_error.h"
 #include "synth/gestures.h"
+#include "synth/left_hand.h"
 #include "synth/mirror.h"
 #include "synth/own_layouts.h"
 #include "synth/regions.h"
@@ -91,11 +93,190 @@ SkinFlexion skin_flexion(const HandArticulation& a) {
   return flexion;
 }
 
-std::vector<float> concat(const std::vector<float>& a, const std::vector<float>& b) {
-  std::vector<float> out(a);
-  out.insert(out.end(), b.begin(), b.end());
-  return out;
+// Gap between the two hands' boxes along the thumbs' axis (m), hand both: it swings between a
+// 1.5 cm overlap (the thumbs touch, pass each other or hide one another) and 2.5 cm apart, once
+// every kGapPeriod frames.
+constexpr double kGapMiddle = 0.005;
+constexpr double kGapSwing = 0.02;
+constexpr double kGapPeriod = 16;
+
+// One hand's motion: poses, gestures, fit errors and the posed meshes at zero translation.
+struct HandMotion {
+  std::vector<SynthPose> poses;
+  std::vector<std::string> gestures;
+  std::vector<FitError> errors;
+  torch::Tensor vertices, joints;  // [n, V, 3], [n, 21, 3] double
+};
+
+// shapes_from: another motion whose per-frame shapes this one takes (the same person's other hand).
+HandMotion make_hand_motion(const Rig& rig, const SynthConfig& config, uint64_t seed,
+                            const std::vector<SynthPose>* shapes_from) {
+  const SynthEffects& effects = config.effects;
+  HandMotion m;
+  m.poses = effects.gestures ? make_gesture_poses(rig, config.num_frames, config.held_out_frames,
+                                                  seed, &m.gestures)
+                             : make_rom_poses(rig, config.num_frames, seed);
+  if (shapes_from)
+    for (size_t k = 0; k < m.poses.size(); ++k) m.poses[k].shape = (*shapes_from)[k].shape;
+  m.errors = effects.fit_error ? make_fit_errors(effects, config.num_frames, seed)
+                               : std::vector<FitError>(config.num_frames);
+  const int64_t n = config.num_frames;
+  const auto options = torch::TensorOptions().dtype(torch::kFloat64);
+  torch::Tensor pose = torch::empty({n, 48}, options), shape = torch::empty({n, 10}, options);
+  for (int64_t k = 0; k < n; ++k) {
+    std::copy(m.poses[k].pose.begin(), m.poses[k].pose.end(), pose[k].data_ptr<double>());
+    std::copy(m.poses[k].shape.begin(), m.poses[k].shape.end(), shape[k].data_ptr<double>());
+  }
+  // Posed in chunks: LBS holds ~220 KB of intermediates a frame (per-vertex transforms), so posing
+  // 20,000 frames at once asked for 4.3 GB, while the posed meshes kept are ~20 KB a frame.
+  constexpr int64_t kFramesPerLbs = 512;
+  std::vector<torch::Tensor> vertex_chunks, joint_chunks;
+  torch::NoGradGuard no_grad;
+  LbsOptions lbs_options;
+  lbs_options.flat_hand_mean = true;  // absolute poses here; the files get pose - hands_mean
+  for (int64_t begin = 0; begin < n; begin += kFramesPerLbs) {
+    const int64_t count = std::min(kFramesPerLbs, n - begin);
+    const LbsOutput posed = lbs(rig, pose.narrow(0, begin, count), shape.narrow(0, begin, count),
+                                torch::zeros({count, 3}, options), lbs_options);
+    vertex_chunks.push_back(posed.vertices);
+    joint_chunks.push_back(posed.joints);
+  }
+  m.vertices = torch::cat(vertex_chunks).contiguous();
+  m.joints = torch::cat(joint_chunks).contiguous();
+  return m;
 }
+
+// Extent of a posed mesh [V, 3] along world axis d (m).
+double box_extent(const torch::Tensor& vertices, int d) {
+  const torch::Tensor column = vertices.select(1, d);
+  return column.max().item<double>() - column.min().item<double>();
+}
+
+// Frame k of `m` translated so that its box centre sits at anchor + drift.
+SynthFrame place_hand(const HandMotion& m, int64_t k, const Vec3& anchor, const Vec3& drift,
+                      const double* hands_mean) {
+  SynthFrame frame;
+  const SynthPose& pose = m.poses[k];
+  const FitError& error = m.errors[k];
+  frame.absolute = pose;
+  for (int i = 0; i < 48; ++i) frame.annotated[i] = pose.pose[i] + error.pose[i];
+  for (int i = 0; i < 45; ++i) frame.annotated[3 + i] -= hands_mean[i];
+  for (int i = 0; i < 10; ++i) frame.annotated_shape[i] = pose.shape[i] + error.shape[i];
+  const double* v = m.vertices[k].data_ptr<double>();
+  const int64_t num_vertices = m.vertices.size(1);
+  Vec3 lo = {INFINITY, INFINITY, INFINITY}, hi = {-INFINITY, -INFINITY, -INFINITY};
+  for (int64_t i = 0; i < num_vertices; ++i)
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = std::min(lo[d], v[i * 3 + d]);
+      hi[d] = std::max(hi[d], v[i * 3 + d]);
+    }
+  for (int d = 0; d < 3; ++d) frame.trans[d] = anchor[d] - 0.5 * (lo[d] + hi[d]) + drift[d];
+  for (int d = 0; d < 3; ++d) frame.annotated_trans[d] = frame.trans[d] + error.trans[d];
+  frame.vertices.resize(num_vertices * 3);
+  for (int64_t i = 0; i < num_vertices; ++i)
+    for (int d = 0; d < 3; ++d)
+      frame.vertices[i * 3 + d] = static_cast<float>(v[i * 3 + d] + frame.trans[d]);
+  const double* j = m.joints[k].data_ptr<double>();
+  for (int i = 0; i < 21; ++i)
+    for (int d = 0; d < 3; ++d) frame.joints[i * 3 + d] = j[i * 3 + d] + frame.trans[d];
+  return frame;
+}
+
+// Normals, soft tissue, fold occlusion and the forearm of a placed hand.
+void finish_surface(const SynthScene& scene, const TissueRig& tissue, SynthFrame& frame) {
+  const SynthEffects& effects = scene.config.effects;
+  frame.normals = vertex_normals(frame.vertices, scene.faces);
+  if (effects.tissue) {
+    const TissueResult result = tissue_displacement(tissue, effects, frame.absolute.articulation,
+                                                    frame.vertices, frame.normals);
+    apply_displacement(result, frame.normals, frame.vertices);
+    frame.contact = result.contact;
+    frame.normals = vertex_normals(frame.vertices, scene.faces);
+  }
+  frame.occlusion = effects.ambient_occlusion
+                        ? fold_occlusion(frame.vertices, frame.normals)
+                        : std::vector<float>(frame.vertices.size() / 3, 0.0f);
+  if (effects.forearm) {
+    frame.forearm = pose_forearm(scene.forearm, scene.axes, frame.absolute.articulation,
+                                 {frame.joints[0], frame.joints[1], frame.joints[2]});
+    frame.forearm_normals = vertex_normals(frame.forearm, scene.forearm.faces);
+  }
+}
+
+// Key-light visibility of frame k's hands, with every hand and forearm of the frame casting
+// shadows (a hand shades the other); forearms are outside every mask and get none.
+void cast_shadows(SynthScene& scene, int64_t k) {
+  const SynthEffects& effects = scene.config.effects;
+  std::vector<SynthFrame*> hands = {&scene.frames[k]};
+  if (!scene.left_frames.empty()) hands.push_back(&scene.left_frames[k]);
+  std::vector<float> vertices, normals;
+  std::vector<int64_t> faces;
+  auto add = [&](const std::vector<float>& v, const std::vector<float>& n,
+                 const std::vector<int64_t>& f) {
+    const int64_t offset = static_cast<int64_t>(vertices.size() / 3);
+    vertices.insert(vertices.end(), v.begin(), v.end());
+    normals.insert(normals.end(), n.begin(), n.end());
+    for (int64_t id : f) faces.push_back(id + offset);
+  };
+  for (const SynthFrame* hand : hands) {
+    add(hand->vertices, hand->normals, scene.faces);
+    add(hand->forearm, hand->forearm_normals, scene.forearm.faces);
+  }
+  const std::vector<float> visibility =
+      light_visibility(vertices, normals, faces, key_light_direction(),
+                       effects.light_radius_deg * M_PI / 180.0, effects.light_samples);
+  size_t offset = 0;
+  for (SynthFrame* hand : hands) {
+    const size_t count = hand->vertices.size() / 3;
+    hand->visibility.assign(visibility.begin() + offset, visibility.begin() + offset + count);
+    offset += count + hand->forearm.size() / 3;
+  }
+}
+
+// Several posed parts rendered as one mesh (the z-buffer sorts out which hides which).
+struct JoinedMesh {
+  std::vector<float> vertices, normals, occlusion, texture, nail, palmar, visibility, contact;
+  std::vector<int64_t> faces;
+  int64_t second_hand_face = std::numeric_limits<int64_t>::max();
+
+  void add(const std::vector<float>& v, const std::vector<float>& n, const std::vector<int64_t>& f) {
+    const int64_t offset = static_cast<int64_t>(vertices.size() / 3);
+    vertices.insert(vertices.end(), v.begin(), v.end());
+    normals.insert(normals.end(), n.begin(), n.end());
+    for (int64_t id : f) faces.push_back(id + offset);
+  }
+  static void append(std::vector<float>& to, const std::vector<float>& values, size_t count,
+                     float fill) {
+    if (values.empty()) to.insert(to.end(), count, fill);
+    else to.insert(to.end(), values.begin(), values.end());
+  }
+  void add_hand(const SynthFrame& hand, const std::vector<int64_t>& faces_of_hand,
+                const SynthSkin& skin) {
+    const size_t count = hand.vertices.size() / 3;
+    add(hand.vertices, hand.normals, faces_of_hand);
+    append(occlusion, hand.occlusion, count, 0.0f);
+    append(texture, skin.canonical, count * 3, 0.0f);
+    append(nail, skin.nail, count, 0.0f);
+    append(palmar, skin.palmar, count, 0.0f);
+    append(visibility, hand.visibility, count, 1.0f);
+    append(contact, hand.contact, count, 0.0f);
+  }
+  void add_forearm(const SynthFrame& hand, const ForearmMesh& forearm) {
+    const size_t count = hand.forearm.size() / 3;
+    add(hand.forearm, hand.forearm_normals, forearm.faces);
+    occlusion.insert(occlusion.end(), count, 0.0f);
+    texture.insert(texture.end(), forearm.rest.begin(), forearm.rest.end());
+    nail.insert(nail.end(), count, 0.0f);
+    palmar.insert(palmar.end(), count, 0.0f);
+    visibility.insert(visibility.end(), count, 1.0f);
+    contact.insert(contact.end(), count, 0.0f);
+  }
+  SynthMeshView view(bool with_visibility, bool with_contact) const {
+    return SynthMeshView{&vertices, &normals, &occlusion, &faces, &texture, &nail, &palmar,
+                         with_visibility ? &visibility : nullptr,
+                         with_contact ? &contact : nullptr};
+  }
+};
 
 json numbers(const double* values, int n) {
   json out = json::array();
@@ -113,8 +294,7 @@ SynthScene make_synth_scene(const SynthConfig& config) {
   require(config.num_frames > 0 && config.num_cameras > 0, "synth: empty capture");
   require(config.num_sequences >= 1 && config.num_sequences <= config.num_frames,
           "synth: num_sequences must be in [1, num_frames]");
-  require(config.hand != CaptureConfig::Hands::both,
-          "synth: hand both is not generated yet (right or left: one hand per capture)");
+  const bool both = config.hand == CaptureConfig::Hands::both;
   SynthScene scene;
   scene.config = config;
   scene.rig = load_rig_source("builtin");
@@ -129,42 +309,12 @@ SynthScene make_synth_scene(const SynthConfig& config) {
   // The poses, LBS and annotations on one thread: LibTorch's reductions split by its thread count,
   // which changed the annotations' last bits between --threads 1 and 2 (2.2e-16 in MANO values).
   std::optional<SingleThreadScope> one_thread(std::in_place);
-  std::vector<std::string> gestures;
-  const std::vector<SynthPose> poses =
-      effects.gestures ? make_gesture_poses(scene.rig, config.num_frames, config.held_out_frames,
-                                            config.seed, &gestures)
-                       : make_rom_poses(scene.rig, config.num_frames, config.seed);
-  const std::vector<FitError> errors =
-      effects.fit_error ? make_fit_errors(effects, config.num_frames, config.seed)
-                        : std::vector<FitError>(config.num_frames);
+  const HandMotion right = make_hand_motion(scene.rig, config, config.seed, nullptr);
+  std::optional<HandMotion> partner;
+  if (both)
+    partner = make_hand_motion(scene.rig, config, mix_seed(config.seed, 0x6c656674),  // "left"
+                               &right.poses);
   const int64_t n = config.num_frames;
-  const auto options = torch::TensorOptions().dtype(torch::kFloat64);
-  torch::Tensor pose = torch::empty({n, 48}, options), shape = torch::empty({n, 10}, options);
-  for (int64_t k = 0; k < n; ++k) {
-    std::copy(poses[k].pose.begin(), poses[k].pose.end(), pose[k].data_ptr<double>());
-    std::copy(poses[k].shape.begin(), poses[k].shape.end(), shape[k].data_ptr<double>());
-  }
-  // Posed in chunks: LBS holds ~220 KB of intermediates a frame (per-vertex transforms), so posing
-  // 20,000 frames at once asked for 4.3 GB, while the posed meshes kept are ~20 KB a frame.
-  constexpr int64_t kFramesPerLbs = 512;
-  std::vector<torch::Tensor> vertex_chunks, joint_chunks;
-  {
-    torch::NoGradGuard no_grad;
-    LbsOptions lbs_options;
-    lbs_options.flat_hand_mean = true;  // absolute poses here; the files get pose - hands_mean
-    for (int64_t begin = 0; begin < n; begin += kFramesPerLbs) {
-      const int64_t count = std::min(kFramesPerLbs, n - begin);
-      const LbsOutput posed = lbs(scene.rig, pose.narrow(0, begin, count), shape.narrow(0, begin, count),
-                                  torch::zeros({count, 3}, options), lbs_options);
-      vertex_chunks.push_back(posed.vertices);
-      joint_chunks.push_back(posed.joints);
-    }
-  }
-  const torch::Tensor vertices = torch::cat(vertex_chunks).contiguous();
-  const torch::Tensor joints = torch::cat(joint_chunks).contiguous();
-  vertex_chunks.clear();
-  joint_chunks.clear();
-  const int64_t num_vertices = vertices.size(1);
   const torch::Tensor hands_mean = scene.rig.hands_mean.to(torch::kFloat64).contiguous();
   const double* mean = hands_mean.data_ptr<double>();
 
@@ -173,66 +323,45 @@ SynthScene make_synth_scene(const SynthConfig& config) {
                                  drift_random.uniform(0, 2 * M_PI),
                                  drift_random.uniform(0, 2 * M_PI)};
   scene.frames.resize(n);
+  if (both) scene.left_frames.resize(n);
   for (int64_t k = 0; k < n; ++k) {
-    SynthFrame& frame = scene.frames[k];
     const int sequence = static_cast<int>(k * config.num_sequences / n);
+    // The hand's box is centred on kHandCentre plus a slow drift; two hands sit either side of it.
+    const double t = 2 * M_PI * static_cast<double>(k) / std::max<int64_t>(n, 20);
+    Vec3 drift;
+    for (int d = 0; d < 3; ++d) drift[d] = kDrift * std::sin(t * (1 + 0.3 * d) + drift_phase[d]);
+    double half_distance = 0;
+    if (both) {
+      const double gap = kGapMiddle + kGapSwing * std::sin(2 * M_PI * k / kGapPeriod);
+      half_distance = 0.25 * (box_extent(right.vertices[k], 2) +
+                              box_extent(partner->vertices[k], 2)) + 0.5 * gap;
+    }
+    SynthFrame& frame = scene.frames[k];
+    frame = place_hand(right, k, kHandCentre - Vec3{0, 0, half_distance}, drift, mean);
     frame.seq_name = sequence_name(sequence, effects.gestures ? "gestures" : "rom");
     frame.frame_idx = k * config.frame_step;
-    if (!gestures.empty()) frame.gesture = gestures[k];
-    frame.absolute = poses[k];
-    for (int i = 0; i < 48; ++i) frame.annotated[i] = poses[k].pose[i] + errors[k].pose[i];
-    for (int i = 0; i < 45; ++i) frame.annotated[3 + i] -= mean[i];
-    for (int i = 0; i < 10; ++i) frame.annotated_shape[i] = poses[k].shape[i] + errors[k].shape[i];
-    // Centre the hand's bounding box on kHandCentre, plus a slow drift.
-    const double* v = vertices[k].data_ptr<double>();
-    Vec3 lo = {INFINITY, INFINITY, INFINITY}, hi = {-INFINITY, -INFINITY, -INFINITY};
-    for (int64_t i = 0; i < num_vertices; ++i)
-      for (int d = 0; d < 3; ++d) {
-        lo[d] = std::min(lo[d], v[i * 3 + d]);
-        hi[d] = std::max(hi[d], v[i * 3 + d]);
-      }
-    const double t = 2 * M_PI * static_cast<double>(k) / std::max<int64_t>(n, 20);
-    for (int d = 0; d < 3; ++d)
-      frame.trans[d] = kHandCentre[d] - 0.5 * (lo[d] + hi[d]) +
-                       kDrift * std::sin(t * (1 + 0.3 * d) + drift_phase[d]);
-    for (int d = 0; d < 3; ++d) frame.annotated_trans[d] = frame.trans[d] + errors[k].trans[d];
-    frame.vertices.resize(num_vertices * 3);
-    for (int64_t i = 0; i < num_vertices; ++i)
-      for (int d = 0; d < 3; ++d)
-        frame.vertices[i * 3 + d] = static_cast<float>(v[i * 3 + d] + frame.trans[d]);
-    const double* j = joints[k].data_ptr<double>();
-    for (int i = 0; i < 21; ++i)
-      for (int d = 0; d < 3; ++d) frame.joints[i * 3 + d] = j[i * 3 + d] + frame.trans[d];
+    if (!right.gestures.empty()) frame.gesture = right.gestures[k];
+    if (both) {
+      // Placed where the reflection through z = 0 puts it beside the right hand.
+      SynthFrame& left = scene.left_frames[k];
+      left = place_hand(*partner, k, {kHandCentre[0], kHandCentre[1], -(kHandCentre[2] + half_distance)},
+                        {drift[0], drift[1], -drift[2]}, mean);
+      left.seq_name = frame.seq_name;
+      left.frame_idx = frame.frame_idx;
+      if (!partner->gestures.empty()) left.gesture = partner->gestures[k];
+    }
   }
+  if (both) annotate_left_hands(load_rig_source("builtin:left"), scene.left_frames);
   one_thread.reset();  // rendering below is per frame and exact on any thread count
   const TissueRig tissue = effects.tissue ? make_tissue_rig(scene.rig, scene.axes) : TissueRig{};
-  std::vector<int64_t> all_faces = scene.faces;  // hand then forearm: the shadow casters
-  for (int64_t id : scene.forearm.faces) all_faces.push_back(id + num_vertices);
 #pragma omp parallel for schedule(dynamic, 1)
   for (int64_t k = 0; k < n; ++k) {
-    SynthFrame& frame = scene.frames[k];
-    frame.normals = vertex_normals(frame.vertices, scene.faces);
-    if (effects.tissue) {
-      const TissueResult result = tissue_displacement(tissue, effects, frame.absolute.articulation,
-                                                      frame.vertices, frame.normals);
-      apply_displacement(result, frame.normals, frame.vertices);
-      frame.contact = result.contact;
-      frame.normals = vertex_normals(frame.vertices, scene.faces);
+    finish_surface(scene, tissue, scene.frames[k]);
+    if (both) {
+      finish_surface(scene, tissue, scene.left_frames[k]);
+      reflect_geometry(scene.left_frames[k]);
     }
-    frame.occlusion = effects.ambient_occlusion ? fold_occlusion(frame.vertices, frame.normals)
-                                                : std::vector<float>(num_vertices, 0.0f);
-    if (effects.forearm) {
-      frame.forearm = pose_forearm(scene.forearm, scene.axes, frame.absolute.articulation,
-                                   {frame.joints[0], frame.joints[1], frame.joints[2]});
-      frame.forearm_normals = vertex_normals(frame.forearm, scene.forearm.faces);
-    }
-    if (effects.cast_shadows) {
-      frame.visibility = light_visibility(
-          concat(frame.vertices, frame.forearm), concat(frame.normals, frame.forearm_normals),
-          all_faces, key_light_direction(), effects.light_radius_deg * M_PI / 180.0,
-          effects.light_samples);
-      frame.visibility.resize(num_vertices);  // the forearm is outside every mask: no shadow there
-    }
+    if (effects.cast_shadows) cast_shadows(scene, k);
   }
   // Portrait images show the fingers up: "up" is the rest hand's wrist-to-knuckles direction;
   // azimuth 0 faces the palm.
@@ -250,33 +379,32 @@ SynthView render_synth_frame(const SynthScene& scene, int frame, int camera) {
   const uint64_t noise_seed = mix_seed(scene.config.seed, static_cast<uint64_t>(camera) + 1,
                                        static_cast<uint64_t>(frame) + 1);
   const SkinFlexion flexion = skin_flexion(f.absolute.articulation);
+  const bool both = !scene.left_frames.empty();
   SynthMeshView mesh{&f.vertices, &f.normals, &f.occlusion, &scene.faces};
   if (!f.visibility.empty()) mesh.visibility = &f.visibility;
   if (!f.contact.empty()) mesh.contact = &f.contact;
   if (effects.flexion_skin) mesh.flexion = &flexion;
-  // With the forearm: one mesh of hand then forearm, the forearm textured by its rest points,
-  // no nails, no palm, no occlusion, fully lit by the key light.
-  std::vector<float> vertices, normals, occlusion, texture, nail, palmar, visibility, contact;
-  std::vector<int64_t> faces;
-  if (effects.forearm) {
-    const size_t hand = f.vertices.size() / 3, arm = f.forearm.size() / 3;
-    vertices = concat(f.vertices, f.forearm);
-    normals = concat(f.normals, f.forearm_normals);
-    occlusion = concat(f.occlusion, std::vector<float>(arm, 0.0f));
-    texture = concat(scene.skin.canonical, scene.forearm.rest);
-    nail = concat(scene.skin.nail, std::vector<float>(arm, 0.0f));
-    palmar = concat(scene.skin.palmar, std::vector<float>(arm, 0.0f));
-    faces = scene.faces;
-    for (int64_t id : scene.forearm.faces) faces.push_back(id + static_cast<int64_t>(hand));
-    mesh = SynthMeshView{&vertices, &normals, &occlusion, &faces, &texture, &nail, &palmar,
-                         nullptr, nullptr, mesh.flexion};
-    if (!f.visibility.empty()) {
-      visibility = concat(f.visibility, std::vector<float>(arm, 1.0f));
-      mesh.visibility = &visibility;
+  // With a forearm or a second hand: one mesh of every part (hand, its forearm, the other hand,
+  // its forearm). Forearms are textured by their rest points, with no nails, no palm, no
+  // occlusion, fully lit by the key light. The left hand takes the right hand's texture points,
+  // so its skin is the mirror image of the right one's.
+  JoinedMesh joined;
+  SkinFlexion left_flexion;
+  if (effects.forearm || both) {
+    const std::vector<const SynthFrame*> hands =
+        both ? std::vector<const SynthFrame*>{&f, &scene.left_frames.at(frame)}
+             : std::vector<const SynthFrame*>{&f};
+    for (const SynthFrame* hand : hands) {
+      if (hand != &f) joined.second_hand_face = static_cast<int64_t>(joined.faces.size() / 3);
+      joined.add_hand(*hand, scene.faces, scene.skin);
+      if (effects.forearm) joined.add_forearm(*hand, scene.forearm);
     }
-    if (!f.contact.empty()) {
-      contact = concat(f.contact, std::vector<float>(arm, 0.0f));
-      mesh.contact = &contact;
+    mesh = joined.view(!f.visibility.empty(), !f.contact.empty());
+    mesh.flexion = effects.flexion_skin ? &flexion : nullptr;
+    if (both && effects.flexion_skin) {
+      left_flexion = skin_flexion(scene.left_frames.at(frame).absolute.articulation);
+      mesh.second_flexion = &left_flexion;
+      mesh.second_hand_face = joined.second_hand_face;
     }
   }
   SynthView view = render_synth_view(scene.skin, mesh, scene.cameras.at(camera).camera,
@@ -353,14 +481,17 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
       }
       // bbox [x, y, w, h]: the projected mesh's extent, clipped to the image.
       double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
-      for (size_t v = 0; v < f.vertices.size() / 3; ++v) {
-        const auto uv = cam.camera.project_camera(cam.camera.to_camera(
-            {f.vertices[v * 3], f.vertices[v * 3 + 1], f.vertices[v * 3 + 2]}));
-        x0 = std::min(x0, uv[0]);
-        y0 = std::min(y0, uv[1]);
-        x1 = std::max(x1, uv[0]);
-        y1 = std::max(y1, uv[1]);
-      }
+      std::vector<const std::vector<float>*> meshes = {&f.vertices};
+      if (!scene.left_frames.empty()) meshes.push_back(&scene.left_frames[frame].vertices);
+      for (const std::vector<float>* mesh : meshes)
+        for (size_t v = 0; v < mesh->size() / 3; ++v) {
+          const auto uv = cam.camera.project_camera(cam.camera.to_camera(
+              {(*mesh)[v * 3], (*mesh)[v * 3 + 1], (*mesh)[v * 3 + 2]}));
+          x0 = std::min(x0, uv[0]);
+          y0 = std::min(y0, uv[1]);
+          x1 = std::max(x1, uv[0]);
+          y1 = std::max(y1, uv[1]);
+        }
       x0 = std::clamp(x0, 0.0, double(cam.camera.width));
       x1 = std::clamp(x1, 0.0, double(cam.camera.width));
       y0 = std::clamp(y0, 0.0, double(cam.camera.height));
@@ -408,10 +539,12 @@ int64_t write_interhand_annotations(const SynthScene& scene,
   const int64_t num_cameras = static_cast<int64_t>(scene.cameras.size());
   const int64_t num_images = static_cast<int64_t>(scene.frames.size()) * num_cameras;
 
+  const bool right_present = c.hand != CaptureConfig::Hands::left;
+  const bool left_present = c.hand != CaptureConfig::Hands::right;
   json images = json::array(), annotations = json::array();
   json joint_valid = json::array();
   for (int j = 0; j < 42; ++j)  // InterHand order: right hand's 21 joints, then the left's
-    joint_valid.push_back(json::array({(j < 21) != left ? 1 : 0}));
+    joint_valid.push_back(json::array({(j < 21 ? right_present : left_present) ? 1 : 0}));
   for (int64_t i = 0; i < num_images; ++i) {
     const SynthFrame& f = scene.frames[i / num_cameras];
     const SynthCamera& cam = scene.cameras[i % num_cameras];
@@ -428,7 +561,7 @@ int64_t write_interhand_annotations(const SynthScene& scene,
                            {"image_id", i},
                            {"bbox", numbers(boxes[i].data(), 4)},
                            {"joint_valid", joint_valid},
-                           {"hand_type", hand_name(c.hand)},
+                           {"hand_type", written_hand_type(scene)},
                            {"hand_type_valid", 1}});
   }
   const json data = {{"images", images}, {"annotations", annotations}};
@@ -451,36 +584,36 @@ int64_t write_interhand_annotations(const SynthScene& scene,
 
   json joint_frames = json::object(), mano_frames = json::object();
   SynthRandom joint_noise(mix_seed(c.seed, 0x6a6f696e74));  // "joint"
-  for (const auto& f : scene.frames) {
-    // InterHand's 42 joints: the right hand's 21, then the left's; the other hand is absent.
-    json coords = json::array(), valid = json::array();
-    const int first = left ? 21 : 0;
-    for (int ih = 0; ih < 42; ++ih) {
-      const bool present = ih >= first && ih < first + 21;
-      if (present) {
-        const int m = kInterHandFromMano21[ih - first];
-        std::array<double, 3> joint = {f.joints[m * 3], f.joints[m * 3 + 1], f.joints[m * 3 + 2]};
-        if (left) joint = mirror_point(joint);
-        if (c.effects.joint_noise_mm > 0)
-          for (double& x : joint) x += joint_noise.normal() * c.effects.joint_noise_mm * 1e-3;
-        coords.push_back({joint[0] * 1000.0, joint[1] * 1000.0, joint[2] * 1000.0});
-      } else {
-        coords.push_back({0.0, 0.0, 0.0});
+  for (size_t k = 0; k < scene.frames.size(); ++k) {
+    // InterHand's 42 joints: the right hand's 21, then the left's; an absent hand's are zero.
+    const auto hands = written_hands(scene, k);
+    json coords = json::array(), valid = json::array(), mano = json::object();
+    for (Handedness side : {Handedness::right, Handedness::left}) {
+      const auto& hand = hands[static_cast<int>(side)];
+      for (int ih = 0; ih < 21; ++ih) {
+        if (hand) {
+          const int m = kInterHandFromMano21[ih];
+          std::array<double, 3> joint = {hand->joints[m * 3], hand->joints[m * 3 + 1],
+                                         hand->joints[m * 3 + 2]};
+          if (c.effects.joint_noise_mm > 0)
+            for (double& x : joint) x += joint_noise.normal() * c.effects.joint_noise_mm * 1e-3;
+          coords.push_back({joint[0] * 1000.0, joint[1] * 1000.0, joint[2] * 1000.0});
+        } else {
+          coords.push_back({0.0, 0.0, 0.0});
+        }
+        valid.push_back(json::array({hand.has_value()}));
       }
-      valid.push_back(json::array({present}));
+      mano[hand_name(side)] = hand ? json{{"pose", numbers(hand->pose.data(), 48)},
+                                          {"shape", numbers(hand->shape.data(), 10)},
+                                          {"trans", numbers(hand->trans.data(), 3)}}
+                                   : json(nullptr);
     }
-    const std::string key = std::to_string(f.frame_idx);
+    const std::string key = std::to_string(scene.frames[k].frame_idx);
     joint_frames[key] = {{"world_coord", coords},
                          {"joint_valid", valid},
-                         {"hand_type", hand_name(c.hand)},
+                         {"hand_type", written_hand_type(scene)},
                          {"hand_type_valid", true}};
-    const std::array<double, 48> pose = left ? mirror_mano_pose(f.annotated) : f.annotated;
-    const std::array<double, 3> trans = left ? mirror_point(f.annotated_trans) : f.annotated_trans;
-    const json params = {{"pose", numbers(pose.data(), 48)},
-                         {"shape", numbers(f.annotated_shape.data(), 10)},
-                         {"trans", numbers(trans.data(), 3)}};
-    mano_frames[key] = {{"right", left ? json(nullptr) : params},
-                        {"left", left ? params : json(nullptr)}};
+    mano_frames[key] = mano;
   }
   const std::string prefix = (annotations_dir / ("InterHand2.6M_" + c.split + "_")).string();
   int64_t bytes = 0;

@@ -52,9 +52,15 @@ struct SynthScene {
   std::vector<SynthCamera> cameras;
   std::vector<CameraResponse> responses;  // per camera (identity without camera_response)
   std::vector<SynthFrame> frames;
+  // hand both: the left hand of each frame (same order), in the world and in the built-in left
+  // rig's terms (annotated pose relative to its hands_mean); empty for one hand. See make_synth_scene.
+  std::vector<SynthFrame> left_frames;
 };
 
-// Poses the built-in right hand for every frame and places the cameras (no rendering).
+// Poses the built-in right hand for every frame and places the cameras (no rendering). With hand
+// both, a second motion (its own seed, the right hand's shape) is reflected through a plane across
+// the thumbs into a left hand beside the right one, thumbs towards each other; the gap between
+// the hands' boxes swings from an overlap to a few centimetres, so they touch and hide each other.
 SynthScene make_synth_scene(const SynthConfig& config);
 
 // Renders frame `frame` from camera `camera` (deterministic: same pixels for any thread count).

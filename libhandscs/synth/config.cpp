@@ -13,7 +13,12 @@ const ChoiceNames<CaptureConfig::Layout>& SynthConfig::layout_names() {
 }
 
 std::vector<std::string> synth_preset_names() {
-  return {"tiny", "demo", "bench", "paper", "real_tiny", "real_demo", "real_bench", "real_paper"};
+  std::vector<std::string> names;
+  for (const char* realism : {"", "real_"})
+    for (const char* hands : {"", "both_"})
+      for (const char* size : {"tiny", "demo", "bench", "paper"})
+        names.push_back(std::string(realism) + hands + size);
+  return names;
 }
 
 namespace {
@@ -40,7 +45,9 @@ SynthConfig synth_preset(const std::string& name) {
   SynthConfig config;
   config.preset = name;
   const bool realistic = name.rfind("real_", 0) == 0;
-  const std::string size = realistic ? name.substr(5) : name;
+  std::string size = realistic ? name.substr(5) : name;
+  const bool both = size.rfind("both_", 0) == 0;
+  if (both) size = size.substr(5);
   if (size == "tiny") {
     // CI: generates in about a second; half-size images keep the hand ~130 px tall.
     config.num_cameras = 4;
@@ -72,6 +79,12 @@ SynthConfig synth_preset(const std::string& name) {
     throw Error("--preset: unknown preset \"" + name + "\" (known: " + known + ")");
   }
   if (realistic) realistic_effects(config.effects);
+  if (both) {
+    config.hand = CaptureConfig::Hands::both;
+    // Two hands side by side are up to ~0.25 m wide; a portrait image spans 0.28 m at 1.05 m and
+    // 0.36 m at 1.35 m, which keeps both inside as they drift and turn.
+    config.camera_distance = 1.35;
+  }
   return config;
 }
 

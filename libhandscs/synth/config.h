@@ -29,7 +29,8 @@ struct SynthConfig {
   int frame_step = 6;          // frame_idx step (the 5 fps release keeps every 6th 30 fps frame)
   int held_out_frames = 50;    // the novel-pose test tail (data.held_out_poses): gestures only
   // "left": the right-hand capture mirrored through the world's x = 0 plane (synth/mirror.h), so a
-  // left-hand capture is the exact mirror image of the right one with the same settings.
+  // left-hand capture is the exact mirror image of the right one with the same settings. "both": a
+  // left hand beside the right one, moving on its own (synth/left_hand.h).
   CaptureConfig::Hands hand = CaptureConfig::Hands::right;
   // Files written (docs/CAPTURE_FORMAT.md): InterHand2.6M's, the project's own, or EasyMocap's
   // (whose images carry a known lens distortion, synth/own_layouts.h).
@@ -56,7 +57,8 @@ struct SynthConfig {
     v.field("frame_step", frame_step, "frame_idx step between frames", 1, 1000);
     v.field("held_out_frames", held_out_frames, "frames of the held-out tail", 0, 1000000);
     v.choice("hand", hand, CaptureConfig::hand_names(),
-             "hand in the capture (left: the right-hand capture mirrored through x = 0)");
+             "hand in the capture (left: the right-hand capture mirrored through x = 0; both: a "
+             "left hand beside the right one, thumbs close; the both_ presets frame them)");
     v.choice("layout", layout, layout_names(),
              "files written: InterHand2.6M's layout, the project's own, or EasyMocap's (with a "
              "known lens distortion)");
@@ -70,7 +72,8 @@ struct SynthConfig {
 // Named presets: "tiny" (4 cameras x 12 frames, 167x256, for CI), "demo" (12 x 100, 334x512),
 // "bench" (24 x 150, 334x512), "paper" (30 x 400, 334x512: the paper's scale), and "real_tiny",
 // "real_demo", "real_bench", "real_paper" of the same sizes with every effect of synth/effects.h
-// on. Throws Error listing the known names for anything else.
+// on. "both_" after any "real_" (e.g. "real_both_demo") gives two hands (hand both) with the
+// cameras further away. Throws Error listing the known names for anything else.
 SynthConfig synth_preset(const std::string& name);
 
 // `config` with "key.path=value" overrides applied (handscs-synth --set); unknown keys and values

@@ -30,9 +30,32 @@ Camera written_camera(const SynthScene& scene, const SynthCamera& camera) {
                                camera.camera.width, camera.camera.height);
 }
 
+std::array<std::optional<WrittenHand>, 2> written_hands(const SynthScene& scene, size_t k) {
+  const bool mirrored = scene.config.hand == CaptureConfig::Hands::left;
+  auto written = [&](const SynthFrame& f, bool mirror) {
+    WrittenHand hand;
+    hand.pose = mirror ? mirror_mano_pose(f.annotated) : f.annotated;
+    hand.shape = f.annotated_shape;
+    hand.trans = mirror ? mirror_point(f.annotated_trans) : f.annotated_trans;
+    for (int j = 0; j < 21; ++j) {
+      std::array<double, 3> p = {f.joints[j * 3], f.joints[j * 3 + 1], f.joints[j * 3 + 2]};
+      if (mirror) p = mirror_point(p);
+      for (int d = 0; d < 3; ++d) hand.joints[j * 3 + d] = p[d];
+    }
+    return hand;
+  };
+  std::array<std::optional<WrittenHand>, 2> hands;
+  hands[mirrored ? 1 : 0] = written(scene.frames.at(k), mirrored);
+  if (!scene.left_frames.empty()) hands[1] = written(scene.left_frames.at(k), false);
+  return hands;
+}
+
+std::string written_hand_type(const SynthScene& scene) {
+  return scene.config.hand == CaptureConfig::Hands::both ? "interacting" : hand_name(scene.config.hand);
+}
+
 int64_t write_own_layout_annotations(const SynthScene& scene, const std::string& root) {
   const SynthConfig& c = scene.config;
-  const bool left = c.hand == CaptureConfig::Hands::left;
   const bool easymocap = c.layout == CaptureConfig::Layout::easymocap;
   json document = {{"format", kHandscsCaptureFormat},
                    {"version", kHandscsCaptureVersion},
@@ -59,21 +82,19 @@ int64_t write_own_layout_annotations(const SynthScene& scene, const std::string&
     document["cameras"] = out;
   }
   json frames = json::array();
-  for (const auto& f : scene.frames) {
-    std::array<double, 63> joints{};
-    for (int j = 0; j < 21; ++j) {
-      std::array<double, 3> p = {f.joints[j * 3], f.joints[j * 3 + 1], f.joints[j * 3 + 2]};
-      if (left) p = mirror_point(p);
-      for (int d = 0; d < 3; ++d) joints[j * 3 + d] = p[d];
+  for (size_t k = 0; k < scene.frames.size(); ++k) {
+    const SynthFrame& f = scene.frames[k];
+    json entry = {{"frame", f.frame_idx},
+                  {"sequence", f.seq_name},
+                  {"hand_type", written_hand_type(scene)}};
+    const auto hands = written_hands(scene, k);
+    for (Handedness side : {Handedness::right, Handedness::left}) {
+      const auto& hand = hands[static_cast<int>(side)];
+      if (hand)
+        entry[hand_name(side)] = capture_hand_json(hand->pose.data(), hand->shape.data(),
+                                                   hand->trans.data(), hand->joints.data());
     }
-    const std::array<double, 48> pose = left ? mirror_mano_pose(f.annotated) : f.annotated;
-    const std::array<double, 3> trans = left ? mirror_point(f.annotated_trans) : f.annotated_trans;
-    const json hand =
-        capture_hand_json(pose.data(), f.annotated_shape.data(), trans.data(), joints.data());
-    frames.push_back({{"frame", f.frame_idx},
-                      {"sequence", f.seq_name},
-                      {"hand_type", hand_name(c.hand)},
-                      {hand_name(c.hand), hand}});
+    frames.push_back(entry);
   }
   document["frames"] = frames;
   const std::string text = document.dump();

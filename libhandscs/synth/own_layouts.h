@@ -5,7 +5,9 @@
 // pinhole renders distorted with it, so the reader's undistortion recovers them.
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "data/lens_distortion.h"
@@ -27,6 +29,22 @@ std::string own_layout_image_name(const SynthFrame& frame, const SynthCamera& ca
 
 // The camera as the capture's files state it: mirrored for a left-hand capture (synth/mirror.h).
 Camera written_camera(const SynthScene& scene, const SynthCamera& camera);
+
+// A hand as the capture's files state it (with the fit error the generator draws): MANO pose
+// relative to hands_mean, shape, trans (m) and the 21 MANO-order world joints (m).
+struct WrittenHand {
+  std::array<double, 48> pose{};
+  std::array<double, 10> shape{};
+  std::array<double, 3> trans{};
+  std::array<double, 63> joints{};
+};
+
+// Frame k's hands indexed by Handedness: the one hand (mirrored in a left-hand capture, see
+// synth/mirror.h), or both with hand both.
+std::array<std::optional<WrittenHand>, 2> written_hands(const SynthScene& scene, size_t k);
+
+// "interacting" (InterHand2.6M's word) for two hands, else the hand's name.
+std::string written_hand_type(const SynthScene& scene);
 
 // Writes capture.json (and for easymocap intri.yml, extri.yml) under root; returns the bytes.
 int64_t write_own_layout_annotations(const SynthScene& scene, const std::string& root);

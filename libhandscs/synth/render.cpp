@@ -116,7 +116,9 @@ SynthView render_synth_view(const SynthSkin& skin, const SynthMeshView& mesh, co
             const double light = kAmbient + kKey * visible * std::max(0.0, facing) +
                                  kFill * std::max(0.0, dot(n, kFillLight));
             double crease = 0;
-            const Vec3 albedo = skin_albedo(skin, p, nail, palmar, mesh.flexion, &crease);
+            const SkinFlexion* flexion =
+                face >= mesh.second_hand_face ? mesh.second_flexion : mesh.flexion;
+            const Vec3 albedo = skin_albedo(skin, p, nail, palmar, flexion, &crease);
             const double shade = light * (1 - kFoldDarkening * std::clamp(occ, 0.0, 1.0)) * 255.0;
             sum[0] += albedo[2] * shade;  // BGR
             sum[1] += albedo[1] * shade;

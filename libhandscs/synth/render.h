@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <opencv2/core/mat.hpp>
 #include <vector>
 
@@ -29,6 +30,9 @@ struct SynthMeshView {
   const std::vector<float>* visibility = nullptr;  // [V] key light visibility in [0, 1]
   const std::vector<float>* contact = nullptr;     // [V] contact flattening (m)
   const SkinFlexion* flexion = nullptr;            // flexion-dependent creases
+  // A second hand (hand both): its faces, from second_hand_face on, crease by its own flexion.
+  const SkinFlexion* second_flexion = nullptr;
+  int64_t second_hand_face = std::numeric_limits<int64_t>::max();
 };
 
 struct SynthView {

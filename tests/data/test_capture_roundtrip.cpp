@@ -10,6 +10,7 @@
 
 #include "data/roi.h"
 #include "data_test_helpers.h"
+#include "mask_iou.h"
 #include "synth_fixture.h"
 
 // Catch last: LibTorch pulls in glog, whose CHECK macro would otherwise replace Catch's.
@@ -18,13 +19,6 @@
 using namespace handscs;
 
 namespace {
-
-double iou(const cv::Mat& a, const cv::Mat& b) {
-  cv::Mat inter, uni;
-  cv::bitwise_and(a > 0, b > 0, inter);
-  cv::bitwise_or(a > 0, b > 0, uni);
-  return static_cast<double>(cv::countNonZero(inter)) / std::max(1, cv::countNonZero(uni));
-}
 
 int camera_index(const SynthScene& scene, const std::string& id) {
   for (size_t i = 0; i < scene.cameras.size(); ++i)
@@ -102,8 +96,8 @@ TEST_CASE("capture roundtrip: masks cover the rendered hand (IoU >= 0.98)") {
     // Pixel centres the renderer saw the hand at, and pixels it drew at least half covered.
     const cv::Mat half_covered =
         view.samples >= (tiny.scene.config.supersample * tiny.scene.config.supersample + 1) / 2;
-    min_iou_centre = std::min(min_iou_centre, iou(mask, view.coverage));
-    min_iou_antialiased = std::min(min_iou_antialiased, iou(mask, half_covered));
+    min_iou_centre = std::min(min_iou_centre, data_test::mask_iou(mask, view.coverage));
+    min_iou_antialiased = std::min(min_iou_antialiased, data_test::mask_iou(mask, half_covered));
     CHECK(cv::countNonZero(mask) > 1000);
   }
   INFO("min IoU vs centre coverage " << min_iou_centre << ", vs >= half coverage "

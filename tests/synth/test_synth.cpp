@@ -35,8 +35,9 @@ TEST_CASE("synth: presets and unknown names") {
   const SynthConfig bench = synth_preset("bench");
   CHECK(bench.num_cameras * bench.num_frames == 3600);
   CHECK(data_test::error_of([] { synth_preset("huge"); }) ==
-        "--preset: unknown preset \"huge\" (known: tiny, demo, bench, paper, real_tiny, real_demo, "
-        "real_bench, real_paper)");
+        "--preset: unknown preset \"huge\" (known: tiny, demo, bench, paper, both_tiny, both_demo, "
+        "both_bench, both_paper, real_tiny, real_demo, real_bench, real_paper, real_both_tiny, "
+        "real_both_demo, real_both_bench, real_both_paper)");
   // The paper's scale: 350 training poses, and 25 colour cameras for 10 training + 15 test views.
   const SynthConfig paper = synth_preset("real_paper");
   CHECK(paper.num_frames - paper.held_out_frames == 350);
