@@ -4,6 +4,11 @@
 #include <chrono>
 #include <cstring>
 
+#include <c10/core/InferenceMode.h>
+#include <omp.h>
+
+#include <exception>
+
 #include "core/float_vector.h"
 
 namespace handscs {
@@ -26,6 +31,27 @@ const AvatarState& PoseMemo::pose(const float* pose, const float* shape, const f
   key_ = key;
   ++computed_;
   return *state_;
+}
+
+std::array<const AvatarState*, 2> pose_side_by_side(const std::array<PoseMemo*, 2>& memos,
+                                                    const std::array<HandPoseInput, 2>& hands) {
+  std::array<const AvatarState*, 2> states{};
+  std::array<std::exception_ptr, 2> errors;
+  const bool both = memos[0] && hands[0].pose && memos[1] && hands[1].pose;
+  const bool inference = c10::InferenceMode::is_enabled();
+#pragma omp parallel for num_threads(2) schedule(static, 1) if (both && omp_get_max_threads() > 1)
+  for (int side = 0; side < 2; ++side) {
+    if (!memos[side] || !hands[side].pose) continue;
+    try {
+      c10::InferenceMode guard(inference);  // thread-local: a worker does not inherit the caller's
+      states[side] = &memos[side]->pose(hands[side].pose, hands[side].shape, hands[side].trans);
+    } catch (...) {
+      errors[side] = std::current_exception();
+    }
+  }
+  for (const auto& error : errors)
+    if (error) std::rethrow_exception(error);
+  return states;
 }
 
 }  // namespace handscs

@@ -35,4 +35,20 @@ class PoseMemo {
   int64_t computed_ = 0, reused_ = 0;
 };
 
+// One hand's parameters for pose_side_by_side: pose [48], shape [10], trans [3]; null `pose` skips
+// the hand.
+struct HandPoseInput {
+  const float* pose = nullptr;
+  const float* shape = nullptr;
+  const float* trans = nullptr;
+};
+
+// Poses each hand with its memo: on two threads at once when two hands need posing and OpenMP
+// has two or more, else one after the other. A hand of a few thousand Gaussians is too small for
+// LibTorch to spread its operations over threads, so two hands side by side is what keeps both
+// cores busy (docs/BENCHMARKS.md#two-hands). Each worker runs under the caller's inference mode.
+// Returns the states (null for a skipped hand).
+std::array<const AvatarState*, 2> pose_side_by_side(const std::array<PoseMemo*, 2>& memos,
+                                                    const std::array<HandPoseInput, 2>& hands);
+
 }  // namespace handscs

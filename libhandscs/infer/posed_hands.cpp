@@ -1,5 +1,9 @@
 #include "infer/posed_hands.h"
 
+#include <omp.h>
+
+#include <algorithm>
+
 #include "core/error.h"
 
 namespace handscs {
@@ -18,14 +22,24 @@ PosedHands::PosedHands(TrainedAvatar& trained) {
 
 const PosedGaussians& PosedHands::pose_hands(const std::array<const HandParams*, 2>& hands,
                                              const std::string& where) {
-  std::vector<const PosedGaussians*> sets;
-  pose_ms_ = 0;
+  std::array<PoseMemo*, 2> memos{};
+  std::array<HandPoseInput, 2> inputs{};
   for (int side = 0; side < 2; ++side) {
     posed_[side] = hands[side] && memos_[side];
     if (!posed_[side]) continue;
-    const HandParams& p = *hands[side];
-    sets.push_back(&memos_[side]->pose(p.pose.data(), p.shape.data(), p.trans.data()).posed);
-    pose_ms_ += memos_[side]->pose_ms();
+    memos[side] = memos_[side].get();
+    inputs[side] = {hands[side]->pose.data(), hands[side]->shape.data(), hands[side]->trans.data()};
+  }
+  const std::array<const AvatarState*, 2> states = pose_side_by_side(memos, inputs);
+  // What posing costs, memo hit or not: the slower hand when both were posed side by side.
+  pose_ms_ = 0;
+  const bool side_by_side = states[0] && states[1] && omp_get_max_threads() > 1;
+  std::vector<const PosedGaussians*> sets;
+  for (int side = 0; side < 2; ++side) {
+    if (!states[side]) continue;
+    sets.push_back(&states[side]->posed);
+    const double ms = memos_[side]->pose_ms();
+    pose_ms_ = side_by_side ? std::max(pose_ms_, ms) : pose_ms_ + ms;
   }
   if (sets.empty()) throw Error(where + ": the frame has neither of the avatar's hands");
   joined_ = join_posed(sets);

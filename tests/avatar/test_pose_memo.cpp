@@ -4,7 +4,10 @@
 
 #include <array>
 
+#include <omp.h>
+
 #include "avatar/pose_memo.h"
+#include "core/threads.h"
 #include "small_avatar.h"
 
 namespace {
@@ -53,4 +56,44 @@ TEST_CASE("pose memo: repeated poses are reused, changed ones posed again, all e
   CHECK(memo.computed() == 4);
   CHECK(memo.reused() == 2);
   CHECK(memo.pose_ms() > 0);
+}
+
+TEST_CASE("pose memo: two hands posed side by side equal each posed alone, errors reach the caller") {
+  handscs::Avatar right = handscs_test::small_double_avatar();
+  handscs::Avatar left = handscs_test::small_double_avatar();
+  c10::InferenceMode guard;
+  const int threads = omp_get_max_threads();
+  handscs::set_threads(2);  // the side-by-side path (it falls back to one after the other on one)
+  handscs::PoseMemo memo_right(right), memo_left(left);
+  torch::manual_seed(5);
+  const torch::Tensor pose_r = torch::randn({48}) * 0.3, pose_l = torch::randn({48}) * 0.3;
+  const torch::Tensor shape = torch::zeros({10});
+  const torch::Tensor trans_r = torch::tensor({0.0f, 0.0f, 0.5f}), trans_l = torch::tensor({0.06f, 0.0f, 0.5f});
+  const auto states = handscs::pose_side_by_side(
+      {&memo_right, &memo_left},
+      {handscs::HandPoseInput{pose_r.data_ptr<float>(), shape.data_ptr<float>(), trans_r.data_ptr<float>()},
+       handscs::HandPoseInput{pose_l.data_ptr<float>(), shape.data_ptr<float>(), trans_l.data_ptr<float>()}});
+  REQUIRE(states[0] != nullptr);
+  REQUIRE(states[1] != nullptr);
+  // Each worker ran under the caller's inference mode.
+  CHECK(states[0]->posed.means.is_inference());
+  CHECK(states[1]->posed.means.is_inference());
+  // Double precision: one thread or two, the same values to rounding.
+  CHECK(torch::allclose(states[0]->posed.means, right.pose(pose_r, shape, trans_r).posed.means, 0, 1e-12));
+  CHECK(torch::allclose(states[1]->posed.colors, left.pose(pose_l, shape, trans_l).posed.colors, 0, 1e-12));
+  // A skipped hand stays null; a hand whose pose is refused throws in the caller's thread.
+  const auto one = handscs::pose_side_by_side(
+      {&memo_right, &memo_left},
+      {handscs::HandPoseInput{pose_r.data_ptr<float>(), shape.data_ptr<float>(), trans_r.data_ptr<float>()},
+       handscs::HandPoseInput{}});
+  CHECK(one[1] == nullptr);
+  const torch::Tensor bad = pose_l.clone();
+  bad[7] = std::nanf("");
+  CHECK_THROWS_WITH(
+      handscs::pose_side_by_side(
+          {&memo_right, &memo_left},
+          {handscs::HandPoseInput{pose_l.data_ptr<float>(), shape.data_ptr<float>(), trans_r.data_ptr<float>()},
+           handscs::HandPoseInput{bad.data_ptr<float>(), shape.data_ptr<float>(), trans_l.data_ptr<float>()}}),
+      Catch::Contains("NaN"));
+  handscs::set_threads(threads);
 }

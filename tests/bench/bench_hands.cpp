@@ -6,6 +6,8 @@
 // JSON object. Usage:
 //   handscs-bench-hands [--gaussians 3000,10000] [--threads 2] [--repeats 20]
 //                       [--lpips-weights FILE] [--no-train-step] [--work-dir DIR]
+#include <array>
+#include <memory>
 #include <sstream>
 
 #include <CLI/CLI.hpp>
@@ -14,6 +16,7 @@
 #include <torch/types.h>
 
 #include "avatar/avatar.h"
+#include "avatar/pose_memo.h"
 #include "core/allocator.h"
 #include "core/logging.h"
 #include "core/threads.h"
@@ -26,23 +29,36 @@ namespace {
 constexpr double kLeftOffsetX = 0.06;  // m: as the two-hand test capture, the hands overlap
 
 // Median ms of a novel pose rendered with `hands` avatars (the right hand first), a new random pose
-// per frame so nothing pose-dependent is reused.
-double render_ms(std::vector<handscs::Avatar*> hands, const handscs::Camera& camera, int repeats) {
+// per frame so nothing pose-dependent is reused; the hands posed side by side as handscs-render
+// poses them, or one after the other.
+double render_ms(std::vector<handscs::Avatar*> hands, const handscs::Camera& camera, int repeats,
+                 bool side_by_side = true) {
   c10::InferenceMode guard;
   const auto shape = torch::zeros({10});
+  std::array<std::unique_ptr<handscs::PoseMemo>, 2> memos;
+  for (size_t k = 0; k < hands.size(); ++k) memos[k] = std::make_unique<handscs::PoseMemo>(*hands[k]);
   std::vector<double> times;
   for (int r = 0; r < repeats + 2; ++r) {
     const auto pose = torch::randn({48}) * 0.2;
     // The left hand: the right's pose mirrored (axis-angle (a, b, c) -> (a, -b, -c)).
-    const auto mirrored = pose.view({16, 3}) * torch::tensor({1.0f, -1.0f, -1.0f});
+    const auto mirrored = (pose.view({16, 3}) * torch::tensor({1.0f, -1.0f, -1.0f})).reshape({48});
+    const std::array<torch::Tensor, 2> trans = {torch::zeros({3}),
+                                                torch::tensor({float(kLeftOffsetX), 0.0f, 0.0f})};
     const auto t0 = bench::Clock::now();
-    std::vector<handscs::AvatarState> states;
-    states.reserve(hands.size());
-    std::vector<const handscs::PosedGaussians*> posed;
+    std::array<handscs::PoseMemo*, 2> memo_of{};
+    std::array<handscs::HandPoseInput, 2> inputs{};
     for (size_t k = 0; k < hands.size(); ++k) {
-      const auto trans = torch::tensor({k == 0 ? 0.0f : static_cast<float>(kLeftOffsetX), 0.0f, 0.0f});
-      states.push_back(hands[k]->pose(k == 0 ? pose : mirrored.reshape({48}), shape, trans));
-      posed.push_back(&states.back().posed);
+      memo_of[k] = memos[k].get();
+      inputs[k] = {(k == 0 ? pose : mirrored).data_ptr<float>(), shape.data_ptr<float>(),
+                   trans[k].data_ptr<float>()};
+    }
+    std::vector<const handscs::PosedGaussians*> posed;
+    if (side_by_side) {
+      for (const handscs::AvatarState* state : handscs::pose_side_by_side(memo_of, inputs))
+        if (state) posed.push_back(&state->posed);
+    } else {
+      for (size_t k = 0; k < hands.size(); ++k)
+        posed.push_back(&memo_of[k]->pose(inputs[k].pose, inputs[k].shape, inputs[k].trans).posed);
     }
     (void)handscs::render_posed(handscs::join_posed(posed), camera, {});
     if (r >= 2) times.push_back(bench::ms_since(t0));
@@ -90,9 +106,11 @@ int main(int argc, char** argv) {
     }
     const double one = render_ms({&right}, camera, repeats);
     const double two = render_ms({&right, &left}, camera, repeats);
+    const double two_in_turn = render_ms({&right, &left}, camera, repeats, false);
     nlohmann::json row = {{"gaussians_per_hand", n},
                           {"render_ms_one_hand", one},
                           {"render_ms_two_hands", two},
+                          {"render_ms_two_hands_posed_in_turn", two_in_turn},
                           {"render_fps_two_hands", 1000.0 / two},
                           {"render_ratio", two / one}};
     if (!no_train_step) {
