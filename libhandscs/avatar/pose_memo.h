@@ -46,7 +46,7 @@ struct HandPoseInput {
 // Poses each hand with its memo: on two threads at once when two hands need posing and OpenMP
 // has two or more, else one after the other. A hand of a few thousand Gaussians is too small for
 // LibTorch to spread its operations over threads, so two hands side by side is what keeps both
-// cores busy (docs/BENCHMARKS.md#two-hands). Each worker runs under the caller's inference mode.
+// cores busy (docs/TRAINING.md#what-a-second-hand-costs). Each worker runs under the caller's inference mode.
 // Returns the states (null for a skipped hand).
 std::array<const AvatarState*, 2> pose_side_by_side(const std::array<PoseMemo*, 2>& memos,
                                                     const std::array<HandPoseInput, 2>& hands);
