@@ -89,7 +89,7 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
               std::to_string(kMaxPlyShDegree));
   TrainedAvatar trained = open_trained_avatar(options.checkpoint);
   const std::vector<PoseFrame> poses =
-      read_pose_source(options.poses, {&trained.avatar.rig(), trained.config.model.flat_hand_mean});
+      read_pose_source(options.poses, keypoint_target(trained));
   const bool two_hands = !trained.left.empty();
   for (size_t k = 0; k < poses.size(); ++k)
     if (two_hands && !poses[k].hands[0] && !poses[k].hands[1])

@@ -139,8 +139,11 @@ json pose_frame_to_json(const PoseFrame& frame) {
   return item;
 }
 
-PoseFrame interpolate_pose(const PoseFrame& a, const PoseFrame& b, double t) {
-  PoseFrame out;
+namespace {
+
+// Per-joint slerp of the poses, linear shape and trans: for a PoseFrame or one hand's HandParams.
+template <class Hand>
+void blend_hand(const Hand& a, const Hand& b, double t, Hand& out) {
   for (int j = 0; j < 16; ++j) {
     auto qa = to_quat(&a.pose[3 * j]);
     auto qb = to_quat(&b.pose[3 * j]);
@@ -164,6 +167,20 @@ PoseFrame interpolate_pose(const PoseFrame& a, const PoseFrame& b, double t) {
   }
   for (int i = 0; i < 10; ++i) out.shape[i] = float((1 - t) * a.shape[i] + t * b.shape[i]);
   for (int i = 0; i < 3; ++i) out.trans[i] = float((1 - t) * a.trans[i] + t * b.trans[i]);
+}
+
+}  // namespace
+
+PoseFrame interpolate_pose(const PoseFrame& a, const PoseFrame& b, double t) {
+  PoseFrame out;
+  blend_hand(a, b, t, out);
+  for (int side = 0; side < 2; ++side) {
+    if (a.hands[side].has_value() != b.hands[side].has_value())
+      throw Error("interpolate: \"from\" and \"to\" hold different hands");
+    if (!a.hands[side]) continue;
+    out.hands[side].emplace();
+    blend_hand(*a.hands[side], *b.hands[side], t, *out.hands[side]);
+  }
   return out;
 }
 
@@ -204,6 +221,11 @@ std::vector<PoseFrame> read_pose_source_json(const json& root, const std::string
     if (steps < 2 || steps > kMaxInterpolationSteps)
       throw Error(where + ".steps: between 2 and " + std::to_string(kMaxInterpolationSteps) +
                   ", got " + std::to_string(steps));
+    for (int side = 0; side < 2; ++side)
+      if (a.hands[side].has_value() != b.hands[side].has_value())
+        throw Error(where + ": \"from\" has " + (a.hands[side] ? "" : "no ") + "\"" +
+                    hand_name(side ? Handedness::left : Handedness::right) + "\" hand and \"to\" " +
+                    (b.hands[side] ? "has one" : "has none") + "; give both the same hands");
     for (int i = 0; i < steps; ++i) {
       frames.push_back(interpolate_pose(a, b, double(i) / (steps - 1)));
       frames.back().name = numbered("pose", i);
@@ -242,38 +264,61 @@ std::vector<PoseFrame> read_pose_source_json(const json& root, const std::string
   return frames;
 }
 
-// A keypoint file's hand (the rig's side) fitted with the rig, one frame per frame that has it.
-std::vector<PoseFrame> poses_from_keypoints(const std::string& path, const Rig& rig, bool flat_hand_mean) {
-  const bool right = rig.handedness == Handedness::right;
-  std::vector<std::string> names;
-  std::vector<HandKeypoints> hands;
-  for (const KeypointFrame& f : read_keypoint_file(path)) {
-    const auto& hand = right ? f.right : f.left;
-    if (hand && hand->num_valid() >= kMinFitKeypoints) {
-      names.push_back(f.name);
-      hands.push_back(*hand);
+// A keypoint file's hands fitted with the avatar's rigs: one frame per file frame that has a hand
+// the avatar has. One rig: one-hand frames; two: frames with `hands` (each present hand's).
+std::vector<PoseFrame> poses_from_keypoints(const std::string& path, const KeypointTarget& target) {
+  const std::vector<KeypointFrame> file = read_keypoint_file(path);
+  const bool two = target.rigs[0] && target.rigs[1];
+  std::vector<PoseFrame> frames(file.size());
+  std::vector<bool> fitted(file.size(), false);
+  std::vector<std::string> missing;
+  for (const Handedness side : {Handedness::left, Handedness::right}) {  // right's fields last
+    const int slot = side == Handedness::right ? 0 : 1;
+    const Rig* rig = target.rigs[slot];
+    if (!rig) continue;
+    std::vector<size_t> index;
+    std::vector<HandKeypoints> hands;
+    for (size_t i = 0; i < file.size(); ++i) {
+      const auto& hand = side == Handedness::right ? file[i].right : file[i].left;
+      if (hand && hand->num_valid() >= kMinFitKeypoints) {
+        index.push_back(i);
+        hands.push_back(*hand);
+      }
     }
+    if (hands.empty()) {
+      missing.push_back(hand_name(side));
+      continue;
+    }
+    const JointModel model = make_joint_model(*rig);
+    const std::vector<HandFit> fits = fit_keypoint_sequence(model, hands, KeypointFitConfig{});
+    double worst = 0;
+    for (size_t k = 0; k < fits.size(); ++k) {
+      HandParams params;
+      const auto pose = rig_pose(model, fits[k].params, target.flat_hand_mean);
+      for (int i = 0; i < kPoseDim; ++i) params.pose[i] = static_cast<float>(pose[i]);
+      for (int i = 0; i < kShapeDim; ++i) params.shape[i] = static_cast<float>(fits[k].params.shape[i]);
+      for (int i = 0; i < 3; ++i) params.trans[i] = static_cast<float>(fits[k].params.trans[i]);
+      PoseFrame& frame = frames[index[k]];
+      frame.pose = params.pose;
+      frame.shape = params.shape;
+      frame.trans = params.trans;
+      if (two) frame.hands[slot] = params;
+      frame.name = file[index[k]].name;
+      fitted[index[k]] = true;
+      worst = std::max(worst, fits[k].mean_mm);
+    }
+    spdlog::info("{}: {} frames of the {} hand fitted (largest mean residual {:.2f} mm)", path, fits.size(),
+                 hand_name(side), worst);
   }
-  const std::string side = right ? "right" : "left";
-  require(!hands.empty(), path + ": no frame holds the " + side + " hand (with 5 or more keypoints) that the avatar's " +
-                              side + "-hand rig can be fitted to");
-  const JointModel model = make_joint_model(rig);
-  const std::vector<HandFit> fits = fit_keypoint_sequence(model, hands, KeypointFitConfig{});
-  std::vector<PoseFrame> frames;
-  double worst = 0;
-  for (size_t i = 0; i < fits.size(); ++i) {
-    PoseFrame frame;
-    const auto pose = rig_pose(model, fits[i].params, flat_hand_mean);
-    for (int k = 0; k < kPoseDim; ++k) frame.pose[k] = static_cast<float>(pose[k]);
-    for (int k = 0; k < kShapeDim; ++k) frame.shape[k] = static_cast<float>(fits[i].params.shape[k]);
-    for (int k = 0; k < 3; ++k) frame.trans[k] = static_cast<float>(fits[i].params.trans[k]);
-    frame.name = names[i];
-    worst = std::max(worst, fits[i].mean_mm);
-    frames.push_back(frame);
-  }
-  spdlog::info("{}: {} frames of the {} hand fitted (largest mean residual {:.2f} mm)", path, frames.size(), side,
-               worst);
-  return frames;
+  if (missing.size() == static_cast<size_t>(two ? 2 : 1))
+    throw Error(path + ": no frame holds the " + (two ? std::string("right or left") : missing.front()) +
+                " hand (with 5 or more keypoints) that the avatar's rig" + (two ? "s" : "") + " can be fitted to");
+  for (const std::string& side : missing)
+    spdlog::warn("{}: no frame holds the {} hand; it is left out of every frame", path, side);
+  std::vector<PoseFrame> out;
+  for (size_t i = 0; i < frames.size(); ++i)
+    if (fitted[i]) out.push_back(std::move(frames[i]));
+  return out;
 }
 
 }  // namespace
@@ -281,16 +326,24 @@ std::vector<PoseFrame> poses_from_keypoints(const std::string& path, const Rig& 
 std::vector<PoseFrame> read_pose_source(const std::string& path, const KeypointTarget& target) {
   const json root = parse_json_file(path);
   if (root.is_object() && root.value("format", "") == "handscs-keypoints") {
-    require(target.rig != nullptr,
+    require(target.rigs[0] || target.rigs[1],
             path + ": a keypoint file, which needs an avatar's rig to fit (use it with handscs-render or handscs-view, "
                    "or turn it into poses with handscs-fit)");
-    return poses_from_keypoints(path, *target.rig, target.flat_hand_mean);
+    return poses_from_keypoints(path, target);
   }
   try {
     return read_pose_source_json(root, path);
   } catch (const json::exception& e) {  // a value of another type than the key needs
     throw Error(path + ": " + e.what());
   }
+}
+
+KeypointTarget keypoint_target(TrainedAvatar& trained) {
+  KeypointTarget target;
+  for (const Handedness side : {Handedness::right, Handedness::left})
+    if (const Avatar* avatar = trained.hand(side)) target.rigs[side == Handedness::right ? 0 : 1] = &avatar->rig();
+  target.flat_hand_mean = trained.config.model.flat_hand_mean;
+  return target;
 }
 
 }  // namespace handscs

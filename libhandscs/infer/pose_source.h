@@ -1,10 +1,12 @@
 // POSES files for handscs-render: the hand poses to render, from one of three JSON forms:
 //   {"poses": [{"pose": [48], "shape": [10], "trans": [3]}, ...]}      (a bare list works too)
 //     two hands (a data.hand both avatar): {"right": {pose...}, "left": {pose...}} per pose
-//   {"interpolate": {"from": {pose...}, "to": {pose...}, "steps": N}}  (per-joint slerp, linear trans/shape)
+//   {"interpolate": {"from": {pose...}, "to": {pose...}, "steps": N}}  (per-joint slerp, linear trans/shape;
+//     two hands: "from" and "to" are two-hand poses with the same hands)
 //   {"capture": {CaptureConfig keys}, "frames": "test"|"train"|"all", "camera": "id", "max_frames": N}
 //   a keypoint file (fit/keypoint_file.h: "format": "handscs-keypoints"): the avatar's rig fitted to
-//   the hand it is (right or left) in every frame that has it (docs/FIT.md)
+//   the hand it is (right or left) in every frame that has it, each hand's for a two-hand avatar
+//   (docs/FIT.md)
 // Poses are MANO axis-angle (relative to hands_mean unless the model is flat_hand_mean); shape and
 // trans default to zeros. A capture selection also provides each frame's camera.
 #pragma once
@@ -18,6 +20,7 @@
 #include "core/config.h"
 #include "data/capture.h"  // HandParams
 #include "hand/rig.h"
+#include "run/avatar_state_io.h"
 
 namespace handscs {
 
@@ -33,12 +36,15 @@ struct PoseFrame {
   std::array<std::optional<HandParams>, 2> hands;
 };
 
-// What a keypoint file is fitted for: the avatar's rig (its handedness picks the file's hand) and
-// pose convention.
+// What a keypoint file is fitted for: the avatar's rigs by Handedness (right, left; null for a hand
+// it lacks) and its pose convention. With two rigs every frame holds each hand the file has.
 struct KeypointTarget {
-  const Rig* rig = nullptr;
+  std::array<const Rig*, 2> rigs{};
   bool flat_hand_mean = false;
 };
+
+// The target of a trained avatar: its hands' rigs.
+KeypointTarget keypoint_target(TrainedAvatar& trained);
 
 // Reads a POSES file; errors name the file and the key path (e.g. "poses[2].pose: expected 48
 // numbers, got 45"). A keypoint file needs `target`.
@@ -52,7 +58,8 @@ PoseFrame pose_frame_from_json(const json& item, const std::string& where);
 // The same object for a frame (pose, shape, trans and a non-empty name), numbers exact for a float.
 json pose_frame_to_json(const PoseFrame& frame);
 
-// Per-joint spherical interpolation of axis-angle poses (t in [0, 1]); shape and trans linear.
+// Per-joint spherical interpolation of axis-angle poses (t in [0, 1]); shape and trans linear; each
+// hand of two-hand poses (Error when the two hold different hands).
 PoseFrame interpolate_pose(const PoseFrame& a, const PoseFrame& b, double t);
 
 }  // namespace handscs

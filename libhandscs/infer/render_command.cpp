@@ -124,7 +124,9 @@ void add_avatar_mode(CLI::App& app, AvatarMode& mode) {
   group->add_option("--poses", mode.poses,
                     "POSES JSON: {\"poses\": [{\"pose\": [48], \"shape\": [10], \"trans\": [3]}, ...]}, "
                     "{\"interpolate\": {\"from\", \"to\", \"steps\"}}, {\"capture\": {...}, \"frames\": \"test\"}, or "
-                    "a keypoint file (format handscs-keypoints) fitted with the avatar's rig (docs/FIT.md)");
+                    "a keypoint file (format handscs-keypoints) fitted with the avatar's rig (docs/FIT.md). A "
+                    "two-hand avatar takes each pose as {\"right\": {pose...}, \"left\": {pose...}} (also in "
+                    "\"from\" and \"to\"), and fits each hand of a keypoint file");
   // At most 100,000 views (nearly an hour of 30 FPS video): a larger number is a typo that would
   // run for days.
   group->add_option("--orbit", mode.orbit, "N turntable views around the hand (instead of --camera)")

@@ -66,7 +66,7 @@ ViewScene ViewScene::open(const std::string& checkpoint, const std::string& pose
   TrainedAvatar trained = open_trained_avatar(checkpoint);
   std::vector<PoseFrame> held_out =
       poses.empty() ? held_out_poses(trained.config)
-                    : read_pose_source(poses, {&trained.avatar.rig(), trained.config.model.flat_hand_mean});
+                    : read_pose_source(poses, keypoint_target(trained));
   return ViewScene(std::move(trained), std::move(held_out));
 }
 
