@@ -4,7 +4,6 @@
 
 #include "core/atomic_file.h"
 #include "core/camera_checks.h"
-#include "core/error.h"
 #include "core/png_damage.h"
 
 namespace handscs {
@@ -64,10 +63,10 @@ void refuse_oversized_image_header(const std::string& file_bytes, const std::str
   const double pixels = static_cast<double>(size.width) * static_cast<double>(size.height);
   if (pixels <= kMaxCameraPixels) return;
   char text[160];
-  std::snprintf(text, sizeof(text), ": its header says %lld x %lld pixels (%.0f megapixels), above "
+  std::snprintf(text, sizeof(text), "its header says %lld x %lld pixels (%.0f megapixels), above "
                 "the %.0f-megapixel limit of a camera", static_cast<long long>(size.width),
                 static_cast<long long>(size.height), pixels / 1e6, kMaxCameraPixels / 1e6);
-  throw Error(path + text);
+  throw OversizedImageHeader(path, text);
 }
 
 std::string read_image_bytes(const std::string& path) {

@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <string>
 
+#include "core/error.h"
+
 namespace handscs {
 
 struct ImageHeaderSize {
@@ -21,13 +23,23 @@ ImageHeaderSize image_header_size(const std::string& file_bytes);
 // headers store their numbers so); the caller checks the bytes are there.
 uint32_t big_endian_value(const std::string& file_bytes, size_t at, int count);
 
-// Throws Error naming `path` when the header states more than kMaxCameraPixels pixels.
+// What refuse_oversized_image_header throws: `problem` is what is wrong without the path ("its
+// header says 30000 x 30000 pixels (900 megapixels), above the 100-megapixel limit of a camera").
+class OversizedImageHeader : public Error {
+ public:
+  OversizedImageHeader(const std::string& path, const std::string& problem)
+      : Error(path + ": " + problem), problem(problem) {}
+  std::string problem;
+};
+
+// Throws OversizedImageHeader naming `path` when the header states more than kMaxCameraPixels
+// pixels.
 void refuse_oversized_image_header(const std::string& file_bytes, const std::string& path);
 
 // An image file's bytes, for a decoder, read through one checked descriptor (core/atomic_file.h
 // read_file). Throws Error naming the file when it is not a regular file, cannot be read, is over
 // 300 MB (an uncompressed 100-megapixel RGB image, kMaxCameraPixels, is 300 MB: no image file is
-// larger) or its PNG or JPEG header states more pixels than a camera may have.
+// larger) or its PNG or JPEG header states more pixels than a camera may have (OversizedImageHeader).
 std::string read_image_bytes(const std::string& path);
 
 }  // namespace handscs

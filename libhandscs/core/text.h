@@ -42,6 +42,16 @@ inline std::string number_text(double x) {
   return text;
 }
 
+// A memory size for messages: "4.6 GB" from 1 GB up, "850 MB" below (decimal units).
+inline std::string bytes_text(double bytes) {
+  char text[32];
+  if (bytes >= 1e9)
+    std::snprintf(text, sizeof(text), "%.1f GB", bytes / 1e9);
+  else
+    std::snprintf(text, sizeof(text), "%.0f MB", bytes / 1e6);
+  return text;
+}
+
 // A path's extension in lower case, with its dot (".JPG" -> ".jpg"; "" when it has none).
 inline std::string lower_extension(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();

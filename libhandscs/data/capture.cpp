@@ -52,9 +52,11 @@ struct Candidate {
 const std::vector<std::string> kReasonOrder = {
     "null MANO",       "no joint_3d entry", "poor joint fit",   "other hand",
     "interacting",     "missing image",     "not a file",       "damaged JPEG",
-    "unreadable image", "wrong image size", "black image",      "hand outside image"};
+    "oversized image", "unreadable image",  "wrong image size", "black image",
+    "hand outside image"};
 
-// Damaged JPEGs are each logged with what is wrong, up to this many lines (the summary counts all).
+// Damaged JPEGs and oversized images are each logged with what is wrong, up to this many lines (the
+// summary counts all).
 constexpr size_t kDamageLines = 10;
 
 std::string make_summary(const std::string& source, const std::vector<SkippedImage>& skipped,
@@ -488,13 +490,16 @@ ImageSelection select_usable_images(const CaptureConfig& c, const std::string& i
 
   ImageSelection selection;
   selection.monochrome.assign(mono.begin(), mono.end());
-  size_t damaged = 0;
+  size_t named = 0;  // damaged and oversized images, each logged with what is wrong
   for (int64_t i = 0; i < num_candidates; ++i) {
     const Candidate& cand = candidates[i];
     std::string reason;
     if (!scans[i].damage.empty()) {
       reason = "damaged JPEG";
-      if (++damaged <= kDamageLines) spdlog::warn("{}: damaged JPEG ({}): skipped", cand.path, scans[i].damage);
+      if (++named <= kDamageLines) spdlog::warn("{}: damaged JPEG ({}): skipped", cand.path, scans[i].damage);
+    } else if (!scans[i].oversized.empty()) {
+      reason = "oversized image";
+      if (++named <= kDamageLines) spdlog::warn("{}: {}: skipped", cand.path, scans[i].oversized);
     } else if (!scans[i].readable) {
       reason = "unreadable image";
     } else if (scans[i].width != cand.image->width || scans[i].height != cand.image->height) {
@@ -518,7 +523,7 @@ ImageSelection select_usable_images(const CaptureConfig& c, const std::string& i
       selection.grey_in_colour.push_back(cand.path);
     selection.usable.push_back(static_cast<size_t>(i));
   }
-  if (damaged > kDamageLines) spdlog::warn("... and {} more damaged JPEGs", damaged - kDamageLines);
+  if (named > kDamageLines) spdlog::warn("... and {} more damaged or oversized images", named - kDamageLines);
   return selection;
 }
 

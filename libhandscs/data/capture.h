@@ -96,8 +96,9 @@ struct FrameSample {
 struct SkippedImage {
   std::string path;
   std::string reason;  // "null MANO", "no joint_3d entry", "other hand", "interacting",
-                       // "missing image", "not a file", "damaged JPEG", "unreadable image",
-                       // "wrong image size", "black image", "hand outside image", "poor joint fit"
+                       // "missing image", "not a file", "damaged JPEG", "oversized image",
+                       // "unreadable image", "wrong image size", "black image", "hand outside
+                       // image", "poor joint fit"
 };
 
 // The rig of hand `side`, one of config.hand's, that the capture poses for its masks and the

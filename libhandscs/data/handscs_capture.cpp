@@ -2,7 +2,6 @@
 
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <set>
 
 #include "core/camera_checks.h"
@@ -19,10 +18,6 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 namespace {
-
-// Bytes read from an image to find its size in the header: a JPEG's frame header follows its
-// EXIF and tables, which stay well within 256 KiB in camera files.
-constexpr size_t kHeaderBytes = 256 * 1024;
 
 RecordCamera read_camera(const JsonView& entry, const std::string& path) {
   entry.require_known_keys({"K", "R", "t", "width", "height", "dist"});
@@ -75,12 +70,16 @@ std::string image_name(const fs::path& images_dir, const std::string& camera, co
   return jpg;
 }
 
-// Width and height of an image from its header (0 x 0 when it cannot be read).
+// Width and height of an image from its header (0 x 0 when it cannot be read, is not a regular
+// file, or states more pixels than a camera may have). Read through a checked descriptor: a named
+// pipe in the image's place is not waited on (Capture::open skips it as "not a file").
 std::pair<int, int> header_size(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::string bytes(kHeaderBytes, '\0');
-  in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  bytes.resize(static_cast<size_t>(in.gcount()));
+  std::string bytes;
+  try {
+    bytes = read_image_bytes(path);
+  } catch (const Error&) {
+    return {0, 0};
+  }
   const ImageHeaderSize size = image_header_size(bytes);
   if (!size.known) return {0, 0};
   return {static_cast<int>(size.width), static_cast<int>(size.height)};

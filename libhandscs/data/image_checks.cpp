@@ -62,6 +62,8 @@ ImageScan scan_image(const std::string& path) {
     scan.readable = true;
     scan.black = is_black(small);
     scan.monochrome = !scan.black && is_monochrome(small);
+  } catch (const OversizedImageHeader& e) {
+    scan.oversized = e.problem;  // refused before any decode: a decoder would allocate gigabytes
   } catch (const std::exception&) {
     scan.readable = false;  // a corrupt file makes libjpeg/OpenCV throw: report, never propagate
   }

@@ -11,6 +11,7 @@ namespace handscs {
 struct ImageScan {
   bool readable = false;    // decoded without error
   std::string damage;       // a .jpg/.jpeg found damaged (core/jpeg_damage.h): what is wrong (else "")
+  std::string oversized;    // a header over a camera's pixel limit (core/image_header.h): what it says
   bool black = false;       // brightest (8x8-averaged) value <= kBlackLevel
   bool monochrome = false;  // fewer than kMonochromeFraction of pixels have a channel spread > 4
   int width = 0, height = 0;  // pixels, as a full decode gives them (capture loads compare them exactly)
@@ -37,8 +38,8 @@ bool is_black(const cv::Mat& image, int level = kBlackLevel);
 
 // Reads `path`, checks a JPEG for damage (core/jpeg_damage.h, whose 1/8-scale decode it reuses;
 // other files, and JPEGs OpenCV turns by their Exif orientation, are decoded in full and reduced
-// here to ceil(side / 8) as libjpeg's scaling does) and runs the checks. Never throws (unreadable
-// and damaged files report so).
+// here to ceil(side / 8) as libjpeg's scaling does) and runs the checks. Never throws (unreadable,
+// damaged and oversized files report so; an oversized one is not decoded).
 ImageScan scan_image(const std::string& path);
 
 }  // namespace handscs

@@ -189,7 +189,8 @@ std::vector<ImageScan> scan_images(const std::vector<std::string>& paths,
       scans[i] = scan_image(paths[i]);
       // Not stored: a file that could not be stat-ed, or read or decoded with no damage named (a
       // permission, an I/O error or memory can be the cause, and none of them changes the stamp
-      // when it is fixed); such a file is checked again at every open.
+      // when it is fixed); such a file is checked again at every open. An oversized header is
+      // named but not stored either (the cache has no field for it): a read, never a decode.
       const bool unexplained = !scans[i].readable && scans[i].damage.empty();
       state[i] = stat_ok && !unexplained ? 1 : 2;
     }

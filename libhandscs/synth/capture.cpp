@@ -1,6 +1,7 @@
 #include "synth/capture.h"
 
 #include <spdlog/spdlog.h>
+#include <omp.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -15,6 +16,7 @@
 #include <optional>
 
 #include "core/atomic_file.h"
+#include "core/available_memory.h"
 #include "core/config.h"
 #include "core/csv_table.h"
 #include "core/error.h"
@@ -30,6 +32,7 @@
 #include "synth/mirror.h"
 #include "synth/own_layouts.h"
 #include "synth/regions.h"
+#include "synth/render_memory.h"
 #include "synth/shadows.h"
 
 namespace handscs {
@@ -649,6 +652,7 @@ SynthReport generate_synth_capture(const SynthConfig& config, const std::string&
                                    bool overwrite) {
   const auto start = std::chrono::steady_clock::now();
   check_synth_size(config);
+  check_synth_memory(config, omp_get_max_threads(), available_memory_bytes());
   const fs::path out = fs::absolute(out_dir).lexically_normal();
   std::error_code ec;
   // A file is named as one before any folder check: --overwrite replaces folders only.

@@ -13,6 +13,7 @@
 #include "core/config.h"
 #include "run/run_config.h"
 #include "train/data_parallel.h"
+#include "train/out_of_memory.h"
 #include "train/run_folder.h"
 #include "train/set_aside_run.h"
 #include "train/trainer.h"
@@ -136,7 +137,12 @@ int train_command(int argc, char** argv) {
                  shell_quote(run_dir + "/eval"));
     return summary.interrupted ? 130 : 0;  // 130: stopped by a signal (shell convention)
   } catch (const std::exception& e) {
-    spdlog::error("{}", error_text(e));
+    // Opening the capture, building the model or resuming can run out of memory too (the trainer's
+    // own steps, checkpoints and validation name it themselves).
+    if (is_out_of_memory(e))
+      spdlog::error("{}", out_of_memory_error(e, "while opening the run", -1).what());
+    else
+      spdlog::error("{}", error_text(e));
     return 1;
   }
 }

@@ -4,11 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <new>
 #include <optional>
 #include <random>
 #include <set>
@@ -37,6 +35,7 @@
 #include "train/densify_component.h"
 #include "train/entry_order.h"
 #include "train/lpips_schedule.h"
+#include "train/out_of_memory.h"
 #include "train/pose_refine_component.h"
 #include "train/run_folder.h"
 
@@ -540,37 +539,18 @@ bool Trainer::reduce_across_ranks(EntryOutcome& sums, bool finite, std::map<std:
   return all_finite;
 }
 
-StepResult Trainer::step() {
+template <class F>
+auto Trainer::naming_out_of_memory(const std::string& when, F&& f) {
   try {
-    return take_step();
-  } catch (const std::bad_alloc&) {
-    throw out_of_memory("");
-  } catch (const c10::Error& e) {
-    // LibTorch's CPU allocator reports a failed allocation as an enforce failure in alloc_cpu.
-    const std::string what = e.what_without_backtrace();
-    if (what.find("alloc_cpu") == std::string::npos && what.find("can't allocate memory") == std::string::npos)
-      throw;
-    throw out_of_memory(what);
+    return f();
+  } catch (const std::exception& e) {
+    if (!is_out_of_memory(e)) throw;
+    throw out_of_memory_error(e, when, gaussian_count());
   }
 }
 
-Error Trainer::out_of_memory(const std::string& detail) const {
-  // LibTorch says "... you tried to allocate N bytes ...": the size is what a user can act on.
-  std::string request;
-  const std::string marker = "you tried to allocate ";
-  if (const size_t at = detail.find(marker); at != std::string::npos) {
-    const double bytes = std::atof(detail.c_str() + at + marker.size());
-    char text[64];
-    std::snprintf(text, sizeof(text), " (a request of %.0f MB failed)", bytes / 1e6);
-    request = text;
-  }
-  return Error("out of memory at step " + std::to_string(iteration_ + 1) + " with " +
-               std::to_string(gaussian_count()) + " Gaussians" + request +
-               ": the machine cannot hold this run. Fewer Gaussians (a lower "
-               "train.densify.max_gaussians, a higher train.densify.grad_threshold, an earlier "
-               "train.densify.stop), smaller decoders "
-               "(model.decoder_hidden) or smaller images (train.resolution_scale) need less; the "
-               "last checkpoint is kept");
+StepResult Trainer::step() {
+  return naming_out_of_memory("at step " + std::to_string(iteration_ + 1), [&] { return take_step(); });
 }
 
 StepResult Trainer::take_step() {
@@ -959,8 +939,14 @@ TrainSummary Trainer::run() {
   // The state a rollback before the first checkpoint returns to, kept in memory: nothing is written
   // before the first logged step or checkpoint, so a run that stops at its first steps with a user
   // error (a crop too small for the image losses) leaves the folder as it was.
-  if (root && last_checkpoint_.empty()) initial_state_ = checkpoint_bytes(make_checkpoint());
+  if (root && last_checkpoint_.empty())
+    naming_out_of_memory("before step " + std::to_string(iteration_ + 1),
+                         [&] { initial_state_ = checkpoint_bytes(make_checkpoint()); });
   const int64_t total = config_.train.iterations;
+  const auto save = [&] {
+    naming_out_of_memory("saving the checkpoint of step " + std::to_string(iteration_),
+                         [&] { save_checkpoint(); });
+  };
   std::unique_ptr<ProgressBar> bar;  // rank 0 reports for all
   if (root) bar = std::make_unique<ProgressBar>("train", total);
   char status[160] = "";
@@ -979,15 +965,15 @@ TrainSummary Trainer::run() {
                   skipped_total_ ? (" skipped " + std::to_string(skipped_total_)).c_str() : "");
     bar->update(iteration_, status);
     if (iteration_ % config_.train.log_every == 0 || r.skipped) log_step(r);
-    if (checkpoint_due) save_checkpoint();
+    if (checkpoint_due) save();
     if (config_.train.validate_every > 0 && iteration_ % config_.train.validate_every == 0)
-      validate();
+      naming_out_of_memory("validating at step " + std::to_string(iteration_), [&] { validate(); });
   }
   const bool interrupted = stop_requested() && iteration_ < total;
   // For the final checkpoint (every rank gets here), unless the loop's last step just gathered.
   if (group_ && gathered_at != iteration_) gather_components();
   if (root) {
-    if (last_checkpoint_.find(checkpoint_name(iteration_)) == std::string::npos) save_checkpoint();
+    if (last_checkpoint_.find(checkpoint_name(iteration_)) == std::string::npos) save();
     for_each_part([&](auto& components, const std::string& section) {
       // The second hand's files go in a folder of its own.
       const std::string folder = section.empty() ? run_dir_ : run_dir_ + "/" + section;

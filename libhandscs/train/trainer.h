@@ -108,7 +108,8 @@ class Trainer {
   // One step. A failed allocation ends it with an Error naming the step, the Gaussian count and
   // the keys that lower what a step needs.
   StepResult step();
-  // Runs to config.train.iterations (or until SIGINT/SIGTERM), with a progress bar.
+  // Runs to config.train.iterations (or until SIGINT/SIGTERM), with a progress bar. A failed
+  // allocation while validating or saving a checkpoint is named as a step's is.
   TrainSummary run();
 
   std::string save_checkpoint();  // writes checkpoints/step_<iteration>.ckpt; returns the path
@@ -139,7 +140,10 @@ class Trainer {
   // losses averaged over them and backpropagated (scaled to the step's mean over entries).
   EntryOutcome train_entry(int64_t entry, bool diagnostics, StepResult& result);
   StepResult take_step();  // step() without its out-of-memory message
-  Error out_of_memory(const std::string& detail) const;
+  // Returns f(); a failed allocation in it ends the run with an Error naming `when`, the Gaussian
+  // count at that moment and the keys that lower what a run needs (train/out_of_memory.h).
+  template <class F>
+  auto naming_out_of_memory(const std::string& when, F&& f);
   // The entry's frames (their indices appended to result.frames) and their targets.
   // `hands`: a context per hand the frames show, with its views.
   EntryContext start_entry(int64_t entry, std::vector<ViewTarget>& targets, StepResult& result,

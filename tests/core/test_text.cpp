@@ -25,3 +25,10 @@ TEST_CASE("text: shapes print as messages show them") {
   CHECK(handscs::shape_text(std::vector<int64_t>{778, 3, 10}) == "[778, 3, 10]");
   CHECK(handscs::shape_text({23340}) == "[23340]");
 }
+
+TEST_CASE("text: memory sizes in MB below a GB, in GB from there") {
+  CHECK(handscs::bytes_text(850e6) == "850 MB");
+  CHECK(handscs::bytes_text(999.4e6) == "999 MB");
+  CHECK(handscs::bytes_text(1e9) == "1.0 GB");
+  CHECK(handscs::bytes_text(4.6e9) == "4.6 GB");
+}

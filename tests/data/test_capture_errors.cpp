@@ -8,7 +8,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/atomic_file.h"
 #include "core/config.h"
+#include "core/image_header.h"
+#include "captured_warnings.h"
 #include "data_test_helpers.h"
 #include "synth_fixture.h"
 
@@ -115,6 +118,32 @@ TEST_CASE("capture errors: an image that is a link to itself is skipped, a loopi
   CHECK(error_of([&] { Capture::open(data_test::tiny_config(loop_root)); }) ==
         loop_root + ": capture root is not a folder (Too many levels of symbolic links)");
   std::filesystem::remove(loop_root);
+}
+
+TEST_CASE("capture errors: an image whose header claims 30000 x 30000 is skipped with its size") {
+  // A decoder would allocate gigabytes for it: the size is read from the header and named instead.
+  const std::string root = data_test::copy_of_tiny("oversized_header");
+  const auto& scene = data_test::tiny_capture().scene;
+  const std::string big = image_path(root, "400004", scene.frames[2].frame_idx);
+  std::string bytes = read_file(big);
+  const size_t frame_header = bytes.find("\xFF\xC0");  // baseline: length, precision, height, width
+  REQUIRE(frame_header != std::string::npos);
+  for (const size_t at : {frame_header + 5, frame_header + 7}) {
+    bytes[at] = static_cast<char>(30000 >> 8);
+    bytes[at + 1] = static_cast<char>(30000 & 0xFF);
+  }
+  REQUIRE(image_header_size(bytes).width == 30000);
+  REQUIRE(image_header_size(bytes).height == 30000);
+  data_test::write_text(big, bytes);
+  handscs_test::CapturedWarnings warnings;
+  Capture capture = Capture::open(data_test::tiny_config(root));
+  REQUIRE(capture.skipped().size() == 1);
+  CHECK(capture.skipped()[0].path == big);
+  CHECK(capture.skipped()[0].reason == "oversized image");
+  CHECK(capture.skip_summary() ==
+        annotation(root, "data") + ": skipped 1 of 48 images (oversized image 1): " + big);
+  CHECK(warnings.text().find(big + ": its header says 30000 x 30000 pixels (900 megapixels), above the "
+                                   "100-megapixel limit of a camera: skipped\n") != std::string::npos);
 }
 
 TEST_CASE("capture errors: an image replaced by a named pipe after the open is refused, not read") {

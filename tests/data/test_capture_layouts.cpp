@@ -86,9 +86,10 @@ TEST_CASE("capture layouts: auto detects each layout, and data.layout names it")
   CHECK(error_of([&] { Capture::open(config); }) ==
         interhand + "/capture.json: missing (the handscs layout keeps its frames' MANO parameters "
                     "there; docs/CAPTURE_FORMAT.md)");
-  // An image replaced by a named pipe is skipped as "not a file", not as missing.
-  {
-    const std::string root = data_test::copy_of_tiny_in("handscs", "piped_image");
+  // An image replaced by a named pipe is skipped as "not a file", not as missing, in every layout.
+  for (const std::string layout : {"interhand", "handscs", "easymocap"}) {
+    INFO(layout);
+    const std::string root = data_test::copy_of_tiny_in(layout, "piped_image_" + layout);
     std::string image;
     for (const auto& entry : std::filesystem::recursive_directory_iterator(root + "/images"))
       if (entry.path().extension() == ".jpg") image = entry.path().string();
@@ -96,10 +97,10 @@ TEST_CASE("capture layouts: auto detects each layout, and data.layout names it")
     std::filesystem::remove(image);
     REQUIRE(::mkfifo(image.c_str(), 0600) == 0);
     const Capture capture = Capture::open(data_test::tiny_config(root));
-    std::string reason;
-    for (const auto& skipped : capture.skipped())
-      if (skipped.path == image) reason = skipped.reason;
-    CHECK(reason == "not a file");
+    REQUIRE(capture.skipped().size() == 1);
+    CHECK(capture.skipped()[0].path == image);
+    CHECK(capture.skipped()[0].reason == "not a file");
+    CHECK(capture.skip_summary().find("skipped 1 of 48 images (not a file 1): " + image) != std::string::npos);
   }
   // A layout's file replaced by a named pipe is named, not passed over for another layout.
   for (const std::string layout : {"handscs", "easymocap"}) {
@@ -458,6 +459,22 @@ TEST_CASE("capture layouts: without H_ and W_ an EasyMocap camera takes its firs
     CHECK(capture.frames()[i].camera.width == reference.frames()[i].camera.width);
     CHECK(capture.frames()[i].camera.height == reference.frames()[i].camera.height);
   }
+  // A camera whose first image is a named pipe takes its size from the next one, without waiting
+  // on the pipe (opening it for reading would block until something writes to it).
+  const std::string first = reference.frames()[0].image_path;
+  const std::string piped = root + first.substr(first.find("/images/"));
+  std::filesystem::remove(piped);
+  REQUIRE(::mkfifo(piped.c_str(), 0600) == 0);
+  Capture without_first = Capture::open(data_test::tiny_config(root));
+  REQUIRE(without_first.skipped().size() == 1);
+  CHECK(without_first.skipped()[0].path == piped);
+  CHECK(without_first.skipped()[0].reason == "not a file");
+  REQUIRE(without_first.frames().size() == reference.frames().size() - 1);
+  for (const FrameInfo& frame : without_first.frames())
+    if (frame.camera_id == reference.frames()[0].camera_id) {
+      CHECK(frame.camera.width == reference.frames()[0].camera.width);
+      CHECK(frame.camera.height == reference.frames()[0].camera.height);
+    }
 }
 
 TEST_CASE("capture layouts: PNG images of an odd size open in every layout, in all cameras or one") {

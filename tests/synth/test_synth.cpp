@@ -9,11 +9,13 @@
 #include <opencv2/core.hpp>
 
 #include "core/atomic_file.h"
+#include "core/available_memory.h"
 #include "core/config.h"
 #include "core/threads.h"
 #include "hand/lbs.h"
 #include "synth/capture.h"
 #include "synth/math.h"
+#include "synth/render_memory.h"
 #include "test_support.h"
 #include "data/data_test_helpers.h"
 
@@ -227,6 +229,43 @@ TEST_CASE("synth: a folder that is not empty is refused, and replaced only by a 
   CHECK(data_test::error_of([&] { generate_synth_capture(huge, dir + "_huge"); }) ==
         "num_cameras x num_frames: 100000000 images (at most 5000000)");
   CHECK_FALSE(fs::exists(dir + "_huge"));
+}
+
+TEST_CASE("synth: a capture this machine cannot hold is refused before rendering, with the estimate") {
+  SynthConfig big = synth_preset("tiny");
+  big.width = big.height = 8192;  // inside the documented ranges, and under 100 megapixels
+  // Per image: 30 bytes a pixel (67.1 M) and 20 a sub-sample of the hand's rectangle (its side
+  // 0.19 m x 1265 x 8192 / 334 / 1.05 m = 5614 px, 3 x 3 sub-samples a pixel): 7.69 GB.
+  const int64_t one = synth_render_bytes(big, 1);
+  CHECK(one == Approx(30 * 67108864.0 + 20 * 9 * 5614.3 * 5614.3).epsilon(1e-3));
+  CHECK(synth_render_bytes(big, 2) == 2 * one);  // an image a thread, rendered at once
+  SynthConfig single = big;
+  single.num_cameras = single.num_frames = 1;
+  CHECK(synth_render_bytes(single, 2) == one);  // no more images at once than the capture has
+  SynthConfig plain = big;
+  plain.supersample = 1;
+  CHECK(synth_render_bytes(plain, 1) < one / 2);
+  // The available memory is given, so the refusal does not depend on this machine.
+  CHECK(data_test::error_of([&] { check_synth_memory(big, 2, 4'000'000'000); }) ==
+        "synth: rendering 8192 x 8192 images at supersample 3 (2 at once: --threads) needs about "
+        "15.4 GB, more than the 4.0 GB this machine has available; lower width and height, "
+        "supersample or --threads");
+  CHECK(data_test::error_of([&] { check_synth_memory(big, 2, 16'000'000'000); }) == "(no error)");
+  CHECK(data_test::error_of([&] { check_synth_memory(big, 2, -1); }) == "(no error)");  // not known
+  CHECK(synth_render_bytes(synth_preset("tiny"), 2) < 8'000'000);  // the CI capture: 7.3 MB
+
+  // The generator asks before it writes: 53 GB an image at supersample 9, on 8 threads.
+  const std::string dir = data_test::fresh_dir("synth_no_memory") + "/capture";
+  big.supersample = 9;
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(8);
+  REQUIRE(synth_render_bytes(big, 8) > available_memory_bytes());
+  const std::string error = data_test::error_of([&] { generate_synth_capture(big, dir); });
+  omp_set_num_threads(threads);
+  CHECK(error.rfind("synth: rendering 8192 x 8192 images at supersample 9 (8 at once: --threads) needs "
+                    "about 424.6 GB, more than the ",
+                    0) == 0);
+  CHECK_FALSE(fs::exists(dir));
 }
 
 TEST_CASE("synth: an --out that is a file is named as one, with or without --overwrite") {
