@@ -30,6 +30,13 @@ const ChoiceNames<CaptureConfig::PoseSource>& CaptureConfig::pose_source_names()
   return names;
 }
 
+const ChoiceNames<CaptureConfig::SuppliedMasks>& CaptureConfig::supplied_masks_names() {
+  static const ChoiceNames<SuppliedMasks> names = {{"use", SuppliedMasks::use},
+                                                   {"replace_poor", SuppliedMasks::replace_poor},
+                                                   {"ignore", SuppliedMasks::ignore}};
+  return names;
+}
+
 std::string layout_name(CaptureConfig::Layout layout) {
   return choice_name(layout, CaptureConfig::layout_names());
 }

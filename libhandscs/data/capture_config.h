@@ -41,6 +41,9 @@ struct CaptureConfig {
   enum class PoseSource { mano, joints };
   // The hands a run trains: one of them, or both (an avatar each, rendered together).
   enum class Hands { right, left, both };
+  // Masks that come with a capture: used as given, replaced by the posed meshes' mask where they
+  // disagree with the posed hands (IoU < 0.3, a broken mask), or not read at all.
+  enum class SuppliedMasks { use, replace_poor, ignore };
 
   std::string root;                        // dataset folder (see layout)
   Layout layout = Layout::automatic;
@@ -53,6 +56,7 @@ struct CaptureConfig {
   // from it while the other trains.
   Hands hand = Hands::right;
   bool include_interacting = false;        // one hand: also use frames annotated "interacting"
+  SuppliedMasks supplied_masks = SuppliedMasks::use;
   std::vector<std::string> train_cameras;  // camera ids for training (empty = all; see split_rule)
   std::vector<std::string> test_cameras;   // camera ids for testing (empty: as train_cameras)
   int frame_stride = 1;                    // keep every k-th pose (by frame index)
@@ -114,6 +118,9 @@ struct CaptureConfig {
              "hand whose MANO parameters are used; both: an avatar for each hand of every frame");
     v.field("include_interacting", include_interacting,
             "one hand: also use frames whose hand_type is interacting (the other hand is in view)");
+    v.choice("supplied_masks", supplied_masks, supplied_masks_names(),
+             "masks that come with the capture: use them; replace_poor: the posed meshes' mask where "
+             "one overlaps the posed hands by IoU < 0.3; ignore: always the posed meshes' mask");
     v.field("train_cameras", train_cameras, "training camera ids (empty = all)");
     v.field("test_cameras", test_cameras,
             "test camera ids (novel_pose: empty = as train_cameras; novel_view: empty = chosen "
@@ -163,6 +170,7 @@ struct CaptureConfig {
   static const ChoiceNames<Hands>& hand_names();
   static const ChoiceNames<SplitRule>& split_rule_names();
   static const ChoiceNames<PoseSource>& pose_source_names();
+  static const ChoiceNames<SuppliedMasks>& supplied_masks_names();
 };
 
 // A choice's name as config files write it, for messages and cache keys ("interhand", "left",

@@ -68,11 +68,11 @@ struct Capture::Impl {
   cv::Mat mask_for(const FrameInfo& frame, const cv::Mat& bgr) const;
   cv::Mat compute_mask(const FrameInfo& frame, const cv::Mat& bgr) const;
   cv::Mat posed_mesh_mask(const FrameInfo& frame) const;  // 0/1, unrefined
-  // Checks each supplied mask once: warns when it and the posed meshes' mask overlap by less
-  // than kMinSuppliedMaskIou.
-  void check_supplied_mask(const FrameInfo& frame, const cv::Mat& mask) const;
-  mutable std::mutex mask_checked_mutex;       // guards mask_checked
-  mutable std::set<std::string> mask_checked;  // the supplied masks checked
+  // Checks each supplied mask once and returns whether it agrees with the posed meshes' mask (IoU
+  // of at least kMinSuppliedMaskIou); warns, once, when it does not.
+  bool check_supplied_mask(const FrameInfo& frame, const cv::Mat& mask) const;
+  mutable std::mutex mask_checked_mutex;             // guards mask_checked
+  mutable std::map<std::string, bool> mask_checked;  // supplied mask -> it agrees
 };
 
 }  // namespace handscs

@@ -103,23 +103,33 @@ cv::Mat Capture::Impl::posed_mesh_mask(const FrameInfo& frame) const {
                    num_faces(frame.pose_index), frame.camera);
 }
 
-void Capture::Impl::check_supplied_mask(const FrameInfo& frame, const cv::Mat& mask) const {
+bool Capture::Impl::check_supplied_mask(const FrameInfo& frame, const cv::Mat& mask) const {
   {
     // Once per mask: a crop loaded again (cache eviction, full image) does not rasterise again.
     std::lock_guard<std::mutex> lock(mask_checked_mutex);
-    if (!mask_checked.insert(frame.mask_path).second) return;
+    const auto found = mask_checked.find(frame.mask_path);
+    if (found != mask_checked.end()) return found->second;
   }
   const cv::Mat mesh = posed_mesh_mask(frame);
   const double both = cv::countNonZero(mask & mesh);
   const double either = cv::countNonZero(mask | mesh);
   const double iou = either > 0 ? both / either : 1.0;
   spdlog::debug("{}: IoU {:.3f} with the posed hands", frame.mask_path, iou);
-  if (iou >= kMinSuppliedMaskIou) return;
+  const bool agrees = iou >= kMinSuppliedMaskIou;
+  {
+    std::lock_guard<std::mutex> lock(mask_checked_mutex);
+    if (!mask_checked.emplace(frame.mask_path, agrees).second) return agrees;  // another thread named it
+  }
+  if (agrees) return true;
   const double pixels = static_cast<double>(mask.total());
+  const bool replace = config.supplied_masks == CaptureConfig::SuppliedMasks::replace_poor;
   spdlog::warn("{}: the mask covers {:.1f}% of the image, the posed hands {:.1f}% (IoU {:.2f}): the "
-               "mask or the pose is wrong (remove the mask file to rasterise it from the posed "
-               "meshes)", frame.mask_path, 100.0 * cv::countNonZero(mask) / pixels,
-               100.0 * cv::countNonZero(mesh) / pixels, iou);
+               "mask or the pose is wrong ({})", frame.mask_path, 100.0 * cv::countNonZero(mask) / pixels,
+               100.0 * cv::countNonZero(mesh) / pixels, iou,
+               replace ? "data.supplied_masks=replace_poor: the posed meshes' mask is used instead"
+                       : "set data.supplied_masks=replace_poor, or remove the mask file, to use the "
+                         "posed meshes' mask");
+  return false;
 }
 
 cv::Mat Capture::Impl::compute_mask(const FrameInfo& frame, const cv::Mat& bgr) const {
@@ -142,7 +152,7 @@ cv::Mat Capture::Impl::compute_mask(const FrameInfo& frame, const cv::Mat& bgr) 
 }
 
 cv::Mat Capture::Impl::mask_for(const FrameInfo& frame, const cv::Mat& bgr) const {
-  if (!frame.mask_path.empty()) {
+  if (!frame.mask_path.empty() && config.supplied_masks != CaptureConfig::SuppliedMasks::ignore) {
     cv::Mat stored = decode_image_file(frame.mask_path, cv::IMREAD_GRAYSCALE, "mask");
     if (stored.empty()) throw Error(frame.mask_path + ": cannot decode mask");
     if (stored.cols != bgr.cols || stored.rows != bgr.rows)
@@ -159,8 +169,8 @@ cv::Mat Capture::Impl::mask_for(const FrameInfo& frame, const cv::Mat& bgr) cons
     }
     cv::Mat mask;
     cv::threshold(stored, mask, 127, 1, cv::THRESH_BINARY);
-    check_supplied_mask(frame, mask);
-    return mask;
+    const bool agrees = check_supplied_mask(frame, mask);
+    if (agrees || config.supplied_masks != CaptureConfig::SuppliedMasks::replace_poor) return mask;
   }
   if (mask_folder.empty()) return compute_mask(frame, bgr);
   const fs::path file = fs::path(mask_folder) / fs::path(frame.file_name).replace_extension(".png");

@@ -300,7 +300,29 @@ TEST_CASE("capture layouts: a supplied mask the posed hand disagrees with is nam
     const size_t at = text.find(mask_file(wrong) + ": the mask covers ");
     REQUIRE(at != std::string::npos);
     CHECK(text.find(mask_file(wrong), at + 1) == std::string::npos);
-    CHECK(text.find("the mask or the pose is wrong (remove the mask file") != std::string::npos);
+    CHECK(text.find("the mask or the pose is wrong (set data.supplied_masks=replace_poor, or remove the "
+                    "mask file") != std::string::npos);
+  }
+  // replace_poor: the disagreeing mask gives way to the posed mesh's, the agreeing one is kept;
+  // ignore: every mask is the posed mesh's.
+  const cv::Mat mesh_of_wrong = plain.compute_mask(wrong, plain.decode_image(wrong));
+  cv::Mat kept_box;
+  cv::threshold(box, kept_box, 127, 1, cv::THRESH_BINARY);
+  for (const auto mode : {CaptureConfig::SuppliedMasks::use, CaptureConfig::SuppliedMasks::replace_poor,
+                          CaptureConfig::SuppliedMasks::ignore}) {
+    INFO(choice_name(mode, CaptureConfig::supplied_masks_names()));
+    config.supplied_masks = mode;
+    handscs_test::CapturedWarnings warnings;
+    Capture capture = Capture::open(config);
+    const FrameInfo& f = capture.frames()[5];
+    const FrameSample sample = capture.load(f, /*full_image=*/true);
+    const cv::Mat loaded(f.camera.height, f.camera.width, CV_8UC1, sample.mask.data_ptr<uint8_t>());
+    const cv::Mat expected = mode == CaptureConfig::SuppliedMasks::use ? kept_box : mesh_of_wrong;
+    CHECK(cv::norm(loaded, expected, cv::NORM_INF) == 0);
+    const bool warned = warnings.text().find(mask_file(wrong)) != std::string::npos;
+    CHECK(warned == (mode != CaptureConfig::SuppliedMasks::ignore));
+    if (mode == CaptureConfig::SuppliedMasks::replace_poor)
+      CHECK(warnings.text().find("the posed meshes' mask is used instead") != std::string::npos);
   }
 }
 
