@@ -694,6 +694,9 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
     const bool held_out = c.split_rule == CaptureConfig::SplitRule::novel_pose && pose_index >= first_held_out;
     impl->frames.push_back(make_frame(candidates[i], static_cast<int64_t>(impl->frames.size()),
                                       pose_index, held_out));
+    // ignore: no frame names a mask file, so everything downstream (loading, the empty-mask
+    // messages) treats its mask as the posed meshes'.
+    if (c.supplied_masks == CaptureConfig::SuppliedMasks::ignore) impl->frames.back().mask_path.clear();
     kept_cameras.insert(impl->frames.back().camera_id);
   }
   impl->cameras.assign(kept_cameras.begin(), kept_cameras.end());

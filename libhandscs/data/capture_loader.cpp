@@ -152,7 +152,7 @@ cv::Mat Capture::Impl::compute_mask(const FrameInfo& frame, const cv::Mat& bgr) 
 }
 
 cv::Mat Capture::Impl::mask_for(const FrameInfo& frame, const cv::Mat& bgr) const {
-  if (!frame.mask_path.empty() && config.supplied_masks != CaptureConfig::SuppliedMasks::ignore) {
+  if (!frame.mask_path.empty()) {
     cv::Mat stored = decode_image_file(frame.mask_path, cv::IMREAD_GRAYSCALE, "mask");
     if (stored.empty()) throw Error(frame.mask_path + ": cannot decode mask");
     if (stored.cols != bgr.cols || stored.rows != bgr.rows)

@@ -315,6 +315,7 @@ TEST_CASE("capture layouts: a supplied mask the posed hand disagrees with is nam
     handscs_test::CapturedWarnings warnings;
     Capture capture = Capture::open(config);
     const FrameInfo& f = capture.frames()[5];
+    CHECK(f.mask_path.empty() == (mode == CaptureConfig::SuppliedMasks::ignore));
     const FrameSample sample = capture.load(f, /*full_image=*/true);
     const cv::Mat loaded(f.camera.height, f.camera.width, CV_8UC1, sample.mask.data_ptr<uint8_t>());
     const cv::Mat expected = mode == CaptureConfig::SuppliedMasks::use ? kept_box : mesh_of_wrong;
