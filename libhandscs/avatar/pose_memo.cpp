@@ -33,11 +33,14 @@ const AvatarState& PoseMemo::pose(const float* pose, const float* shape, const f
   return *state_;
 }
 
+bool poses_side_by_side(const std::array<PoseMemo*, 2>& memos, const std::array<HandPoseInput, 2>& hands) {
+  return memos[0] && hands[0].pose && memos[1] && hands[1].pose && omp_get_max_threads() > 1;
+}
+
 std::array<const AvatarState*, 2> pose_side_by_side(const std::array<PoseMemo*, 2>& memos,
                                                     const std::array<HandPoseInput, 2>& hands) {
   std::array<const AvatarState*, 2> states{};
   std::array<std::exception_ptr, 2> errors;
-  const bool both = memos[0] && hands[0].pose && memos[1] && hands[1].pose;
   const bool inference = c10::InferenceMode::is_enabled();
   auto pose_one = [&](int side) {
     if (!memos[side] || !hands[side].pose) return;
@@ -50,7 +53,7 @@ std::array<const AvatarState*, 2> pose_side_by_side(const std::array<PoseMemo*, 
   };
   // Not even an inactive OpenMP region for one hand: inside one, LibTorch ran its operations on
   // one thread (a one-hand render took 16 ms instead of 5).
-  if (both && omp_get_max_threads() > 1) {
+  if (poses_side_by_side(memos, hands)) {
 #pragma omp parallel for num_threads(2) schedule(static, 1)
     for (int side = 0; side < 2; ++side) pose_one(side);
   } else {

@@ -51,4 +51,7 @@ struct HandPoseInput {
 std::array<const AvatarState*, 2> pose_side_by_side(const std::array<PoseMemo*, 2>& memos,
                                                     const std::array<HandPoseInput, 2>& hands);
 
+// Whether pose_side_by_side poses these hands on two threads (both given, OpenMP has two or more).
+bool poses_side_by_side(const std::array<PoseMemo*, 2>& memos, const std::array<HandPoseInput, 2>& hands);
+
 }  // namespace handscs

@@ -1,7 +1,5 @@
 #include "infer/posed_hands.h"
 
-#include <omp.h>
-
 #include <algorithm>
 
 #include "core/error.h"
@@ -33,7 +31,7 @@ const PosedGaussians& PosedHands::pose_hands(const std::array<const HandParams*,
   const std::array<const AvatarState*, 2> states = pose_side_by_side(memos, inputs);
   // What posing costs, memo hit or not: the slower hand when both were posed side by side.
   pose_ms_ = 0;
-  const bool side_by_side = states[0] && states[1] && omp_get_max_threads() > 1;
+  const bool side_by_side = poses_side_by_side(memos, inputs);
   std::vector<const PosedGaussians*> sets;
   for (int side = 0; side < 2; ++side) {
     if (!states[side]) continue;

@@ -206,36 +206,6 @@ void finish_surface(const SynthScene& scene, const TissueRig& tissue, SynthFrame
   }
 }
 
-// Key-light visibility of frame k's hands, with every hand and forearm of the frame casting
-// shadows (a hand shades the other); forearms are outside every mask and get none.
-void cast_shadows(SynthScene& scene, int64_t k) {
-  const SynthEffects& effects = scene.config.effects;
-  std::vector<SynthFrame*> hands = {&scene.frames[k]};
-  if (!scene.left_frames.empty()) hands.push_back(&scene.left_frames[k]);
-  std::vector<float> vertices, normals;
-  std::vector<int64_t> faces;
-  auto add = [&](const std::vector<float>& v, const std::vector<float>& n,
-                 const std::vector<int64_t>& f) {
-    const int64_t offset = static_cast<int64_t>(vertices.size() / 3);
-    vertices.insert(vertices.end(), v.begin(), v.end());
-    normals.insert(normals.end(), n.begin(), n.end());
-    for (int64_t id : f) faces.push_back(id + offset);
-  };
-  for (const SynthFrame* hand : hands) {
-    add(hand->vertices, hand->normals, scene.faces);
-    add(hand->forearm, hand->forearm_normals, scene.forearm.faces);
-  }
-  const std::vector<float> visibility =
-      light_visibility(vertices, normals, faces, key_light_direction(),
-                       effects.light_radius_deg * M_PI / 180.0, effects.light_samples);
-  size_t offset = 0;
-  for (SynthFrame* hand : hands) {
-    const size_t count = hand->vertices.size() / 3;
-    hand->visibility.assign(visibility.begin() + offset, visibility.begin() + offset + count);
-    offset += count + hand->forearm.size() / 3;
-  }
-}
-
 // Several posed parts rendered as one mesh (the z-buffer sorts out which hides which).
 struct JoinedMesh {
   std::vector<float> vertices, normals, occlusion, texture, nail, palmar, visibility, contact;
@@ -280,6 +250,28 @@ struct JoinedMesh {
                          with_contact ? &contact : nullptr};
   }
 };
+
+// Key-light visibility of frame k's hands, with every hand and forearm of the frame casting
+// shadows (a hand shades the other); forearms are outside every mask and get none.
+void cast_shadows(SynthScene& scene, int64_t k) {
+  const SynthEffects& effects = scene.config.effects;
+  std::vector<SynthFrame*> hands = {&scene.frames[k]};
+  if (!scene.left_frames.empty()) hands.push_back(&scene.left_frames[k]);
+  JoinedMesh casters;
+  for (const SynthFrame* hand : hands) {
+    casters.add(hand->vertices, hand->normals, scene.faces);
+    casters.add(hand->forearm, hand->forearm_normals, scene.forearm.faces);
+  }
+  const std::vector<float> visibility =
+      light_visibility(casters.vertices, casters.normals, casters.faces, key_light_direction(),
+                       effects.light_radius_deg * M_PI / 180.0, effects.light_samples);
+  size_t offset = 0;
+  for (SynthFrame* hand : hands) {
+    const size_t count = hand->vertices.size() / 3;
+    hand->visibility.assign(visibility.begin() + offset, visibility.begin() + offset + count);
+    offset += count + hand->forearm.size() / 3;
+  }
+}
 
 json numbers(const double* values, int n) {
   json out = json::array();
