@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "synth/articulation.h"
+#include "synth/mirror.h"
 
 namespace handscs {
 
@@ -71,18 +72,33 @@ json controls_to_json(const HandControls& controls) {
   return out;
 }
 
-std::array<float, 48> controls_pose(const Rig& rig, const HandAxes& axes, bool flat_hand_mean,
-                                    const HandControls& controls) {
-  const std::array<double, 48> absolute = articulate(axes, gesture_articulation(controls));
+namespace {
+
+// An absolute pose [48] as the avatar's convention holds it: unchanged with flat_hand_mean, else the
+// finger joints relative to `rig`'s hands_mean, as captures annotate them.
+std::array<float, 48> in_avatar_convention(const std::array<double, 48>& absolute, const Rig& rig,
+                                           bool flat_hand_mean) {
   std::array<float, 48> pose{};
   for (int i = 0; i < 48; ++i) pose[i] = static_cast<float>(absolute[i]);
   if (!flat_hand_mean) {
-    // Finger joints relative to the mean pose, as captures annotate them.
     const torch::Tensor mean = rig.hands_mean.to(torch::kFloat64).contiguous();
     const double* m = mean.data_ptr<double>();
     for (int i = 0; i < 45; ++i) pose[3 + i] = static_cast<float>(absolute[3 + i] - m[i]);
   }
   return pose;
+}
+
+}  // namespace
+
+std::array<float, 48> controls_pose(const Rig& rig, const HandAxes& axes, bool flat_hand_mean,
+                                    const HandControls& controls) {
+  return in_avatar_convention(articulate(axes, gesture_articulation(controls)), rig, flat_hand_mean);
+}
+
+std::array<float, 48> mirrored_controls_pose(const HandAxes& right_axes, const Rig& left_rig, bool flat_hand_mean,
+                                             const HandControls& controls) {
+  const std::array<double, 48> right = articulate(right_axes, gesture_articulation(controls));
+  return in_avatar_convention(mirror_mano_pose(right), left_rig, flat_hand_mean);
 }
 
 }  // namespace handscs

@@ -37,4 +37,10 @@ json controls_to_json(const HandControls& controls);
 std::array<float, 48> controls_pose(const Rig& rig, const HandAxes& axes, bool flat_hand_mean,
                                     const HandControls& controls);
 
+// The same for a left hand beside a right one: the pose the controls make with the right rig's axes,
+// mirrored through x = 0 (synth/mirror.h: the built-in left rig is that mirror), in `left_rig`'s
+// convention. The wrist is at zero.
+std::array<float, 48> mirrored_controls_pose(const HandAxes& right_axes, const Rig& left_rig, bool flat_hand_mean,
+                                             const HandControls& controls);
+
 }  // namespace handscs

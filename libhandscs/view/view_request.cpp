@@ -5,7 +5,24 @@
 namespace handscs {
 
 namespace {
+
 constexpr const char* kWhere = "request";
+
+// "controls": one hand's values, or {"right": {...}, "left": {...}} (an object whose keys are hands).
+void read_controls(const json& value, const std::string& path, ViewRequest& request) {
+  bool by_hand = value.is_object() && !value.empty();
+  for (auto it = value.begin(); by_hand && it != value.end(); ++it)
+    by_hand = it.key() == "right" || it.key() == "left";
+  if (!by_hand) {
+    request.controls = controls_from_json(value, path);
+    return;
+  }
+  for (auto it = value.begin(); it != value.end(); ++it) {
+    const int side = it.key() == "right" ? 0 : 1;
+    request.hand_controls[side] = controls_from_json(*it, path + "." + it.key());
+  }
+}
+
 }  // namespace
 
 ViewRequest parse_view_request(const std::string& body, const OrbitView& default_view) {
@@ -22,7 +39,7 @@ ViewRequest parse_view_request(const std::string& body, const OrbitView& default
     const std::string path = std::string(kWhere) + "." + key;
     if (key == "controls") {
       request.source = ViewRequest::Source::controls;
-      request.controls = controls_from_json(*it, path);
+      read_controls(*it, path, request);
       ++sources;
     } else if (key == "held_out") {
       require(it->is_number_integer(), path + ": expected an integer, got " + json_type_name(*it));

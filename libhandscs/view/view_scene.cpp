@@ -54,10 +54,21 @@ ViewScene::ViewScene(TrainedAvatar trained, std::vector<PoseFrame> held_out)
     base_.trans = held_out_.front().trans;
     base_.hands = held_out_.front().hands;  // two hands: the other hand stays as captured
   }
-  const torch::Tensor means = trained_.avatar.gaussians().means.detach().to(torch::kFloat64);
-  const torch::Tensor centre = means.mean(0);
-  for (int d = 0; d < 3; ++d) rest_centre_[d] = centre[d].item<double>();
-  const double extent = (means.amax(0) - means.amin(0)).norm().item<double>();
+  double extent = 0;
+  for (Handedness side : {Handedness::right, Handedness::left}) {
+    Avatar* avatar = trained_.hand(side);
+    if (!avatar) continue;
+    const torch::Tensor means = avatar->gaussians().means.detach().to(torch::kFloat64);
+    const torch::Tensor centre = means.mean(0);
+    for (int d = 0; d < 3; ++d) rest_centres_[side == Handedness::right ? 0 : 1][d] = centre[d].item<double>();
+    extent = std::max(extent, (means.amax(0) - means.amin(0)).norm().item<double>());
+  }
+  if (!trained_.left.empty() && !held_out_.empty()) {
+    // Two hands: frame both as the first held-out pose places them.
+    c10::InferenceMode guard;
+    const torch::Tensor means = hands_.pose(held_out_.front(), "pose " + held_out_.front().name).means.to(torch::kFloat64);
+    extent = (means.amax(0) - means.amin(0)).norm().item<double>();
+  }
   gaussians_ = trained_.gaussian_count();
   default_view_.distance = fitting_distance(extent, default_view_.width, default_view_.height);
 }
@@ -80,7 +91,11 @@ json ViewScene::info() const {
     gestures.push_back({{"name", g.name}, {"controls", controls_to_json(g)}});
   json held_out = json::array();
   for (const auto& f : held_out_) held_out.push_back(f.name);
+  // The hands the sliders pose: the right one of two always, the left one where the capture places it.
+  json hands = json::array({trained_.first_hand() == Handedness::right ? "right" : "left"});
+  if (!trained_.left.empty() && base_.hands[1]) hands.push_back("left");
   return {{"checkpoint", trained_.path},
+          {"hands", hands},
           {"gaussians", gaussians_},
           {"controls", controls},
           {"gestures", gestures},
@@ -105,14 +120,34 @@ PoseFrame ViewScene::pose_of(const ViewRequest& request) const {
       break;
   }
   PoseFrame frame = base_;
-  frame.pose = controls_pose(trained_.avatar.rig(), axes_, trained_.avatar.config().flat_hand_mean,
-                             request.controls);
-  // Two hands: the controls pose the first hand (the right), the other keeps its captured pose.
-  auto& first = frame.hands[trained_.first_hand() == Handedness::right ? 0 : 1];
-  if (!trained_.left.empty()) {
-    if (!first) first = HandParams{{}, frame.shape, frame.trans, {}, {}};
-    first->pose = frame.pose;
+  const bool flat = trained_.avatar.config().flat_hand_mean;
+  if (trained_.left.empty()) {  // one hand: the wrist at zero, the capture's shape and place
+    frame.pose = controls_pose(trained_.avatar.rig(), axes_, flat, request.controls);
+    return frame;
   }
+  // Two hands: the controls bend each hand's fingers; its wrist rotation and place stay as captured,
+  // so the hands keep where they stand to each other. The flat form of "controls" is the first hand's.
+  std::array<const HandControls*, 2> controls{};
+  for (int side = 0; side < 2; ++side)
+    if (request.hand_controls[side]) controls[side] = &*request.hand_controls[side];
+  if (!controls[0] && !controls[1]) controls[0] = &request.controls;
+  for (int side = 0; side < 2; ++side) {
+    if (!controls[side]) continue;
+    auto& hand = frame.hands[side];
+    if (!hand) {
+      require(side == 0, "request.controls.left: the run's capture shows no left hand to place (its held-out "
+                         "poses cannot be read); pose it with a POSES file (handscs-view --poses)");
+      hand = HandParams{{}, frame.shape, frame.trans, {}, {}};  // the wrist at zero
+    }
+    const std::array<float, 48> pose =
+        side == 0 ? controls_pose(trained_.avatar.rig(), axes_, flat, *controls[side])
+                  : mirrored_controls_pose(axes_, trained_.left.front().rig(), flat, *controls[side]);
+    std::copy(pose.begin() + 3, pose.end(), hand->pose.begin() + 3);
+  }
+  const HandParams& first = frame.hands[0] ? *frame.hands[0] : *frame.hands[1];
+  frame.pose = first.pose;
+  frame.shape = first.shape;
+  frame.trans = first.trans;
   return frame;
 }
 
@@ -120,22 +155,24 @@ const PosedGaussians& ViewScene::posed(const PoseFrame& frame) {
   return hands_.pose(frame, "pose " + frame.name);
 }
 
-const AvatarState& ViewScene::first_hand_state() const {
-  const AvatarState* state = hands_.state(trained_.first_hand());
-  if (!state) state = hands_.state(Handedness::left);
-  return *state;
-}
-
-Camera ViewScene::camera_for(const AvatarState& state, const OrbitView& view) const {
-  // The root joint's transform A_0 carries the rest hand (centre, axes) to where the pose puts it.
-  const torch::Tensor a0 = state.lbs.joint_transforms[0][0].to(torch::kFloat64).contiguous();
-  const double* a = a0.data_ptr<double>();
-  const synth::Mat3 rotation = {a[0], a[1], a[2], a[4], a[5], a[6], a[8], a[9], a[10]};
+Camera ViewScene::camera_for(const OrbitView& view) const {
   HandFrame hand;
-  hand.centre = synth::mul(rotation, rest_centre_) + synth::Vec3{a[3], a[7], a[11]};
-  hand.up = synth::mul(rotation, axes_.long_axis);
-  // Yaw 0 looks at the back of the hand.
-  hand.front = synth::mul(rotation, axes_.palm_normal * -1.0);
+  int hands = 0;
+  for (Handedness side : {Handedness::right, Handedness::left}) {
+    const AvatarState* state = hands_.state(side);
+    if (!state) continue;
+    // The root joint's transform A_0 carries the rest hand (centre, axes) to where the pose puts it.
+    const torch::Tensor a0 = state->lbs.joint_transforms[0][0].to(torch::kFloat64).contiguous();
+    const double* a = a0.data_ptr<double>();
+    const synth::Mat3 rotation = {a[0], a[1], a[2], a[4], a[5], a[6], a[8], a[9], a[10]};
+    hand.centre = hand.centre +
+                  synth::mul(rotation, rest_centres_[side == Handedness::right ? 0 : 1]) + synth::Vec3{a[3], a[7], a[11]};
+    if (hands++ == 0) {  // the first hand posed (the right of two) turns the view; yaw 0 looks at its back
+      hand.up = synth::mul(rotation, axes_.long_axis);
+      hand.front = synth::mul(rotation, axes_.palm_normal * -1.0);
+    }
+  }
+  hand.centre = hand.centre * (1.0 / hands);
   return orbit_view_camera(hand, view);
 }
 
@@ -144,7 +181,7 @@ Camera ViewScene::camera_of(const ViewRequest& request) {
   std::lock_guard<std::mutex> lock(mutex_);
   c10::InferenceMode guard;
   posed(frame);
-  return camera_for(first_hand_state(), request.view);
+  return camera_for(request.view);
 }
 
 ViewFrame ViewScene::render(const ViewRequest& request) {
@@ -153,7 +190,7 @@ ViewFrame ViewScene::render(const ViewRequest& request) {
   c10::InferenceMode guard;
   const auto t0 = std::chrono::steady_clock::now();
   const PosedGaussians& gaussians = posed(frame);
-  const Camera camera = camera_for(first_hand_state(), request.view);
+  const Camera camera = camera_for(request.view);
   // As handscs-render: black background, the avatar's own colours (no camera's colour transform).
   const RasterSettings settings;
   const RasterOutput out = render_posed(gaussians, camera, settings);

@@ -48,17 +48,18 @@ class ViewScene {
   ViewFrame render(const ViewRequest& request);
 
  private:
-  // The frame's hands posed and joined (under mutex_); first_hand_state() is then the first of
-  // them, whose root the camera orbits.
+  // The frame's hands posed and joined (under mutex_); camera_for() then orbits them.
   const PosedGaussians& posed(const PoseFrame& frame);
-  const AvatarState& first_hand_state() const;
-  Camera camera_for(const AvatarState& state, const OrbitView& view) const;
+  // The camera around the hands posed last: about the mean of their centres, turned with the
+  // first hand's root.
+  Camera camera_for(const OrbitView& view) const;
 
   TrainedAvatar trained_;
   std::vector<PoseFrame> held_out_;
   HandAxes axes_;
   PoseFrame base_;  // shape and trans of control poses: the first held-out pose's (the capture's hand)
-  std::array<double, 3> rest_centre_{};  // mean canonical Gaussian centre (rest space)
+  std::array<std::array<double, 3>, 2> rest_centres_{};  // each hand's mean canonical Gaussian centre
+                                                        // (rest space), by Handedness
   OrbitView default_view_;
   int64_t gaussians_ = 0;
   std::mutex mutex_;

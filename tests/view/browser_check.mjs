@@ -120,6 +120,14 @@ async function main() {
     result.gaussians = await page.evaluate(() => window.handscsView.info.gaussians);
     const before = await canvasPng(page);
 
+    // Two hands: the sliders pose the left one (the right keeps its values).
+    result.hands = await page.evaluate(() => window.handscsView.info.hands);
+    const twoHands = result.hands.length === 2;
+    if (twoHands) {
+      if (await page.$eval("#hand-row", (e) => e.hidden)) fail("two hands, but the page shows no hand switch");
+      await page.click("#hand-left");
+    }
+
     // Move a slider with the mouse: index MCP to ~80% of its range.
     const frames = await page.evaluate(() => window.handscsView.frames);
     await clickSlider(page, "index.mcp", 0.8);
@@ -128,6 +136,11 @@ async function main() {
     if (!(moved > 0.5)) fail(`the slider click set index.mcp to ${moved}`);
     const after = await canvasPng(page);
     if (after === before) fail("the picture did not change when the slider moved");
+    if (twoHands) {
+      const sent = await page.evaluate(() => window.handscsView.request().controls);
+      if (!(sent.left["index.mcp"] > 0.5) || sent.right["index.mcp"] !== 0)
+        fail("the request does not hold the left hand's move alone: " + JSON.stringify(sent));
+    }
 
     // Save the pose with the page's button; ask the server for the camera of the same state.
     await page.click("#save");
