@@ -106,6 +106,15 @@ torch::Tensor Avatar::decoder_view(const torch::Tensor& descriptor) const {
   return (descriptor - descriptor_mean_.to(dtype)) * descriptor_scale_.to(dtype);
 }
 
+void Avatar::share_decoders(Avatar& other) {
+  require(other.decoders_->descriptor_dim() == decoders_->descriptor_dim(),
+          "model.shared_decoders: the hands' descriptors differ in width (" +
+              std::to_string(other.decoders_->descriptor_dim()) + " against " +
+              std::to_string(decoders_->descriptor_dim()) + ")");
+  decoders_ = other.decoders_;
+  frozen_.reset();
+}
+
 const FrozenDecoders& Avatar::frozen_decoders() {
   const auto& g = gaussians_;
   if (!frozen_ || !frozen_->current(*decoders_, g.embed_geometry, g.embed_appearance))

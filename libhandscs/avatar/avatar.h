@@ -90,6 +90,9 @@ class Avatar {
   const BoneTopology& topology() const { return topology_; }
   GaussianState& gaussians() { return gaussians_; }
   OffsetDecoders& decoders() { return decoders_; }
+  // From now on this avatar decodes with `other`'s decoders (the same module, so the same weights
+  // and gradients); its own are dropped. For model.shared_decoders (train/trainer.h).
+  void share_decoders(Avatar& other);
   VirtualBoneGenerator& generator() { return generator_; }  // null when M = 0 or SCS is off
   // Width of P as computed (static bones, then virtual bones); the decoders see it when SCS is on.
   int64_t descriptor_dim() const;

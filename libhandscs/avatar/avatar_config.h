@@ -29,6 +29,9 @@ struct AvatarConfig {
   double opacity_init_max = 0.95;
   double scale_init_factor = 1.0;  // initial isotropic scale = factor x mean 3-NN vertex distance
   int64_t seed = 0;             // initialisation seed (Gaussians, embeddings, networks)
+  // data.hand both: one set of decoders for the two hands (each keeps its Gaussians, embeddings and
+  // virtual bones). Off: each hand has its own, as a one-hand avatar (docs/TRAINING.md#two-hands).
+  bool shared_decoders = false;
   ScsConfig scs;
 
   template <class V>
@@ -49,6 +52,8 @@ struct AvatarConfig {
     v.field("scale_init_factor", scale_init_factor, "initial scale / mean 3-NN distance", 1e-3,
             100.0);
     v.field("seed", seed, "initialisation seed", 0, 9.0e15);
+    v.field("shared_decoders", shared_decoders,
+            "data.hand both: the two hands share one set of decoders (own Gaussians, embeddings, bones)");
     v.section("scs", scs, "Structural Coordinate Space");
   }
 };

@@ -47,6 +47,8 @@ void validate_run_config(const RunConfig& config, const std::string& source) {
               "\") must name the same rig: masks and avatar are posed with it");
   require(config.data.flat_hand_mean == config.model.flat_hand_mean,
           source + ": data.flat_hand_mean and model.flat_hand_mean must agree");
+  require(!config.model.shared_decoders || config.data.hand == CaptureConfig::Hands::both,
+          source + ": model.shared_decoders shares the decoders between two hands; it needs data.hand both");
   require(config.model.opacity_init_min <= config.model.opacity_init_max,
           source + ": model.opacity_init_min must not exceed model.opacity_init_max");
   require(config.train.densify.start <= config.train.densify.stop,

@@ -123,6 +123,7 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir, ProcessGro
     hand.avatar = std::make_unique<Avatar>(config_.model, avatar_rig(config_, side));
     hands_.push_back(std::move(hand));
   }
+  share_decoders();
   make_components();
   build_optimizer();
 
@@ -212,9 +213,16 @@ void Trainer::make_components() {
   }
 }
 
+void Trainer::share_decoders() {
+  if (!config_.model.shared_decoders || hands_.size() < 2) return;
+  for (size_t i = 1; i < hands_.size(); ++i) hands_[i].avatar->share_decoders(*hands_.front().avatar);
+}
+
 void Trainer::build_optimizer() {
   const auto& lr = config_.train.lr;
   for (HandSlot& hand : hands_) {
+    // Shared decoders are stepped once, by the first hand's optimiser, with both hands' gradients.
+    const bool decoders_elsewhere = config_.model.shared_decoders && &hand != &hands_.front();
     auto& g = hand.avatar->gaussians();
     hand.optimizer = std::make_unique<Adam>();
     Adam& adam = *hand.optimizer;
@@ -231,6 +239,7 @@ void Trainer::build_optimizer() {
     for (auto& [name, params] : groups) total += params.size();
     hand.network_params.reserve(total);  // pointers into this vector stay valid: no reallocation
     for (auto& [name, params] : groups) {
+      if (decoders_elsewhere && (name == "decoders" || name == "gates")) continue;
       std::vector<torch::Tensor*> pointers;
       for (auto& p : params) {
         hand.network_params.push_back(p);
@@ -772,6 +781,7 @@ void Trainer::load_from(const Checkpoint& ckpt, const std::string& source, bool 
     context.avatar = hand.avatar.get();
     for (auto& component : hand.components) component->load(own, context);
   }
+  share_decoders();  // the first hand's, restored; the second's copy of them is dropped
   context.avatar = hands_.front().avatar.get();
   for (auto& component : components_) component->load(ckpt, context);
   build_optimizer();

@@ -199,6 +199,8 @@ class Trainer {
     std::vector<torch::Tensor> network_params;  // the optimiser points into this vector
     std::vector<std::unique_ptr<TrainingComponent>> components;
   };
+  // model.shared_decoders with two hands: the second hand decodes with the first's decoders.
+  void share_decoders();
   // Every optimiser: each hand's, then the shared components'.
   std::vector<Adam*> optimizers();
   // Calls `f(components, section)` for each hand's components and then for the shared ones

@@ -3,6 +3,7 @@
 // leaves a hand no frame has untouched, and checkpoints and resumes both exactly.
 #include "catch_torch.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <opencv2/core.hpp>
 
@@ -12,6 +13,7 @@
 #include "data/mesh_mask.h"
 #include "hand/lbs.h"
 #include "run/checkpoint.h"
+#include "run/run_config.h"
 #include "checkpoint_compare.h"
 #include "tiny_capture.h"
 #include "two_hand_capture.h"
@@ -176,4 +178,75 @@ TEST_CASE("two hands: both train, and a checkpoint holds both and resumes exactl
   CHECK(difference.mismatch.empty());
   CHECK(difference.worst == 0.0);
   INFO(difference.worst_name);
+}
+
+TEST_CASE("two hands: shared decoders are one set, stepped once per step, and stay shared on resume") {
+  handscs::set_threads(2);
+  const std::string root = handscs_test::make_two_hand_capture(fresh_dir("two_hands_shared"));
+  handscs::RunConfig config = two_hand_config(root);
+  config.model.shared_decoders = true;
+  const std::string full = fresh_dir("two_hands_shared_full");
+  std::string last;
+  {
+    handscs::Trainer trainer(config, full);
+    auto& right = trainer.avatar(Handedness::right);
+    auto& left = trainer.avatar(Handedness::left);
+    REQUIRE(right.decoders().get() == left.decoders().get());
+    // The gates: the first step's gradient reaches them alone (they start at 0, which stops it
+    // reaching the layers behind them).
+    auto gates = [&] {
+      std::vector<torch::Tensor> out;
+      for (const auto& item : right.decoders()->named_parameters())
+        if (item.key().find("gate") != std::string::npos) out.push_back(item.value().detach().clone());
+      return out;
+    };
+    const std::vector<torch::Tensor> before = gates();
+    REQUIRE(before.size() == 3);
+    REQUIRE_FALSE(trainer.step().skipped);
+    // Adam's first step moves a parameter by lr * g / (|g| + eps) <= lr: once, with the gradient
+    // of both hands' losses.
+    const double lr = config.train.lr.gates;
+    double largest = 0;
+    const std::vector<torch::Tensor> after = gates();
+    for (size_t k = 0; k < after.size(); ++k)
+      largest = std::max(largest, (after[k] - before[k]).abs().max().item<double>());
+    CHECK(largest <= lr * (1 + 1e-5));
+    CHECK(largest > 0.9 * lr);
+    last = trainer.run().checkpoint;
+  }
+  // The checkpoint's left section holds the same decoders (a copy, so it reads as any two-hand one).
+  const handscs::Checkpoint done = handscs::load_checkpoint(last);
+  int64_t compared = 0;
+  for (const auto& [name, tensor] : done.tensors)
+    if (name.rfind("network/decoders.", 0) == 0) {
+      REQUIRE(done.tensors.count("left/" + name) == 1);
+      CHECK(torch::equal(tensor, done.tensors.at("left/" + name)));
+      ++compared;
+    }
+  CHECK(compared > 0);
+  // Their optimiser state is the first hand's alone.
+  CHECK(done.tensors.count("adam/decoders/0/m") == 1);
+  CHECK(done.tensors.count("adam/gates/0/m") == 1);
+  for (const auto& [name, tensor] : done.tensors) {
+    CHECK(name.rfind("left/adam/decoders/", 0) != 0);
+    CHECK(name.rfind("left/adam/gates/", 0) != 0);
+  }
+
+  // Resumed from step 3: still one set, and the run ends as the uninterrupted one.
+  const std::string resumed = fresh_dir("two_hands_shared_again");
+  std::filesystem::copy(full, resumed, std::filesystem::copy_options::recursive);
+  std::filesystem::remove(resumed + "/checkpoints/" + std::filesystem::path(last).filename().string());
+  handscs::Trainer again(config, resumed);
+  REQUIRE(again.resume());
+  REQUIRE(again.iteration() == 3);
+  CHECK(again.avatar(Handedness::right).decoders().get() == again.avatar(Handedness::left).decoders().get());
+  const auto difference = handscs_test::compare_checkpoints(done, handscs::load_checkpoint(again.run().checkpoint), 1.0);
+  CHECK(difference.mismatch.empty());
+  CHECK(difference.worst == 0.0);
+  INFO(difference.worst_name);
+
+  // One hand has nothing to share with.
+  config.data.hand = CaptureConfig::Hands::right;
+  CHECK(handscs_test::error_of([&] { handscs::validate_run_config(config, "config"); }) ==
+        "config: model.shared_decoders shares the decoders between two hands; it needs data.hand both");
 }
