@@ -4,7 +4,8 @@
 
 namespace handscs {
 
-DensifyComponent::DensifyComponent(const DensifyConfig& config) : densifier_(config) {}
+DensifyComponent::DensifyComponent(const DensifyConfig& config, std::function<int64_t()> gaussian_count)
+    : densifier_(config), gaussian_count_(std::move(gaussian_count)) {}
 
 void DensifyComponent::before_render(const EntryContext& entry, ViewRender& view) {
   view.probe = torch::zeros({entry.avatar->gaussians().size(), 2}).requires_grad_(true);
@@ -41,11 +42,20 @@ void DensifyComponent::after_backward(const EntryContext& entry) {
 }
 
 void DensifyComponent::contribute(ReduceSlots& slots) const {
-  slots.add("densify/grad_norm", step_.grad_norm);
-  slots.add("densify/visible", step_.visible);
+  // Two hands: a rank whose entries did not show this hand adds zeros, so every rank adds the
+  // same slots; "present" tells whether any rank showed it.
+  const bool shown = step_.visible.defined();
+  const torch::Tensor none = shown ? torch::Tensor() : torch::zeros({gaussian_count_()});
+  slots.add("densify/grad_norm", shown ? step_.grad_norm : none);
+  slots.add("densify/visible", shown ? step_.visible : none);
+  slots.add_scalar("densify/present", shown ? 1 : 0);
 }
 
 void DensifyComponent::receive(const ReduceSlots& slots, double) {
+  if (slots.scalar("densify/present") == 0) {
+    step_ = {};
+    return;
+  }
   step_.grad_norm = slots.get("densify/grad_norm").clone();
   step_.visible = slots.get("densify/visible").clone();
 }

@@ -3,6 +3,8 @@
 // the step's all-reduce), and the densification itself, decided on rank 0 when it is due.
 #pragma once
 
+#include <functional>
+
 #include "train/densify.h"
 #include "train/training_component.h"
 
@@ -10,7 +12,9 @@ namespace handscs {
 
 class DensifyComponent : public TrainingComponent {
  public:
-  explicit DensifyComponent(const DensifyConfig& config);
+  // gaussian_count: the hand's Gaussians now (the size of a step's statistics when its entries did
+  // not show the hand: zeros on the all-reduce).
+  DensifyComponent(const DensifyConfig& config, std::function<int64_t()> gaussian_count);
 
   void before_render(const EntryContext& entry, ViewRender& view) override;
   void after_backward(const EntryContext& entry) override;
@@ -24,6 +28,7 @@ class DensifyComponent : public TrainingComponent {
 
  private:
   Densifier densifier_;
+  std::function<int64_t()> gaussian_count_;
   Densifier::ViewStatistics step_;  // this step's, summed over its entries (then its ranks)
 };
 

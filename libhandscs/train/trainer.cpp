@@ -112,10 +112,6 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir, ProcessGro
     if (!batch_warning.empty()) spdlog::warn("{}", batch_warning);
   }
 
-  // A rank whose entries lack a hand would add no slots for it to the step's all-reduce.
-  require(!group_ || config_.data.hand != CaptureConfig::Hands::both,
-          "data.hand both: data-parallel training (--world-size) is not supported for two hands yet; "
-          "train them in one process");
   for (const Handedness side : hand_sides(config_.data.hand)) {
     HandSlot hand;
     hand.side = side;
@@ -199,8 +195,12 @@ void Trainer::make_components() {
     if (train.loss.consistency > 0)
       components.push_back(std::make_unique<ConsistencyComponent>(
           train.consistency, config_.model.flat_hand_mean, train.batch_size, first_entry()));
-    if (train.densify.enabled)
-      components.push_back(std::make_unique<DensifyComponent>(train.densify));
+    if (train.densify.enabled) {
+      // hands_ is complete and never grows, so `hand` stays where it is; its avatar may be replaced.
+      const HandSlot* slot = &hand;
+      components.push_back(std::make_unique<DensifyComponent>(
+          train.densify, [slot] { return slot->avatar->gaussians().size(); }));
+    }
   }
   components_.push_back(std::make_unique<LpipsSchedule>(train.loss.lpips_every));
   if (train.camera_color != TrainConfig::CameraColor::off) {

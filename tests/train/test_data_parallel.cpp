@@ -24,6 +24,7 @@
 #include "core/atomic_file.h"
 #include "core/csv_table.h"
 #include "tiny_capture.h"
+#include "two_hand_capture.h"
 #include "run/checkpoint.h"
 #include "train/data_parallel.h"
 #include "train/reduce_slots.h"
@@ -166,6 +167,17 @@ TEST_CASE("train: data parallel: 2 ranks x 1 view equal 1 process x batch_size 2
       REQUIRE(x.empty() == y.empty());
       if (!x.empty()) CHECK(std::stod(y) == Approx(std::stod(x)).epsilon(1e-4));
     }
+}
+
+TEST_CASE("train: data parallel: two hands on 2 ranks equal 1 process x batch_size 2, densifying") {
+  // Half the frames lack the left hand, so some steps show it on one rank only, or on none.
+  handscs_test::TwoHandCaptureSpec spec;
+  spec.without_left = {6, 18, 30, 42, 54, 66};
+  const std::string root = handscs_test::make_two_hand_capture(fresh_dir("dp_two_hands_capture"), spec);
+  const auto [single, ranks] = train_single_and_two_ranks(
+      fresh_dir("dp_two_hands"), " data.root=" + root + " data.hand=both train.densify.grad_threshold=1e-6");
+  check_same_state(single, ranks);
+  CHECK(ranks.tensors.count("left/gaussians/means") == 1);
 }
 
 TEST_CASE("train: data parallel: pose refinement on 2 ranks equals 1 process x batch_size 2") {
