@@ -99,16 +99,23 @@ try {
     let pending = null;
     hands.onResults((results) => { if (pending) pending(results); });
     await hands.initialize();
-    // One image: a fresh graph state (reset) so no view is tracked from the one before it.
+    const run = (image) => new Promise((resolve, reject) => {
+      pending = resolve;
+      hands.send({ image }).catch(reject);
+    });
+    // MediaPipe tracks a hand from one image to the next. A black image of the same size first
+    // leaves it nothing to track, so each view is searched afresh: its landmarks equal those of
+    // hands.reset() before it (which rebuilds the graph, several times slower) to the last bit.
     window.detect = async (url) => {
       const image = new Image();
       image.src = url;
       await image.decode();
-      hands.reset();
-      const results = await new Promise((resolve, reject) => {
-        pending = resolve;
-        hands.send({ image }).catch(reject);
-      });
+      const blank = document.createElement("canvas");
+      blank.width = image.naturalWidth;
+      blank.height = image.naturalHeight;
+      blank.getContext("2d").fillRect(0, 0, blank.width, blank.height);
+      await run(blank);
+      const results = await run(image);
       pending = null;
       return {
         width: image.naturalWidth, height: image.naturalHeight,
