@@ -151,8 +151,9 @@ def table(paths):
         with open(path) as f:
             reports.append(json.load(f))
     print("| frame | views with a hand | labels (Left / Right) | landmarks: median px | views used "
-          "| joints with a view dropped | residual mm | fitted joints: mean / median / max mm | reprojection px |")
-    print("|---|---|---|---|---|---|---|---|---|")
+          "| joints with a view dropped | residual mm | fitted joints: mean / median / max mm | reprojection px "
+          "| another hand fitted |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     all_errors, fingers, landmark_px = [], {f: [] for f in FINGERS}, []
     for r in reports:
         views = r["views"]
@@ -174,8 +175,12 @@ def table(paths):
             cells += [str(len(hand["views_used"])), str(hand["joints_with_dropped_views"]), f"{hand['residual_mm']:.1f}",
                       f"{j['mean']:.1f} / {j['median']:.1f} / {j['max']:.1f}{name}",
                       f"{hand['fitted_median_px']:.1f}"]
+            # A second fitted hand: a phantom when the capture has one hand.
+            other = r["hands"].get("left") if side == "right" else None
+            cells.append(f"a left hand on the true {other['true_hand']} one, {len(other['views_used'])} views, "
+                         f"{other['joint_mm']['mean']:.1f} mm" if other else "-")
         else:
-            cells += ["-", "-", "-", "no hand fitted", "-"]
+            cells += ["-", "-", "-", "no hand fitted", "-", "-"]
         print("| " + " | ".join(cells) + " |")
     if all_errors:
         s = summary(all_errors)
