@@ -43,7 +43,7 @@ for (const f of images) {
   stems.add(stem);
 }
 
-const page_html = `<!doctype html><meta charset="utf-8"><script src="/mediapipe/hands.js"></script>`;
+const pageHtml = `<!doctype html><meta charset="utf-8"><script src="/mediapipe/hands.js"></script>`;
 const types = { ".js": "text/javascript", ".wasm": "application/wasm", ".png": "image/png", ".jpg": "image/jpeg",
                 ".jpeg": "image/jpeg" };
 
@@ -62,7 +62,7 @@ const server = http.createServer((request, response) => {
   const url = request.url.split("?")[0];
   if (url === "/") {
     response.writeHead(200, { "Content-Type": "text/html" });
-    response.end(page_html);
+    response.end(pageHtml);
     return;
   }
   if (url.startsWith("/mediapipe/") && serve(mediapipe, "/mediapipe/", url, response)) return;
