@@ -29,6 +29,8 @@ scripts="$prefix/share/handscs/scripts"
 for file in bin/handscs-bench bin/handscs-features bin/handscs-train bin/handscs-synth bin/handscs-eval \
             share/handscs/scripts/plot_sweep.py share/handscs/scripts/plot_features.py \
             share/handscs/scripts/convert_mano.py share/handscs/scripts/convert_lpips_weights.py \
+            share/handscs/scripts/detect_landmarks.sh share/handscs/scripts/detect_landmarks.mjs \
+            share/handscs/scripts/capture_to_multiview.py \
             share/handscs/configs/base.json share/handscs/configs/tiny.json share/handscs/configs/sweeps/quick.json; do
   [ -f "$prefix/$file" ] || fail "$file is not installed in $prefix"
 done
