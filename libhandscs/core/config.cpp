@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/atomic_file.h"
+#include "core/installed_paths.h"
 #include "core/json_keys.h"
 
 namespace handscs {
@@ -190,7 +191,20 @@ json load_json_file_depth(const std::string& path, int depth) {
 
 }  // namespace
 
-json load_json_file(const std::string& path) { return load_json_file_depth(path, 0); }
+json load_json_file(const std::string& path) {
+  // An installed program run from another folder with the README's `--config configs/base.json`:
+  // "cannot open file" alone does not say where the installed configs are.
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::path(path).is_relative() && !fs::exists(fs::symlink_status(path, ec))) {
+    const fs::path installed =
+        fs::weakly_canonical(fs::path(executable_dir()) / ".." / "share" / "handscs" / path, ec);
+    if (!ec && fs::is_regular_file(installed, ec))
+      throw Error(path + ": no such file in " + fs::current_path(ec).string() + "; the installed " +
+                  "one is " + installed.string() + " (give that path)");
+  }
+  return load_json_file_depth(path, 0);
+}
 
 namespace {
 

@@ -187,6 +187,9 @@ CaptureRecords read_handscs_capture(const std::string& root, CaptureConfig::Layo
 
   const fs::path masks_dir = base / "masks";
   const bool has_masks = fs::is_directory(masks_dir, ec);
+  if (!has_masks && fs::exists(fs::symlink_status(masks_dir, ec)))
+    throw Error(masks_dir.string() + ": not a folder; supplied masks go in masks/<camera>/<frame>.png "
+                "(remove it to use the posed meshes' masks)");
   for (const CaptureFrameEntry& entry : read_capture_frames(top.at("frames"))) {
     const int64_t frame = entry.frame;
     records.frames[frame] = entry.record;
@@ -197,7 +200,9 @@ CaptureRecords read_handscs_capture(const std::string& root, CaptureConfig::Layo
       image.file_name = image_name(base / "images", name, stem);
       if (has_masks) {
         const fs::path mask = masks_dir / name / (stem + ".png");
-        if (fs::is_regular_file(mask, ec)) image.mask_path = mask.string();
+        // Anything at the mask's name is the mask: a named pipe or a folder there is refused by
+        // name when the frame loads, not passed over for the posed mesh's mask.
+        if (fs::exists(fs::symlink_status(mask, ec))) image.mask_path = mask.string();
       }
       image.width = camera.camera.width;
       image.height = camera.camera.height;

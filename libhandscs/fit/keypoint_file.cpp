@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include <fmt/format.h>
 
@@ -13,6 +14,10 @@
 namespace handscs {
 
 namespace {
+
+// Farthest a keypoint may lie from the origin: a wild value (1e300) made the fit's residual
+// infinite. Far above millimetres read as metres (thousands), which the units check names.
+constexpr double kMaxKeypointM = 1e6;
 
 constexpr double kMaxMedianBoneM = 0.5;    // a 50 cm bone is no hand's: millimetres were given
 constexpr double kMinMedianBoneM = 0.002;  // a 2 mm bone neither
@@ -35,6 +40,10 @@ std::optional<HandKeypoints> read_hand(const json& item, KeypointOrder order, do
     for (int c = 0; c < 3; ++c) {
       if (!p[c].is_number()) throw Error(at + "[" + std::to_string(c) + "]: expected number, got " + json_type_name(p[c]));
       points[3 * j + c] = p[c].get<double>();
+      if (std::abs(points[3 * j + c] * to_metres) > kMaxKeypointM)
+        throw Error(at + "[" + std::to_string(c) + "]: " + fmt::format("{:.4g}", points[3 * j + c] * to_metres) +
+                    " m from the origin: no keypoint of a hand lies beyond " +
+                    fmt::format("{:g}", kMaxKeypointM) + " m");
     }
     valid[j] = 1;
   }
@@ -103,6 +112,7 @@ std::vector<KeypointFrame> read_keypoint_file(const std::string& path) {
   if (!doc.contains("frames") || !doc["frames"].is_array() || doc["frames"].empty())
     throw Error(path + ": frames: expected a non-empty array");
   std::vector<KeypointFrame> frames;
+  std::map<std::string, size_t> first_of_name;
   for (size_t f = 0; f < doc["frames"].size(); ++f) {
     const json& item = doc["frames"][f];
     const std::string where = path + ": frames[" + std::to_string(f) + "]";
@@ -111,8 +121,13 @@ std::vector<KeypointFrame> read_keypoint_file(const std::string& path) {
       if (key != "name" && key != "right" && key != "left")
         throw Error(where + ": unknown key \"" + key + "\" (known: name, right, left)");
     KeypointFrame frame;
-    frame.name = item.contains("name") && item["name"].is_string() ? item["name"].get<std::string>()
-                                                                   : "frame_" + std::to_string(f);
+    if (item.contains("name") && !item["name"].is_string())
+      throw Error(where + ".name: expected a string, got " + json_type_name(item["name"]));
+    frame.name = item.contains("name") ? item["name"].get<std::string>() : "frame_" + std::to_string(f);
+    // Names key the POSES files' frames and the report's rows: two frames of one name would mix.
+    if (const auto first = first_of_name.emplace(frame.name, f); !first.second)
+      throw Error(where + ".name: \"" + frame.name + "\" is also frames[" +
+                  std::to_string(first.first->second) + "]'s name; each frame needs its own");
     if (item.contains("right")) frame.right = read_hand(item["right"], order, to_metres, where + ".right");
     if (item.contains("left")) frame.left = read_hand(item["left"], order, to_metres, where + ".left");
     frames.push_back(std::move(frame));

@@ -90,12 +90,7 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
   TrainedAvatar trained = open_trained_avatar(options.checkpoint);
   const std::vector<PoseFrame> poses =
       read_pose_source(options.poses, keypoint_target(trained));
-  const bool two_hands = !trained.left.empty();
-  for (size_t k = 0; k < poses.size(); ++k)
-    if (two_hands && !poses[k].hands[0] && !poses[k].hands[1])
-      throw Error(options.poses + ": pose " + std::to_string(k) + " is one hand's; the avatar has "
-                  "two (data.hand both): give each pose as {\"right\": {...}, \"left\": {...}} or "
-                  "select a capture with \"hand\": \"both\"");
+  check_poses_for_avatar(poses, trained, options.poses);
   PosedHands hands(trained);
 
   std::vector<Camera> cameras;

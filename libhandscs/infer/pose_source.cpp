@@ -346,4 +346,35 @@ KeypointTarget keypoint_target(TrainedAvatar& trained) {
   return target;
 }
 
+void check_poses_for_avatar(const std::vector<PoseFrame>& poses, const TrainedAvatar& trained,
+                            const std::string& path) {
+  const std::vector<Handedness> sides = hand_sides(trained.trained_config.data.hand);
+  if (sides.size() > 1) {
+    for (size_t k = 0; k < poses.size(); ++k)
+      if (!poses[k].hands[0] && !poses[k].hands[1])
+        throw Error(path + ": pose " + std::to_string(k) + " is one hand's; the avatar has two (data.hand "
+                    "both): give each pose as {\"right\": {...}, \"left\": {...}} or select a capture with "
+                    "\"hand\": \"both\"");
+    return;
+  }
+  const Handedness own = sides.front();
+  const int own_slot = own == Handedness::right ? 0 : 1;
+  int64_t with_other = 0;
+  for (size_t k = 0; k < poses.size(); ++k) {
+    const PoseFrame& f = poses[k];
+    if (!f.hands[0] && !f.hands[1]) continue;  // a one-hand pose: the avatar's hand
+    if (!f.hands[own_slot])
+      throw Error(path + ": pose " + std::to_string(k) + " has no " + hand_name(own) +
+                  " hand, and the avatar is the " + hand_name(own) + " hand's alone (data.hand " +
+                  hand_name(own) + ")");
+    if (f.hands[1 - own_slot]) ++with_other;
+  }
+  if (with_other > 0) {
+    const Handedness other = own == Handedness::right ? Handedness::left : Handedness::right;
+    spdlog::warn("{}: {} of {} poses give the {} hand too; the avatar has the {} hand alone (data.hand "
+                 "{}), so only that hand is drawn",
+                 path, with_other, poses.size(), hand_name(other), hand_name(own), hand_name(own));
+  }
+}
+
 }  // namespace handscs

@@ -46,6 +46,13 @@ struct KeypointTarget {
 // The target of a trained avatar: its hands' rigs.
 KeypointTarget keypoint_target(TrainedAvatar& trained);
 
+// Checks that the poses read from `path` fit the avatar's hands. Throws Error for a one-hand pose
+// on a two-hand avatar, and for a two-hand pose without a one-hand avatar's own hand (the other
+// hand's parameters would pose it). Warns once when poses also give a hand the avatar lacks (not
+// drawn).
+void check_poses_for_avatar(const std::vector<PoseFrame>& poses, const TrainedAvatar& trained,
+                            const std::string& path);
+
 // Reads a POSES file; errors name the file and the key path (e.g. "poses[2].pose: expected 48
 // numbers, got 45"). A keypoint file needs `target`.
 std::vector<PoseFrame> read_pose_source(const std::string& path, const KeypointTarget& target = {});

@@ -16,6 +16,7 @@
 
 #include "avatar/avatar.h"
 #include "avatar/pose_memo.h"
+#include "core/error.h"
 #include "data/capture.h"
 #include "run/avatar_state_io.h"
 
@@ -26,12 +27,20 @@ class PosedHands {
   explicit PosedHands(TrainedAvatar& trained);
 
   // The frame's hands posed and joined (Frame: FrameInfo or PoseFrame). Throws Error starting with
-  // `where` when a two-hand avatar's frame has neither hand. Call under inference mode.
+  // `where` when a two-hand avatar's frame has neither hand, or a one-hand avatar's two-hand frame
+  // lacks its hand (the other hand is not drawn). Call under inference mode.
   template <class Frame>
   const PosedGaussians& pose(const Frame& frame, const std::string& where) {
     std::array<const HandParams*, 2> hands{};
     if (two_hands_) {
       for (int side = 0; side < 2; ++side) hands[side] = frame.hands[side] ? &*frame.hands[side] : nullptr;
+    } else if (frame.hands[0] || frame.hands[1]) {
+      // A two-hand pose: the avatar's own hand, never the other's parameters in its place.
+      const int own = first_ == Handedness::right ? 0 : 1;
+      if (!frame.hands[own])
+        throw Error(where + ": the pose has no " + hand_name(first_) + " hand, and the avatar is the " +
+                    hand_name(first_) + " hand's alone (data.hand " + hand_name(first_) + ")");
+      hands[own] = &*frame.hands[own];
     } else {
       one_.pose = frame.pose;
       one_.shape = frame.shape;

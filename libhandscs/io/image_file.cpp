@@ -1,5 +1,7 @@
 #include "io/image_file.h"
 
+#include <new>
+
 #include "core/error.h"
 #include "core/image_header.h"
 
@@ -12,6 +14,9 @@ cv::Mat decode_image_bytes(const std::string& bytes, int flags, const std::strin
   try {
     return cv::imdecode(encoded, flags);
   } catch (const cv::Exception& e) {
+    // Memory running out is no fault of the file: named as such by the callers that watch for it
+    // (train/out_of_memory.h), not taken for a damaged image and skipped.
+    if (e.code == cv::Error::StsNoMem) throw std::bad_alloc();
     throw Error(path + ": cannot decode " + what + " (" + e.what() + ")");
   }
 }

@@ -13,7 +13,8 @@ namespace handscs {
 
 // `bytes` (read from `path`) decoded with cv::imread's `flags`. Returns an empty Mat, as cv::imread
 // does, when OpenCV cannot decode them; throws Error "<path>: cannot decode <what> (...)" when
-// OpenCV throws. `what` names the file's role ("image", "mask", ...).
+// OpenCV throws, std::bad_alloc when its allocation failed. `what` names the file's role ("image",
+// "mask", ...).
 cv::Mat decode_image_bytes(const std::string& bytes, int flags, const std::string& path,
                            const std::string& what = "image");
 

@@ -13,6 +13,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/hash.h"
+#include "run/pickle_bytes.h"
 
 namespace handscs {
 
@@ -37,7 +38,7 @@ std::string checkpoint_bytes(const Checkpoint& checkpoint) {
   c10::Dict<std::string, at::Tensor> dict;
   for (const auto& [name, tensor] : checkpoint.tensors)
     dict.insert(name, tensor.detach().contiguous());
-  const std::vector<char> pickled = torch::pickle_save(c10::IValue(dict));
+  const std::vector<char> pickled = pickle_bytes(c10::IValue(dict));  // torch::pickle_save's bytes
   const std::string meta = checkpoint.meta.dump();
   std::string bytes;
   bytes.reserve(16 + meta.size() + pickled.size() + kTrailer);

@@ -16,7 +16,9 @@ bool is_out_of_memory(const std::exception& e);
 
 // The Error for an out-of-memory failure `e`: `when` it happened ("at step 12", "while validating
 // after step 500"), the Gaussian count then (< 0: not known, as before the model exists), the
-// failed request's size when LibTorch names it, and the keys that lower what a run needs.
-Error out_of_memory_error(const std::exception& e, const std::string& when, int64_t gaussians);
+// failed request's size when LibTorch names it, and the keys that lower what a run needs. With a
+// count, the message also names `last_checkpoint`, the file a resume continues from ("": none yet).
+Error out_of_memory_error(const std::exception& e, const std::string& when, int64_t gaussians,
+                          const std::string& last_checkpoint = "");
 
 }  // namespace handscs

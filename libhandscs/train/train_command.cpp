@@ -9,8 +9,10 @@
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
+#include "core/available_memory.h"
 #include "core/cli.h"
 #include "core/config.h"
+#include "core/text.h"
 #include "run/run_config.h"
 #include "train/data_parallel.h"
 #include "train/out_of_memory.h"
@@ -105,6 +107,17 @@ int train_command(int argc, char** argv) {
     // capture and passed the trainer's checks, and deleted once the new one has its first
     // checkpoint; a new run that ends before that puts it back.
     Trainer trainer(config, run_dir, group.get());
+    // A run this machine cannot hold is refused before the folder changes (a resume's after its
+    // checkpoint gave the Gaussian count). Each rank checks its own process.
+    const auto check_memory = [&] {
+      const TrainMemoryEstimate estimate = trainer.memory_estimate();
+      const int64_t available = available_memory_bytes();
+      check_train_memory(estimate, available);
+      if (root)
+        spdlog::info("memory: {}; {} available", train_memory_text(estimate),
+                     available < 0 ? std::string("not known") : bytes_text(static_cast<double>(available)));
+    };
+    if (!resume) check_memory();
     std::optional<SetAsideRun> replaced;
     if (root && !resume && overwrite) {
       replaced.emplace(run_dir);
@@ -112,6 +125,7 @@ int train_command(int argc, char** argv) {
     }
     if (root && resume && !trainer.resume(resume_changing_data))
       spdlog::warn("{}: no checkpoint to resume; starting afresh", run_dir);
+    if (resume) check_memory();
     const auto summary = trainer.run();
     if (summary.steps == 0)
       spdlog::info("{}: already at step {} of train.iterations = {}: nothing to train (raise "

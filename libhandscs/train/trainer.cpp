@@ -110,6 +110,9 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir, ProcessGro
         batch_size_warning(config_.train.batch_size, group_ ? group_->world_size() : 1,
                            static_cast<int64_t>(capture_->train().size()));
     if (!batch_warning.empty()) spdlog::warn("{}", batch_warning);
+    if (config_.data.hand == CaptureConfig::Hands::both)
+      if (const std::string missing = missing_hand_warning(capture_->train()); !missing.empty())
+        spdlog::warn("{}", missing);
   }
 
   for (const Handedness side : hand_sides(config_.data.hand)) {
@@ -554,7 +557,7 @@ auto Trainer::naming_out_of_memory(const std::string& when, F&& f) {
     return f();
   } catch (const std::exception& e) {
     if (!is_out_of_memory(e)) throw;
-    throw out_of_memory_error(e, when, gaussian_count());
+    throw out_of_memory_error(e, when, gaussian_count(), last_checkpoint_);
   }
 }
 
@@ -809,6 +812,11 @@ void Trainer::load_from(const Checkpoint& ckpt, const std::string& source, bool 
 }
 
 std::string Trainer::save_checkpoint() {
+  return naming_out_of_memory("saving the checkpoint of step " + std::to_string(iteration_),
+                              [&] { return write_checkpoint(); });
+}
+
+std::string Trainer::write_checkpoint() {
   write_run_files();
   ensure_directory(run_dir_ + "/checkpoints");  // --overwrite set the earlier run's folder aside
   const std::string path = run_dir_ + "/checkpoints/" + checkpoint_name(iteration_);
@@ -859,6 +867,10 @@ bool Trainer::resume(bool allow_changed_data) {
 }
 
 void Trainer::validate() {
+  naming_out_of_memory("validating at step " + std::to_string(iteration_), [&] { render_validation(); });
+}
+
+void Trainer::render_validation() {
   const auto& frames = capture_->test().empty() ? capture_->train() : capture_->test();
   const FrameInfo& frame = frames.front();
   c10::InferenceMode guard;
@@ -929,6 +941,13 @@ int64_t Trainer::gaussian_count() const {
   return count;
 }
 
+TrainMemoryEstimate Trainer::memory_estimate() {
+  int64_t largest = 0;  // a resumed run's hands start from their checkpoint's counts
+  for (const HandSlot& hand : hands_)
+    largest = std::max<int64_t>(largest, hand.avatar->gaussians().size());
+  return estimate_train_memory(config_, train_memory_inputs(*capture_, largest, hand_count()));
+}
+
 void Trainer::gather_components() {
   for_each_part([&](auto& components, const std::string&) {
     for (auto& component : components) component->gather(*group_, iteration_);
@@ -953,10 +972,6 @@ TrainSummary Trainer::run() {
     naming_out_of_memory("before step " + std::to_string(iteration_ + 1),
                          [&] { initial_state_ = checkpoint_bytes(make_checkpoint()); });
   const int64_t total = config_.train.iterations;
-  const auto save = [&] {
-    naming_out_of_memory("saving the checkpoint of step " + std::to_string(iteration_),
-                         [&] { save_checkpoint(); });
-  };
   std::unique_ptr<ProgressBar> bar;  // rank 0 reports for all
   if (root) bar = std::make_unique<ProgressBar>("train", total);
   char status[160] = "";
@@ -975,15 +990,15 @@ TrainSummary Trainer::run() {
                   skipped_total_ ? (" skipped " + std::to_string(skipped_total_)).c_str() : "");
     bar->update(iteration_, status);
     if (iteration_ % config_.train.log_every == 0 || r.skipped) log_step(r);
-    if (checkpoint_due) save();
+    if (checkpoint_due) save_checkpoint();
     if (config_.train.validate_every > 0 && iteration_ % config_.train.validate_every == 0)
-      naming_out_of_memory("validating at step " + std::to_string(iteration_), [&] { validate(); });
+      validate();
   }
   const bool interrupted = stop_requested() && iteration_ < total;
   // For the final checkpoint (every rank gets here), unless the loop's last step just gathered.
   if (group_ && gathered_at != iteration_) gather_components();
   if (root) {
-    if (last_checkpoint_.find(checkpoint_name(iteration_)) == std::string::npos) save();
+    if (last_checkpoint_.find(checkpoint_name(iteration_)) == std::string::npos) save_checkpoint();
     for_each_part([&](auto& components, const std::string& section) {
       // The second hand's files go in a folder of its own.
       const std::string folder = section.empty() ? run_dir_ : run_dir_ + "/" + section;

@@ -43,6 +43,7 @@
 #include "train/entry_order.h"
 #include "train/losses.h"
 #include "train/training_checks.h"
+#include "train/train_memory.h"
 #include "train/training_component.h"
 #include "train/view_target.h"
 
@@ -112,7 +113,12 @@ class Trainer {
   // allocation while validating or saving a checkpoint is named as a step's is.
   TrainSummary run();
 
-  std::string save_checkpoint();  // writes checkpoints/step_<iteration>.ckpt; returns the path
+  // Writes checkpoints/step_<iteration>.ckpt; returns the path. A failed allocation is named as a
+  // step's is; the checkpoints already written stay as they were.
+  std::string save_checkpoint();
+  // Renders the first test frame (the first training frame when there is none) into
+  // validation/step_<iteration>.png beside the truth and the error; a failed allocation is named.
+  void validate();
   // Called once, right after the first checkpoint this trainer writes (--overwrite then deletes
   // the run it replaces).
   void on_first_checkpoint(std::function<void()> hook) { first_checkpoint_hook_ = std::move(hook); }
@@ -122,6 +128,9 @@ class Trainer {
   Avatar& avatar(Handedness side);  // Error when the run does not train that hand
   int hand_count() const { return static_cast<int>(hands_.size()); }
   int64_t gaussian_count() const;  // of every hand
+  // The run's peak memory, estimated from its settings, the capture's crops and the Gaussians each
+  // hand has now (train/train_memory.h).
+  TrainMemoryEstimate memory_estimate();
   Capture& capture() { return *capture_; }
   // train.camera_color: the per-camera colour transforms; null when off.
   const CameraColors* camera_colors() const {
@@ -182,7 +191,8 @@ class Trainer {
   void load_from(const Checkpoint& checkpoint, const std::string& source,
                  bool allow_changed_data = false, bool keep_own_state = false);
   bool rollback();
-  void validate();
+  void render_validation();
+  std::string write_checkpoint();
   void log_step(const StepResult& result);
 
   RunConfig config_;

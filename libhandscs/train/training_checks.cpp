@@ -113,4 +113,18 @@ void EmptyMaskWatch::record(const FrameInfo& frame, bool empty) {
   }
 }
 
+std::string missing_hand_warning(const std::vector<FrameInfo>& train) {
+  for (const Handedness side : {Handedness::right, Handedness::left}) {
+    const bool any = std::any_of(train.begin(), train.end(),
+                                 [&](const FrameInfo& frame) { return frame.hand(side) != nullptr; });
+    if (any) continue;
+    const Handedness other = side == Handedness::right ? Handedness::left : Handedness::right;
+    return "data.hand both: none of the " + std::to_string(train.size()) + " training frames has the " +
+           hand_name(side) + " hand (its annotations are absent or null), so its avatar would keep its " +
+           "initial state; data.hand=" + hand_name(other) + " trains the " + hand_name(other) +
+           " hand alone";
+  }
+  return "";
+}
+
 }  // namespace handscs

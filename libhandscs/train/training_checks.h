@@ -31,6 +31,11 @@ std::string scaled_crop_problem(const FrameInfo& frame, int width, int height, d
 // (every view rendered several times a step: a 4096-view batch over 36 views took 107 s a step).
 std::string batch_size_warning(int64_t batch_size, int64_t processes, int64_t training_views);
 
+// data.hand both: "" when every hand is in some training frame, else a warning naming the hand
+// no training frame has (its annotations absent or null) and the data.hand that trains the other
+// alone. Such a hand's avatar would keep its initial state, its checkpoint and renders untrained.
+std::string missing_hand_warning(const std::vector<FrameInfo>& train);
+
 // Watches the masks of the first training steps: when every one of the first `steps` masks is
 // empty the run supervises nothing (the loss is 0 and PSNR is perfect), so record() throws Error;
 // later empty masks are warned about with their path (the first few), and counted.

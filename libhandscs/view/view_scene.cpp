@@ -78,6 +78,7 @@ ViewScene ViewScene::open(const std::string& checkpoint, const std::string& pose
   std::vector<PoseFrame> held_out =
       poses.empty() ? held_out_poses(trained.config)
                     : read_pose_source(poses, keypoint_target(trained));
+  if (!poses.empty()) check_poses_for_avatar(held_out, trained, poses);
   return ViewScene(std::move(trained), std::move(held_out));
 }
 

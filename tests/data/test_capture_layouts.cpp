@@ -270,6 +270,27 @@ TEST_CASE("capture layouts: masks supplied with a handscs capture replace the me
   CHECK(sample.mask.sum().item<int64_t>() == 30 * 40);
 }
 
+TEST_CASE("capture layouts: a named pipe in a supplied mask's place, or a masks file, is refused") {
+  // Both were passed over for the posed mesh's mask without a word.
+  const std::string root = data_test::copy_of_tiny_in("handscs", "supplied_mask_pipe");
+  Capture plain = Capture::open(data_test::tiny_config(root));
+  const FrameInfo& f = plain.frames()[5];
+  const std::string mask_file =
+      root + "/masks/" + f.camera_id + "/" + frame_file_stem(f.frame_idx) + ".png";
+  std::filesystem::create_directories(std::filesystem::path(mask_file).parent_path());
+  REQUIRE(mkfifo(mask_file.c_str(), 0600) == 0);
+  Capture capture = Capture::open(data_test::tiny_config(root));
+  const FrameInfo& g = capture.frames()[5];
+  CHECK(g.mask_path == mask_file);
+  CHECK(error_of([&] { capture.load(g); }) ==
+        mask_file + ": is not a regular file (a named pipe, a device or a socket); give a file");
+  std::filesystem::remove_all(root + "/masks");
+  data_test::write_text(root + "/masks", "x");
+  CHECK(error_of([&] { Capture::open(data_test::tiny_config(root)); }) ==
+        root + "/masks: not a folder; supplied masks go in masks/<camera>/<frame>.png (remove it to "
+               "use the posed meshes' masks)");
+}
+
 TEST_CASE("capture layouts: a supplied mask the posed hand disagrees with is named once") {
   const std::string root = data_test::copy_of_tiny_in("handscs", "disagreeing_masks");
   CaptureConfig config = data_test::tiny_config(root);

@@ -138,6 +138,24 @@ TEST_CASE("handscs-fit: bad keypoint files are refused with the file and key nam
   path = write_keypoints("point.json", bad_point);
   CHECK_THAT(handscs_test::error_of([&] { run_fit_command(options_for(path, "point")); }),
              Catch::Contains(path + ": frames[0].right[4]: expected [x, y, z] or null"));
+  // One wild coordinate: named with the point, not fitted to an infinite residual.
+  json wild = doc_with("mano21", "m", 1.0);
+  wild["frames"][0]["right"][2][0] = 1e300;
+  path = write_keypoints("wild.json", wild);
+  CHECK(handscs_test::error_of([&] { run_fit_command(options_for(path, "wild")); }) ==
+        path + ": frames[0].right[2][0]: 1e+300 m from the origin: no keypoint of a hand lies beyond 1e+06 m");
+  // Two frames of one name (they key the POSES frames and the report's rows), and a name that is
+  // not a string (it was replaced by "frame_0" without a word).
+  json twice = doc_with("mano21", "m", 1.0);
+  twice["frames"].push_back(twice["frames"][0]);
+  path = write_keypoints("twice.json", twice);
+  CHECK(handscs_test::error_of([&] { run_fit_command(options_for(path, "twice")); }) ==
+        path + ": frames[1].name: \"a\" is also frames[0]'s name; each frame needs its own");
+  json numbered = doc_with("mano21", "m", 1.0);
+  numbered["frames"][0]["name"] = 42;
+  path = write_keypoints("numbered.json", numbered);
+  CHECK(handscs_test::error_of([&] { run_fit_command(options_for(path, "numbered")); }) ==
+        path + ": frames[0].name: expected a string, got number");
   // A left hand's keypoints given as the right hand.
   json swapped = {{"format", "handscs-keypoints"}, {"order", "mano21"}, {"units", "m"},
                   {"frames", json::array({{{"name", "a"},

@@ -16,6 +16,7 @@
 #include "hand/procedural_hand.h"
 #include "io/npz.h"
 #include "fit_fixtures.h"
+#include "captured_warnings.h"
 #include "test_support.h"
 
 using namespace handscs;
@@ -139,4 +140,36 @@ TEST_CASE("FMHR: both hands fitted from the 16 views' landmarks, closer to them 
   CHECK(capture.layout() == CaptureConfig::Layout::neus);
   CHECK(capture.train().size() == 12);
   CHECK(capture.test().size() == 4);
+}
+
+TEST_CASE("multiview: missing, numbered-for-no-view and out-of-range landmark files are named") {
+  // A copy of FMHR's capture (its images linked) whose landmark files are then damaged.
+  const std::string root = handscs_test::scratch_path("multiview_bad", "capture");
+  fs::remove_all(root);
+  fs::create_directories(root);
+  for (const char* folder : {"camera", "img", "mask"}) fs::create_directory_symlink(fs::absolute(kFmhr + "/" + folder), root + "/" + folder);
+  // No landmark folder: said so, not "no hand is seen by 2 views".
+  CHECK(handscs_test::error_of([&] { read_multiview_capture(root); }) ==
+        root + ": no landmark folder (pose/ or landmarks/, a NN.json of MediaPipe's landmarks for each "
+               "view NN; docs/FIT.md)");
+  fs::create_directory(root + "/pose");
+  CHECK(handscs_test::error_of([&] { read_multiview_capture(root); }) ==
+        root + "/pose: no landmark file of any view (NN.json, numbered as the views' images)");
+  for (const auto& entry : fs::directory_iterator(kFmhr + "/pose"))
+    fs::copy_file(entry.path(), root + "/pose/" + entry.path().filename().string());
+  // A file numbered for no view is named in a warning; the others are read.
+  fs::copy_file(kFmhr + "/pose/03.json", root + "/pose/16.json");
+  {
+    handscs_test::CapturedWarnings warnings;
+    CHECK(read_multiview_capture(root).cameras.size() == 16);
+    CHECK(warnings.text() == root + "/pose/16.json: no view of that number has a camera and an image; "
+                                    "its landmarks are not used\n");
+  }
+  // Landmarks in pixels rather than the image's [-1, 1]: the file, the hand and the value named.
+  auto doc = nlohmann::json::parse(std::ifstream(kFmhr + "/pose/03.json"));
+  doc["Right"][4] = 1e300;
+  std::ofstream(root + "/pose/03.json") << doc.dump();
+  CHECK(handscs_test::error_of([&] { read_multiview_capture(root); }) ==
+        root + "/pose/03.json: Right[4] = 1e+300: landmarks are the image's [-1, 1] (one past 4 lies "
+               "images away from it); are they pixels?");
 }

@@ -18,6 +18,8 @@
 #include "train/tiny_capture.h"
 #include "train/trainer.h"
 #include "train/two_hand_capture.h"
+#include "captured_warnings.h"
+#include "test_support.h"
 
 using handscs_test::fresh_dir;
 
@@ -180,4 +182,36 @@ TEST_CASE("two hands: interpolation and keypoint files pose each hand") {
   // "from" and "to" must hold the same hands.
   handscs::write_file_atomic(interpolation, nlohmann::json{{"interpolate", {{"from", from}, {"to", {{"right", hand_json(0)}}}}}}.dump());
   CHECK_THROWS_WITH(handscs::read_pose_source(interpolation), Catch::Contains("\"from\" has \"left\" hand and \"to\" has none"));
+}
+
+TEST_CASE("two hands: a one-hand avatar draws its own hand of two-hand poses, never the other's") {
+  handscs::set_threads(2);
+  handscs::RunConfig config = handscs_test::tiny_run_config();  // the right hand alone
+  config.train.iterations = 2;
+  const std::string run = fresh_dir("one_hand_two_hand_poses");
+  { handscs::Trainer(config, run).run(); }
+  const nlohmann::json right = {{"pose", std::vector<double>(48, 0.1)}, {"trans", {0.0, 0.0, 1.0}}};
+  const nlohmann::json left = {{"pose", std::vector<double>(48, -0.3)}, {"trans", {0.1, 0.0, 1.0}}};
+  handscs::AvatarRenderOptions render;
+  render.checkpoint = run;
+  render.orbit = 1;
+  const auto render_with = [&](const std::string& name, const nlohmann::json& poses) {
+    render.poses = run + "/" + name + ".json";
+    handscs::write_file_atomic(render.poses, poses.dump());
+    render.out_dir = run + "/" + name;
+    handscs::render_avatar(render);
+    return handscs::read_file(render.out_dir + "/frame_0000.png");
+  };
+  // The right hand of a two-hand pose draws as the same pose given alone; the left is named.
+  const std::string alone = render_with("alone", {{"poses", {right}}});
+  {
+    handscs_test::CapturedWarnings warnings;
+    CHECK(render_with("both", {{"poses", {{{"right", right}, {"left", left}}}}}) == alone);
+    CHECK(warnings.text().find("1 of 1 poses give the left hand too; the avatar has the right hand "
+                               "alone (data.hand right), so only that hand is drawn") != std::string::npos);
+  }
+  // A pose with the left hand alone was drawn with the left hand's parameters on the right avatar.
+  CHECK(handscs_test::error_of([&] { render_with("left", {{"poses", {{{"left", left}}}}}); }) ==
+        run + "/left.json: pose 0 has no right hand, and the avatar is the right hand's alone "
+              "(data.hand right)");
 }

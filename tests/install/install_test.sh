@@ -78,4 +78,12 @@ for picture in pca_grid tsne_decoder_input; do
   is_png "features/$picture.png" || { cat features.log; fail "no picture features/$picture.png"; }
 done
 echo "handscs-features: $(grep -F "running" features.log | grep -F tsne | sed 's/.*\] //'); tsne_decoder_input.png $(stat -c %s features/tsne_decoder_input.png) bytes"
+# The README's `--config configs/tiny.json` from a folder without configs/: the message names the
+# installed config to give instead of "cannot open file" alone.
+if "$prefix/bin/handscs-train" --config configs/tiny.json --out relative_run --threads 1 > relative.log 2>&1; then
+  fail "handscs-train ran without its config"
+fi
+grep -qF "configs/tiny.json: no such file in $work; the installed one is $prefix/share/handscs/configs/tiny.json (give that path)" relative.log ||
+  { cat relative.log; fail "handscs-train did not name the installed config"; }
+echo "a relative --config: $(grep -F "no such file" relative.log | sed 's/.*\] //')"
 echo "install test: passed"

@@ -149,3 +149,16 @@ TEST_CASE("training checks: a batch larger than the training views is named with
         "train.batch_size: 40 views a step (2 processes) but the capture has 36 training views: "
         "each view is rendered ~1.1 times a step, and a step costs 40 renders");
 }
+
+TEST_CASE("training checks: data.hand both names a hand that no training frame has") {
+  std::vector<handscs::FrameInfo> train(3);
+  for (auto& frame : train) frame.hands[0] = handscs::HandParams{};  // right only
+  CHECK(handscs::missing_hand_warning(train) ==
+        "data.hand both: none of the 3 training frames has the left hand (its annotations are absent "
+        "or null), so its avatar would keep its initial state; data.hand=right trains the right hand "
+        "alone");
+  train[1].hands[1] = handscs::HandParams{};  // one frame with the left hand is enough
+  CHECK(handscs::missing_hand_warning(train).empty());
+  for (auto& frame : train) frame.hands[0].reset();  // left only
+  CHECK(handscs::missing_hand_warning(train).find("has the right hand") != std::string::npos);
+}

@@ -182,3 +182,12 @@ TEST_CASE("view server: saved poses are a POSES list, read back exactly, appende
   CHECK(json::parse(refused->body)["error"].get<std::string>().find("not a POSES list") != std::string::npos);
   CHECK(handscs::read_file(other) == "{\"train\": {}}");
 }
+
+TEST_CASE("view server: a POSES file without the one-hand avatar's hand is refused at start") {
+  // Its left hand alone was drawn with the left hand's parameters on the right-hand avatar.
+  const nlohmann::json left = {{"pose", std::vector<double>(48, -0.3)}, {"trans", {0.1, 0.0, 1.0}}};
+  const std::string path = handscs_test::scratch_path("view_two_hand_poses", "left.json");
+  handscs::write_file_atomic(path, nlohmann::json{{"poses", {{{"left", left}}}}}.dump());
+  CHECK(handscs_test::error_of([&] { handscs::ViewScene::open(handscs_test::tiny_trained_run(), path); }) ==
+        path + ": pose 0 has no right hand, and the avatar is the right hand's alone (data.hand right)");
+}
