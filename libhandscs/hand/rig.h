@@ -18,6 +18,9 @@ constexpr int kShapeDim = 10;      // shape blend shapes (beta)
 constexpr int kPoseFeatureDim = 135;  // 15 joints x (R - I) flattened: pose blend shape input
 
 enum class Handedness { right, left };
+inline Handedness other_hand(Handedness side) {
+  return side == Handedness::right ? Handedness::left : Handedness::right;
+}
 
 struct Rig {
   std::string name;                        // "builtin" or e.g. "MANO_RIGHT"

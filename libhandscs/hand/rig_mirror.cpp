@@ -9,7 +9,7 @@ Rig mirror_rig(const Rig& rig) {
   const auto f64 = torch::kFloat64;
   const torch::Tensor m = torch::tensor({-1.0, 1.0, 1.0}, f64);  // x -> -x
   Rig out = rig;
-  out.handedness = rig.handedness == Handedness::right ? Handedness::left : Handedness::right;
+  out.handedness = other_hand(rig.handedness);
   out.v_template = rig.v_template.to(f64) * m;
   // Swapping two corners re-winds each face: mirroring reverses orientation.
   out.faces = rig.faces.index_select(1, torch::tensor({0, 2, 1}, torch::kInt64)).contiguous();

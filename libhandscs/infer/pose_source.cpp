@@ -370,7 +370,7 @@ void check_poses_for_avatar(const std::vector<PoseFrame>& poses, const TrainedAv
     if (f.hands[1 - own_slot]) ++with_other;
   }
   if (with_other > 0) {
-    const Handedness other = own == Handedness::right ? Handedness::left : Handedness::right;
+    const Handedness other = other_hand(own);
     spdlog::warn("{}: {} of {} poses give the {} hand too; the avatar has the {} hand alone (data.hand "
                  "{}), so only that hand is drawn",
                  path, with_other, poses.size(), hand_name(other), hand_name(own), hand_name(own));

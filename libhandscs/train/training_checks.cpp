@@ -118,7 +118,7 @@ std::string missing_hand_warning(const std::vector<FrameInfo>& train) {
     const bool any = std::any_of(train.begin(), train.end(),
                                  [&](const FrameInfo& frame) { return frame.hand(side) != nullptr; });
     if (any) continue;
-    const Handedness other = side == Handedness::right ? Handedness::left : Handedness::right;
+    const Handedness other = other_hand(side);
     return "data.hand both: none of the " + std::to_string(train.size()) + " training frames has the " +
            hand_name(side) + " hand (its annotations are absent or null), so its avatar would keep its " +
            "initial state; data.hand=" + hand_name(other) + " trains the " + hand_name(other) +
