@@ -11,7 +11,8 @@ int main(int argc, char** argv) {
       "handscs-fit: fits the hand rig (pose per frame, one shape) to 3D keypoints or to multi-view 2D "
       "landmarks, for the right and left hand; writes POSES files for handscs-render / handscs-view, "
       "report.json / report.csv (residual per joint in mm, skipped frames and why) and, for a multi-view "
-      "capture, capture.json, reprojection errors and the fitted meshes over the photographs"};
+      "capture, capture.json, reprojection errors and the fitted meshes over the photographs; for a keypoint file "
+      "with --capture-dir, that capture with the fitted hands"};
   handscs::CommonOptions common;
   handscs::FitCommandOptions options;
   handscs::add_common_options(app, common, true);
@@ -22,6 +23,9 @@ int main(int argc, char** argv) {
   app.add_option("--multiview", options.multiview,
                  "multi-view capture folder: camera/param.npz (or cameras.npz), img/NN.png, pose/NN.json "
                  "(MediaPipe landmarks per view)");
+  app.add_option("--capture-dir", options.capture_dir,
+                 "with --keypoints: a capture in the project's or EasyMocap's layout (its frames may carry no hands) "
+                 "whose frames the keypoint file's frame names number; --out gets it with the fitted hands, to train on");
   app.add_option("--out", options.out, "output folder (refused when not empty, unless --overwrite)")->required();
   app.add_flag("--overwrite", options.overwrite, "replace the fit in a non-empty --out");
   app.add_option("--config", options.config, "JSON file of fit settings (keys: docs/FIT.md); --set overrides keys");

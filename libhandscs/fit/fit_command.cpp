@@ -14,6 +14,7 @@
 #include "core/config.h"
 #include "data/capture_json.h"
 #include "data/handscs_capture.h"
+#include "fit/fitted_capture.h"
 #include "fit/keypoint_file.h"
 #include "fit/multiview_capture.h"
 #include "fit/overlay.h"
@@ -376,6 +377,22 @@ void write_multiview_outputs(const FitCommandOptions& o, const MultiviewCapture&
   }
 }
 
+// Each fitted frame's hands as capture.json entries, by the capture's frame number.
+std::map<int64_t, std::array<json, 2>> fitted_hands(const std::array<SideResult, 2>& results,
+                                                    const std::array<JointModel, 2>& models, const FitCommandOptions& o,
+                                                    const FittedCaptureSource& target) {
+  std::map<int64_t, std::array<json, 2>> hands;
+  for (int s = 0; s < 2; ++s)
+    for (size_t f = 0; f < results[s].fits.size(); ++f) {
+      if (!results[s].skip_reason[f].empty()) continue;
+      const HandFit& fit = results[s].fits[f];
+      const auto pose = rig_pose(models[s], fit.params, o.flat_hand_mean);
+      hands[capture_frame_of(results[s].names[f], target, o.keypoints)][s] =
+          capture_hand_json(pose.data(), fit.params.shape.data(), fit.params.trans.data(), fit.joints.data());
+    }
+  return hands;
+}
+
 }  // namespace
 
 void run_fit_command(const FitCommandOptions& o) {
@@ -383,6 +400,9 @@ void run_fit_command(const FitCommandOptions& o) {
   if (inputs != 1) throw Error("give exactly one input: --keypoints, --interhand-joints or --multiview");
   if (!o.interhand_joints.empty() && o.capture < 0)
     throw Error("--interhand-joints needs --capture (the capture number of joint_3d.json)");
+  if (!o.capture_dir.empty() && o.keypoints.empty())
+    throw Error("--capture-dir goes with --keypoints (a multi-view capture writes its own capture.json; an "
+                "InterHand2.6M capture trains from its joints with data.pose_source=joints)");
   FitCommandConfig config = load_config<FitCommandConfig>(o.config, o.overrides);
   const std::array<Rig, 2> rigs = {load_rig_source(o.rig_right), load_rig_source(o.rig_left)};
   if (rigs[0].handedness != Handedness::right) throw Error("--rig-right: " + o.rig_right + " is a left-hand rig");
@@ -394,6 +414,7 @@ void run_fit_command(const FitCommandOptions& o) {
   MultiviewCapture cap;
   std::vector<TriangulatedHand> hands;
   std::array<int, 2> side_of_hand{-1, -1};
+  FittedCaptureSource target;  // --capture-dir
   if (!o.multiview.empty()) {
     cap = read_multiview_capture(o.multiview);
     for (int v : o.overlay_views)
@@ -417,6 +438,16 @@ void run_fit_command(const FitCommandOptions& o) {
     const std::vector<KeypointFrame> frames = !o.keypoints.empty()
                                                   ? read_keypoint_file(o.keypoints)
                                                   : read_interhand_keypoints(o.interhand_joints, o.capture);
+    if (!o.capture_dir.empty()) {
+      target = read_fitted_capture_source(o.capture_dir);
+      std::map<int64_t, std::string> named;  // checked before any fitting
+      for (const KeypointFrame& f : frames) {
+        const auto [it, fresh] = named.emplace(capture_frame_of(f.name, target, o.keypoints), f.name);
+        if (!fresh)
+          throw Error(o.keypoints + ": frames \"" + it->second + "\" and \"" + f.name + "\" both name frame " +
+                      std::to_string(it->first) + " of " + o.capture_dir);
+      }
+    }
     for (const KeypointFrame& f : frames)
       for (int s = 0; s < 2; ++s) {
         const auto& hand = s == 0 ? f.right : f.left;
@@ -452,6 +483,7 @@ void run_fit_command(const FitCommandOptions& o) {
                           poses_json(models[s], results[s], o.flat_hand_mean).dump(1) + "\n");
     write_reports(stage, results);
     if (!o.multiview.empty()) write_multiview_outputs(staged, cap, hands, side_of_hand, results, rigs, models);
+    if (!o.capture_dir.empty()) write_fitted_capture(target, stage, o.flat_hand_mean, fitted_hands(results, models, o, target));
     write_file_atomic((fs::path(stage) / kFitMarker).string(), config_to_json(config).dump(1) + "\n");
     finish_output(o, stage);
   } catch (...) {

@@ -1,7 +1,8 @@
 // handscs-fit: the rig fitted to 3D keypoints (a keypoint file or InterHand2.6M's joint_3d.json)
 // or to multi-view 2D landmarks (triangulated robustly first), for each hand; writes POSES files
-// for handscs-render and handscs-view, a report of the residuals, and for a multi-view capture its
-// capture.json and pictures of the fitted meshes over the photographs. docs/FIT.md.
+// for handscs-render and handscs-view, a report of the residuals, and a capture.json: for a multi-view
+// capture (with pictures of the fitted meshes over the photographs), or for a keypoint file with
+// the capture its frames belong to (--capture-dir). docs/FIT.md.
 #pragma once
 
 #include <string>
@@ -33,6 +34,7 @@ struct FitCommandOptions {
   std::string interhand_joints;  // InterHand2.6M joint_3d.json, with capture
   int capture = -1;
   std::string multiview;         // a multi-view capture folder (fit/multiview_capture.h)
+  std::string capture_dir;       // with keypoints: the capture whose hands they give (fit/fitted_capture.h)
   std::string out;               // output folder
   bool overwrite = false;
   std::string config;                  // a JSON file of FitCommandConfig
