@@ -8,7 +8,10 @@
 // (first open: it is built) and --repeats times with it. Prints one JSON object per record count:
 // file sizes, generation time, open time and peak resident memory (kernel rusage of the child) of
 // the first open and the median of the later ones. The files are in the page cache (just written):
-// the first-open figure is parsing, not disk reading.
+// the first-open figure is parsing, not disk reading. With --pose-source joints the opened capture
+// is read with data.pose_source=joints: its joint_3d entry is first inflated to as many frames as
+// each filler capture holds (its own poses repeated with noise), so the first open fits a full
+// capture's frames, as on the release.
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -28,6 +31,7 @@
 #include "core/config.h"
 #include "core/installed_paths.h"
 #include "core/logging.h"
+#include "core/threads.h"
 #include "data/capture.h"
 #include "data/capture_layout.h"
 #include "sweep/subprocess.h"
@@ -47,6 +51,10 @@ using json = nlohmann::json;
 constexpr int kCameras = 80;          // cameras per capture in the release (varies 60-140)
 constexpr int kFillerCaptures = 9;    // the measured set: the tiny capture and nine more
 constexpr int64_t kFillerIdBase = 100000000;  // filler image ids start above any synthetic id
+// Noise on the repeated joints of the inflated capture (mm per coordinate): 2.4 mm per joint on
+// average, the residual the fit leaves on real InterHand2.6M joints (docs/FIT.md), so each repeat
+// is a fresh fit of a realistic hand, not a copy of the last one.
+constexpr double kRepeatNoiseMm = 1.5;
 
 struct FileCloser {
   void operator()(std::FILE* f) const {
@@ -169,17 +177,39 @@ void write_frames_json(const std::string& path, const json& tiny,
 struct SetFiles {
   std::string root;
   double generate_s = 0;
+  int64_t opened_joint_frames = 0;  // joint_3d frames of the capture that is opened
 };
 
-// The tiny capture at `root`, its annotation files inflated to `records` image records.
-SetFiles generate_set(const std::string& root, int64_t records) {
+// The tiny capture's joint_3d entry grown to `frames` frames: its own frames, then copies of them in
+// turn with Gaussian noise, numbered on from its last frame.
+void inflate_joint_frames(json& tiny_joints, int64_t frames, std::mt19937& rng) {
+  std::normal_distribution<double> noise(0.0, kRepeatNoiseMm);
+  for (auto& [capture, entries] : tiny_joints.items()) {
+    std::vector<json> own;
+    int64_t next = 0;
+    for (auto& [frame, entry] : entries.items()) {
+      own.push_back(entry);
+      next = std::max<int64_t>(next, std::stoll(frame) + 1);
+    }
+    for (size_t k = 0; static_cast<int64_t>(entries.size()) < frames; ++k, ++next) {
+      json copy = own[k % own.size()];
+      for (json& joint : copy["world_coord"])
+        for (json& x : joint) x = x.get<double>() + noise(rng);
+      entries[std::to_string(next)] = copy;
+    }
+  }
+}
+
+// The tiny capture at `root`, its annotation files inflated to `records` image records; with
+// `full_joint_capture`, its joint_3d entry to a filler capture's frame count.
+SetFiles generate_set(const std::string& root, int64_t records, bool full_joint_capture) {
   const auto start = Clock::now();
   fs::remove_all(root);
   handscs::write_synth_capture(handscs::make_synth_scene(handscs::synth_preset("tiny")), root);
   const handscs::CaptureLayout layout = handscs::resolve_capture_layout(root, "test");
   const json tiny_data = handscs::parse_json_file(layout.data_json);
   const json tiny_cameras = handscs::parse_json_file(layout.camera_json);
-  const json tiny_joints = handscs::parse_json_file(layout.joint_3d_json);
+  json tiny_joints = handscs::parse_json_file(layout.joint_3d_json);
   const json tiny_mano = handscs::parse_json_file(layout.mano_json);
   int max_capture = 0;
   for (const auto& image : tiny_data.at("images")) max_capture = std::max(max_capture, image.at("capture").get<int>());
@@ -194,6 +224,7 @@ SetFiles generate_set(const std::string& root, int64_t records) {
     fillers.push_back(fc);
   }
   std::mt19937 rng(12345);  // fixed: the same files on every run
+  if (full_joint_capture) inflate_joint_frames(tiny_joints, fillers.front().frames, rng);
   write_data_json(layout.data_json, tiny_data, fillers, rng);
 
   write_frames_json(layout.joint_3d_json, tiny_joints, fillers, [&](std::FILE* out) {
@@ -243,13 +274,16 @@ SetFiles generate_set(const std::string& root, int64_t records) {
     cameras[std::to_string(fc.capture)] = entry;
   }
   handscs::write_file_atomic(layout.camera_json, cameras.dump());
-  return {root, seconds_since(start)};
+  int64_t opened_joint_frames = 0;
+  for (const auto& [capture, entries] : tiny_joints.items()) opened_joint_frames += entries.size();
+  return {root, seconds_since(start), opened_joint_frames};
 }
 
 // Child mode: open the tiny capture once and print {"open_s", "images"} on stdout.
-int open_once(const std::string& root) {
+int open_once(const std::string& root, handscs::CaptureConfig::PoseSource pose_source) {
   handscs::CaptureConfig config;
   config.root = root;
+  config.pose_source = pose_source;
   config.held_out_poses = 3;  // the tiny capture has 12 poses
   config.cache.prefetch_threads = 0;
   config.scan_cache = "off";  // the image checks at every open, as when this benchmark was first run
@@ -264,9 +298,10 @@ struct OpenResult {
   double open_s = 0, wall_s = 0, peak_mb = 0;
 };
 
-OpenResult run_open(const std::string& root, const std::string& log) {
-  const auto result = handscs::run_process(
-      {handscs::executable_dir() + "/handscs-bench-annotations", "--open-once", root}, log);
+OpenResult run_open(const std::string& root, const std::string& pose_source, int threads, const std::string& log) {
+  const auto result = handscs::run_process({handscs::executable_dir() + "/handscs-bench-annotations", "--open-once",
+                                            root, "--pose-source", pose_source, "--threads", std::to_string(threads)},
+                                           log);
   if (result.exit_code != 0)
     throw std::runtime_error("the opening child failed (exit " + std::to_string(result.exit_code) +
                              "); see " + log);
@@ -293,6 +328,8 @@ int main(int argc, char** argv) {
   std::string work = (fs::temp_directory_path() / "handscs_bench_annotations").string();
   std::string open_root;
   int repeats = 3;
+  int threads = 2;
+  std::string pose_source = "mano";
   bool keep = false;
   app.add_option("--records", records,
                  "image records in data.json (the 5 fps train split ~1.4M, the 30 fps ~2.6M)")
@@ -302,20 +339,28 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--repeats", repeats, "cached opens timed (median)")->capture_default_str();
   app.add_flag("--keep", keep, "keep the generated sets");
+  app.add_option("--pose-source", pose_source,
+                 "data.pose_source of the open: mano, or joints (the opened capture then holds as many joint frames "
+                 "as each other capture, and its first open fits them)")
+      ->check(CLI::IsMember({"mano", "joints"}))
+      ->capture_default_str();
+  app.add_option("--threads", threads, "threads of the opening process (the fit's)")->capture_default_str();
   app.add_option("--open-once", open_root, "(internal) open the capture at this root once");
   CLI11_PARSE(app, argc, argv);
   try {
-    if (!open_root.empty()) return open_once(open_root);
+    const auto source = handscs::choice_value(pose_source, handscs::CaptureConfig::pose_source_names());
+    handscs::set_threads(threads);
+    if (!open_root.empty()) return open_once(open_root, source);
     for (const int64_t n : records) {
       const std::string root = (fs::path(work) / ("records_" + std::to_string(n))).string();
       spdlog::info("generating {} image records in {}", n, root);
-      const SetFiles set = generate_set(root, n);
+      const SetFiles set = generate_set(root, n, source == handscs::CaptureConfig::PoseSource::joints);
       const handscs::CaptureLayout layout = handscs::resolve_capture_layout(root, "test");
       const std::string log = root + "/open.log";
-      const OpenResult first = run_open(root, log);
+      const OpenResult first = run_open(root, pose_source, threads, log);
       std::vector<double> open_s, wall_s, peak_mb;
       for (int r = 0; r < repeats; ++r) {
-        const OpenResult again = run_open(root, log);
+        const OpenResult again = run_open(root, pose_source, threads, log);
         open_s.push_back(again.open_s);
         wall_s.push_back(again.wall_s);
         peak_mb.push_back(again.peak_mb);
@@ -324,6 +369,9 @@ int main(int argc, char** argv) {
       const std::string cache_dir = fs::path(layout.data_json).parent_path() / ".handscs-cache";
       for (const auto& entry : fs::directory_iterator(cache_dir)) cache_mb += fs::file_size(entry) / 1e6;
       json out = {{"records", n},
+                  {"pose_source", pose_source},
+                  {"opened_capture_joint_frames", set.opened_joint_frames},
+                  {"threads", threads},
                   {"data_json_mb", file_mb(layout.data_json)},
                   {"joint_3d_mb", file_mb(layout.joint_3d_json)},
                   {"mano_mb", file_mb(layout.mano_json)},
