@@ -49,6 +49,7 @@ struct SideResult {
   std::vector<std::string> names;
   std::vector<HandFit> fits;
   std::vector<std::string> skip_reason;  // "" when fitted
+  std::vector<HandKeypoints> keypoints;   // what was fitted
   double ms_per_frame = 0;
 };
 
@@ -108,6 +109,7 @@ SideResult fit_side(const JointModel& model, const JointModel& other, const Side
                     const FitCommandConfig& config, const std::string& side, bool check_handedness) {
   SideResult result;
   result.names = input.names;
+  result.keypoints = input.frames;
   if (input.frames.empty()) return result;
   if (check_handedness) {
     const double own = sampled_mean(model, input, config.fit);
@@ -169,6 +171,52 @@ std::map<std::string, double> finger_means(const SideResult& r) {
   return out;
 }
 
+// The MANO21 parent of each joint but the wrist: a rig joint's, a tip's the finger's last joint.
+int mano21_parent(int j) {
+  return j < kTipJoint0 ? static_cast<int>(kManoParents[j]) : kFingerJoints[j - kTipJoint0][2];
+}
+
+// How the fitted rig's bone lengths differ from the keypoints' (mm, fitted minus keypoints) over a
+// side's fitted frames, for bones with both keypoints: whether the rig's shape matches the person.
+json bone_length_summary(const SideResult& r) {
+  static const char* names[5] = {"thumb", "index", "middle", "ring", "pinky"};
+  std::array<double, kFingers> sum{}, sum_abs{};
+  std::array<int, kFingers> count{};
+  double max_abs = 0;
+  for (size_t i = 0; i < r.fits.size(); ++i) {
+    if (!r.skip_reason[i].empty()) continue;
+    const HandKeypoints& k = r.keypoints[i];
+    for (int j = 1; j < 21; ++j) {
+      const int p = mano21_parent(j);
+      if (!k.valid[j] || !k.valid[p]) continue;
+      auto length = [&](const std::array<double, 63>& x) {
+        return std::hypot(x[3 * j] - x[3 * p], x[3 * j + 1] - x[3 * p + 1], x[3 * j + 2] - x[3 * p + 2]);
+      };
+      const double error = 1e3 * (length(r.fits[i].joints) - length(k.joints));
+      int finger = 0;
+      for (int f = 0; f < kFingers; ++f)
+        for (int fj : {kFingerJoints[f][0], kFingerJoints[f][1], kFingerJoints[f][2], kTipJoint0 + f})
+          if (fj == j) finger = f;
+      sum[finger] += error;
+      sum_abs[finger] += std::fabs(error);
+      ++count[finger];
+      max_abs = std::max(max_abs, std::fabs(error));
+    }
+  }
+  double total = 0, total_abs = 0;
+  int n = 0;
+  json per_finger = json::object();
+  for (int f = 0; f < kFingers; ++f) {
+    total += sum[f];
+    total_abs += sum_abs[f];
+    n += count[f];
+    per_finger[names[f]] = count[f] ? json(sum[f] / count[f]) : json(nullptr);
+  }
+  if (!n) return nullptr;
+  return {{"mean_mm", total / n}, {"mean_abs_mm", total_abs / n}, {"max_abs_mm", max_abs},
+          {"per_finger_mean_mm", per_finger}};
+}
+
 json side_summary(const SideResult& r) {
   std::vector<double> means, all;
   int skipped = 0;
@@ -191,6 +239,7 @@ json side_summary(const SideResult& r) {
           {"mean_mm", all.empty() ? json(nullptr) : json(mean / all.size())},
           {"max_mm", all.empty() ? json(nullptr) : json(*std::max_element(all.begin(), all.end()))},
           {"per_finger_mean_mm", fingers},
+          {"bone_length_error", bone_length_summary(r)},
           {"fit_ms_per_frame", r.ms_per_frame}};
 }
 
@@ -230,6 +279,10 @@ void log_summary(const std::array<SideResult, 2>& results) {
     spdlog::info("{} hand: {} of {} frames fitted, mean residual {} mm, max {} mm, {:.2f} ms a frame", kSides[s],
                  sum["fitted"].get<int>(), sum["frames"].get<int>(), mm(sum["mean_mm"]), mm(sum["max_mm"]),
                  r.ms_per_frame);
+    if (!sum["bone_length_error"].is_null())
+      spdlog::info("{} hand: fitted bones {} mm longer than the keypoints' on average ({} mm apart, at most {} mm)",
+                   kSides[s], mm(sum["bone_length_error"]["mean_mm"]), mm(sum["bone_length_error"]["mean_abs_mm"]),
+                   mm(sum["bone_length_error"]["max_abs_mm"]));
     for (size_t f = 0; f < r.fits.size(); ++f)
       if (!r.skip_reason[f].empty()) spdlog::warn("{} hand, frame {}: skipped: {}", kSides[s], r.names[f], r.skip_reason[f]);
   }

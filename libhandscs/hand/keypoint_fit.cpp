@@ -79,7 +79,7 @@ double huber(double d, double c) { return d <= c ? 0.5 * d * d : c * (d - 0.5 * 
 double huber_weight(double d, double c) { return d <= c ? 1.0 : c / d; }
 
 // The shape's prior residuals: shape_prior * beta_s for every mode, and limit_weight * the excess
-// beyond kShapeSoftLimit; adds 1/2 r^2 to cost and, when given, r dr/dbeta to gradient and
+// beyond shape_limit; adds 1/2 r^2 to cost and, when given, r dr/dbeta to gradient and
 // (dr/dbeta)^2 to the diagonal of normal (stride: its row length; both offset to the shape block).
 double add_shape_prior(const std::array<double, kShapeDim>& beta, const KeypointFitConfig& config, double* normal,
                        int stride, double* gradient) {
@@ -93,7 +93,7 @@ double add_shape_prior(const std::array<double, kShapeDim>& beta, const Keypoint
       }
     };
     term(config.shape_prior * beta[s], config.shape_prior);
-    const double excess = std::fabs(beta[s]) - kShapeSoftLimit;
+    const double excess = std::fabs(beta[s]) - config.shape_limit;
     if (excess > 0) term(config.limit_weight * excess, beta[s] > 0 ? config.limit_weight : -config.limit_weight);
   }
   return cost;

@@ -27,10 +27,14 @@ struct KeypointFitConfig {
   double twist_prior = 0.01;   // per radian of twist about a bone (joints do not see it)
   double limit_weight = 0.05;  // per radian beyond a joint limit (backwards, sideways, twist)
   // Per unit of a shape coefficient (a standard deviation of the shape space), and beyond
-  // kShapeSoftLimit units the limit weight as well: joints barely see some modes (the built-in
+  // shape_limit units the limit weight as well: joints barely see some modes (the built-in
   // hand's thickness moves them ~0.1 mm a unit), which a weak pull alone lets run past the +-10
   // that capture readers accept, while a strong one biases the modes joints do see.
   double shape_prior = 0.0002;
+  // Three standard deviations hold most people; a hand beyond them (real palms reach it on the
+  // built-in hand, docs/FIT.md) may take more. At most 8: the limit is soft, so a coefficient
+  // passes it a little, and capture readers refuse beyond 10.
+  double shape_limit = 3.0;
   bool fit_shape = true;       // fit one shape for the subject (false: keep shape zero)
   double smoothing = 0.0;      // sequence fits: weight (m/rad) pulling each pose to the previous one
 
@@ -42,6 +46,7 @@ struct KeypointFitConfig {
     v.field("twist_prior", twist_prior, "pull of each bone's twist to zero (m per rad)", 0, 10);
     v.field("limit_weight", limit_weight, "cost of a finger joint beyond its limits (m per rad)", 0, 10);
     v.field("shape_prior", shape_prior, "pull of the shape to zero (m per unit)", 0, 10);
+    v.field("shape_limit", shape_limit, "shape coefficients beyond this many units cost limit_weight", 0.5, 8);
     v.field("fit_shape", fit_shape, "fit one shape for the subject");
     v.field("smoothing", smoothing, "sequence fits: pull of each pose to the previous (m per rad)", 0,
             10);
@@ -77,9 +82,6 @@ std::vector<HandFit> fit_keypoint_sequence(const JointModel& model,
                                            const std::vector<HandKeypoints>& frames,
                                            const KeypointFitConfig& config,
                                            const std::string& progress_label = "");
-
-// Shape coefficients are standard deviations of the shape space: beyond 3 the limit weight acts.
-constexpr double kShapeSoftLimit = 3.0;
 
 // The palm's four points (wrist and the index, middle and pinky bases) fix the hand's rotation;
 // a fit needs them and at least one more.

@@ -179,6 +179,47 @@ TEST_CASE("handscs-fit: bad keypoint files are refused with the file and key nam
   CHECK(report["frames"][1]["status"] == "skipped: too few keypoints (4 of 21)");
 }
 
+TEST_CASE("handscs-fit: the report's bone-length error is the fitted joints' bones against the keypoints'") {
+  // Keypoints with 4 mm of noise and a pinky stretched by 20%: bones the shape cannot all follow.
+  auto joints = posed_joints(Handedness::right, 0.4, 0.0);
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.004);
+  for (int j : {7, 8, 9, 20})  // pinky1-3 and its tip, stretched away from the wrist
+    for (int i = 0; i < 3; ++i) joints[3 * j + i] = joints[i] + 1.2 * (joints[3 * j + i] - joints[i]);
+  for (double& x : joints) x += noise(rng);
+  const json doc = {{"format", "handscs-keypoints"}, {"order", "mano21"}, {"units", "m"},
+                    {"frames", json::array({{{"name", "a"}, {"right", hand_entry(joints, KeypointOrder::mano21, 1.0)}}})}};
+  FitCommandOptions o = options_for(write_keypoints("bones.json", doc), "bones");
+  run_fit_command(o);
+  std::ifstream poses_in(o.out + "/poses_right.json"), report_in(o.out + "/report.json");
+  const json pose = json::parse(poses_in)["poses"][0];
+  const json bones = json::parse(report_in)["hands"]["right"]["bone_length_error"];
+  // The fitted joints again, from the POSES file through the rig, and every bone by its parent.
+  auto tensor = [](const json& values) { return torch::tensor(values.get<std::vector<double>>(), torch::kFloat64); };
+  const auto fitted = lbs_one_pose(make_procedural_hand(Handedness::right), tensor(pose["pose"]), tensor(pose["shape"]),
+                                   tensor(pose["trans"]), LbsOptions{false})
+                          .joints.reshape({21, 3});
+  const int parent[21] = {-1, 0, 1, 2, 0, 4, 5, 0, 7, 8, 0, 10, 11, 0, 13, 14, 15, 3, 6, 12, 9};
+  double sum = 0, sum_abs = 0, pinky = 0;
+  for (int j = 1; j < 21; ++j) {
+    const int p = parent[j];
+    const double got = (fitted[j] - fitted[p]).norm().item<double>();
+    const double want = std::hypot(joints[3 * j] - joints[3 * p], joints[3 * j + 1] - joints[3 * p + 1],
+                                   joints[3 * j + 2] - joints[3 * p + 2]);
+    sum += 1e3 * (got - want);
+    sum_abs += 1e3 * std::fabs(got - want);
+    if (j == 8 || j == 9 || j == 20) pinky += 1e3 * (got - want);
+  }
+  CHECK(bones["mean_mm"].get<double>() == Approx(sum / 20).margin(1e-3));
+  CHECK(bones["mean_abs_mm"].get<double>() == Approx(sum_abs / 20).margin(1e-3));
+  CHECK(bones["mean_abs_mm"].get<double>() > 0.5);  // the noise alone moves bones by millimetres
+  // The pinky's bone from the knuckle (7 -> 8 etc.) and from the wrist (0 -> 7) are its four.
+  const double pinky_from_wrist = (fitted[7] - fitted[0]).norm().item<double>() -
+                                  std::hypot(joints[21] - joints[0], joints[22] - joints[1], joints[23] - joints[2]);
+  CHECK(bones["per_finger_mean_mm"]["pinky"].get<double>() ==
+        Approx((pinky + 1e3 * pinky_from_wrist) / 4).margin(1e-3));
+}
+
 TEST_CASE("handscs-fit: a rig file fits as the rig it holds (a converted MANO file is one)") {
   // The toy rig's pose blend shapes move the tips as MANO's do; the built-in hand has none.
   const std::string rig_path = handscs_test::scratch_path("fit_command", "toy_rig.json");
