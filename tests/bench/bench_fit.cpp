@@ -3,7 +3,8 @@
 // frame with the capture's shape and its per-frame jitter); their MANO21 joints, with and without
 // Gaussian noise, are fitted as one sequence (one shared shape), and the fit is compared with the
 // truth: joints, mesh vertices, the bend of every finger joint. Then the time per frame of the
-// sequence fit. Prints one JSON object.
+// sequence fit. Prints one JSON object. --set changes the fit's settings (docs/FIT.md's keys);
+// --one-shape gives every frame the first frame's shape, to tell what the shared shape costs.
 #include <ATen/Parallel.h>
 
 #include <CLI/CLI.hpp>
@@ -13,7 +14,10 @@
 #include <random>
 
 #include "core/cli.h"
+#include "core/config.h"
 #include "core/logging.h"
+#include "fit/fit_command.h"
+#include "hand/joint_order.h"
 #include "hand/keypoint_fit.h"
 #include "hand/lbs_one_pose.h"
 #include "hand/procedural_hand.h"
@@ -63,6 +67,8 @@ json round_trip(const Rig& rig, const JointModel& model, const std::vector<Synth
   const std::vector<HandFit> fits = fit_keypoint_sequence(model, frames, config);
   const double ms = bench::ms_since(start);
   std::vector<double> residual, joint_error, vertex_error, bend_error;
+  double worst_bend = -1;
+  std::string worst_bend_joint;
   for (size_t f = 0; f < poses.size(); ++f) {
     std::array<double, 63> true_joints;
     joint_positions(model, truth[f], true_joints.data());
@@ -73,7 +79,13 @@ json round_trip(const Rig& rig, const JointModel& model, const std::vector<Synth
       joint_error.push_back(1e3 * std::sqrt(d2));
     }
     const auto want = joint_bend_angles(true_joints.data()), got = joint_bend_angles(fits[f].joints.data());
-    for (int j = 0; j < 15; ++j) bend_error.push_back(std::fabs(want[j] - got[j]) * 180.0 / M_PI);
+    for (int j = 0; j < 15; ++j) {
+      bend_error.push_back(std::fabs(want[j] - got[j]) * 180.0 / M_PI);
+      if (bend_error.back() > worst_bend) {
+        worst_bend = bend_error.back();
+        worst_bend_joint = kMano21Names[j + 1];  // bend angle j is rig joint j + 1's
+      }
+    }
     const auto d = (vertices_of(rig, fits[f].params) - vertices_of(rig, truth[f])).norm(2, 1) * 1e3;
     const auto dv = d.contiguous();
     vertex_error.insert(vertex_error.end(), dv.data_ptr<double>(), dv.data_ptr<double>() + dv.numel());
@@ -92,6 +104,8 @@ json round_trip(const Rig& rig, const JointModel& model, const std::vector<Synth
           {"vertex_error_p95_mm", percentile(vertex_error, 0.95)},
           {"bend_error_mean_deg", mean(bend_error)},
           {"bend_error_max_deg", percentile(bend_error, 1.0)},
+          {"bend_error_max_joint", worst_bend_joint},
+          {"bend_error_p99_deg", percentile(bend_error, 0.99)},
           {"fit_ms_per_frame", ms / poses.size()}};
 }
 
@@ -104,17 +118,22 @@ int main(int argc, char** argv) {
   CommonOptions common;
   common.log_level = "warn";
   int frames = 200, repeats = 5;
-  add_common_options(app, common, false);
+  bool one_shape = false;
+  add_common_options(app, common, true);
   app.add_option("--frames", frames, "frames of each pose source");
+  app.add_flag("--one-shape", one_shape, "every frame takes the first frame's shape (no per-frame jitter)");
   app.add_option("--repeats", repeats, "timed runs of the sequence fit (median reported)");
   CLI11_PARSE(app, argc, argv);
   try {
     start_up(common, "handscs-bench-fit");
     const Rig rig = make_procedural_hand(Handedness::right);
     const JointModel model = make_joint_model(rig);
-    const KeypointFitConfig config;
-    const std::vector<SynthPose> rom = make_rom_poses(rig, frames, 1);
-    const std::vector<SynthPose> gestures = make_gesture_poses(rig, frames, 0, 2, nullptr);
+    const KeypointFitConfig config = load_config<FitCommandConfig>("", common.overrides).fit;
+    std::vector<SynthPose> rom = make_rom_poses(rig, frames, 1);
+    std::vector<SynthPose> gestures = make_gesture_poses(rig, frames, 0, 2, nullptr);
+    if (one_shape)
+      for (auto* poses : {&rom, &gestures})
+        for (SynthPose& s : *poses) s.shape = poses->front().shape;
     json accuracy = json::array();
     for (const auto& [name, poses] : {std::pair{"range_of_motion", &rom}, std::pair{"gestures", &gestures}})
       for (double noise : {0.0, 5.0}) {
@@ -131,6 +150,8 @@ int main(int argc, char** argv) {
     const json report = {{"benchmark", "fit"},
                          {"rig", "builtin"},
                          {"threads", at::get_num_threads()},
+                         {"settings", common.overrides},
+                         {"one_shape", one_shape},
                          {"load_average", bench::load_average()},
                          {"accuracy", accuracy},
                          {"speed", {{"frames", frames}, {"repeats", repeats},
