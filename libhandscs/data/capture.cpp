@@ -24,6 +24,7 @@
 #include "data/interhand_records.h"
 #include "data/mesh_mask.h"
 #include "data/scan_cache.h"
+#include "hand/finger_length_modes.h"
 #include "hand/lbs.h"
 #include "hand/rig.h"
 #include "hand/rig_mirror.h"
@@ -190,7 +191,8 @@ void split_frames(const std::vector<FrameInfo>& frames, CaptureConfig::SplitRule
 
 Rig capture_rig(const CaptureConfig& config, Handedness side, const std::string& config_key) {
   const bool left = side == Handedness::left;
-  if (config.rig == "builtin") return load_rig_source(left ? "builtin:left" : "builtin");
+  if (config.rig == "builtin" || config.rig == kBuiltinFingersRig)  // the hand of data.hand
+    return load_rig_source(config.rig + (left ? ":left" : ""));
   Rig rig = load_rig_source(config.rig);
   if (rig.handedness == side) return rig;
   if (config.hand == CaptureConfig::Hands::both) return mirror_rig(rig);

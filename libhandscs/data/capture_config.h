@@ -149,7 +149,8 @@ struct CaptureConfig {
     v.field("poor_joint_fit_mm", poor_joint_fit_mm,
             "pose_source joints: skip a hand whose mean joint residual (mm) exceeds this", 0.1, 1e6);
     v.field("rig", rig,
-            "rig of the masks and the avatar: builtin (the hand of data.hand), builtin:left or a rig "
+            "rig of the masks and the avatar: builtin (the hand of data.hand), builtin:left, "
+            "builtin+fingers (with per-finger length modes, for poses fitted to real joints) or a rig "
             "file (hand must match; both: the file's mirror image is the other hand)");
     v.field("flat_hand_mean", flat_hand_mean,
             "poses are absolute (true) or relative to hands_mean (masks and avatar)");

@@ -43,7 +43,9 @@ struct Rig {
 Rig load_rig(const std::string& path);
 // Writes a rig file atomically.
 void save_rig(const Rig& rig, const std::string& path);
-// "builtin" (or "builtin:left") gives the procedural hand; anything else is a rig file path.
+// "builtin" (or "builtin:left") gives the procedural hand, "builtin+fingers" (or
+// "builtin+fingers:left") the same with per-finger length modes (hand/finger_length_modes.h);
+// anything else is a rig file path.
 Rig load_rig_source(const std::string& source);
 
 }  // namespace handscs

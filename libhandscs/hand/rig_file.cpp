@@ -14,6 +14,7 @@
 #include "core/config.h"
 #include "core/error.h"
 #include "core/text.h"
+#include "hand/finger_length_modes.h"
 #include "hand/joint_order.h"
 #include "hand/procedural_hand.h"
 #include "hand/rig.h"
@@ -329,9 +330,12 @@ Rig load_rig_source(const std::string& source) {
   if (source == "builtin" || source == "builtin:right")
     return make_procedural_hand(Handedness::right);
   if (source == "builtin:left") return make_procedural_hand(Handedness::left);
-  if (source.rfind("builtin:", 0) == 0)
-    throw Error("rig source '" + source +
-                "': unknown built-in rig (known: builtin, builtin:right, builtin:left)");
+  if (source == kBuiltinFingersRig || source == std::string(kBuiltinFingersRig) + ":right")
+    return with_finger_length_modes(make_procedural_hand(Handedness::right));
+  if (source == kBuiltinFingersLeftRig) return with_finger_length_modes(make_procedural_hand(Handedness::left));
+  if (source.rfind("builtin:", 0) == 0 || source.rfind("builtin+", 0) == 0)
+    throw Error("rig source '" + source + "': unknown built-in rig (known: builtin, builtin:right, builtin:left, " +
+                kBuiltinFingersRig + ", " + kBuiltinFingersLeftRig + ")");
   return load_rig(source);
 }
 

@@ -100,7 +100,7 @@ TEST_CASE("rig sources: builtin, builtin:left, files, and unknown built-ins") {
   CHECK(left.handedness == Handedness::left);
   CHECK_THROWS_WITH(load_rig_source("builtin:foot"),
                     "rig source 'builtin:foot': unknown built-in rig (known: builtin, "
-                    "builtin:right, builtin:left)");
+                    "builtin:right, builtin:left, builtin+fingers, builtin+fingers:left)");
   CHECK_THROWS_WITH(load_rig_source("/nonexistent/rig.json"),
                     "/nonexistent/rig.json: cannot open file");
 }

@@ -71,9 +71,10 @@ def novel_pose(folder, line):
 
 
 def read_sweep(folder, gesture_groups=None):
-    """{(row, cell, budget, seed): {metric: value}} of a sweep folder's finished rows.
+    """{(row, cell, budget, seed): {metric: value}} of a sweep folder's finished rows (or of a
+    results.csv file alone, as docs/bench keeps them: then the CSV's printed figures).
     gesture_groups: frame_groups.read_frames' map, to add each run's PSNR per gesture group."""
-    path = os.path.join(folder, 'results.csv')
+    path = folder if os.path.isfile(folder) else os.path.join(folder, 'results.csv')
     if not os.path.exists(path):
         sys.exit(f'{path}: no such file (not a handscs-bench output folder?)')
     results, left_out = {}, []

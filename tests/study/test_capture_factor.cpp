@@ -1,0 +1,76 @@
+// tools/study/capture_factor.py, a gain with the capture as a factor: per capture the paired gain's
+// mean and sample std and the study's rule, across captures the mean and std of the per-capture
+// means and the declared reading; written sweeps with known figures, and the published novel-view
+// gains read back from docs/bench.
+#include <catch2/catch.hpp>
+
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include "core/atomic_file.h"
+#include "test_support.h"
+
+namespace {
+
+const std::string kDir = handscs_test::scratch_path("handscs_test_capture_factor", std::to_string(::getpid()));
+
+// A results.csv of rows "point,psnr,ssim,lpips" at 10,000 steps, status ok.
+std::string sweep(const std::string& name, const std::vector<std::tuple<std::string, double, double, double>>& rows) {
+  const std::string folder = kDir + "/" + name;
+  std::filesystem::create_directories(folder);
+  std::string csv = "point,budget,status,psnr,ssim,lpips\n";
+  for (const auto& [point, psnr, ssim, lpips] : rows)
+    csv += point + ",10000,ok," + std::to_string(psnr) + "," + std::to_string(ssim) + "," + std::to_string(lpips) + "\n";
+  handscs::write_file_atomic(folder + "/results.csv", csv);
+  return folder;
+}
+
+std::string run(const std::string& arguments) {
+  const std::string out = kDir + "/out.txt";
+  const std::string command = "/usr/bin/python3 " + handscs_test::kSource + "/tools/study/capture_factor.py " +
+                              arguments + " > '" + out + "' 2>&1";
+  const int status = std::system(command.c_str());
+  const std::string text = handscs::read_file(out);
+  INFO(text);
+  REQUIRE(status == 0);
+  return text;
+}
+
+}  // namespace
+
+TEST_CASE("capture_factor.py: per-capture gains, their rule, and the reading across captures") {
+  // Capture A: full - c = +0.2, +0.1, +0.3 (mean 0.2, std 0.1): pays. Capture B: +0.1, -0.1, +0.3
+  // (mean 0.1, std 0.2): no difference shown. Across: mean 0.15, std 0.0707.
+  const std::string a = sweep("A", {{"c.view.s10", 30.0, 0.95, 0.05}, {"full.view.s10", 30.2, 0.96, 0.04},
+                                    {"c.view.s11", 31.0, 0.95, 0.05}, {"full.view.s11", 31.1, 0.95, 0.05},
+                                    {"c.view.s12", 32.0, 0.95, 0.05}, {"full.view.s12", 32.3, 0.95, 0.05}});
+  const std::string b = sweep("B", {{"c.view.s10", 30.0, 0.9, 0.1}, {"full.view.s10", 30.1, 0.9, 0.1},
+                                    {"c.view.s11", 30.0, 0.9, 0.1}, {"full.view.s11", 29.9, 0.9, 0.1},
+                                    {"c.view.s12", 30.0, 0.9, 0.1}, {"full.view.s12", 30.3, 0.9, 0.1}});
+  std::string text = run("--capture A=" + a + " --capture B=" + b + " --gain scs=full-c --out " + kDir + "/table");
+  CHECK_THAT(text, Catch::Contains("| A | s10 +0.200 / s11 +0.100 / s12 +0.300 | +0.200 ± 0.100 | pays | +0.0033 | -0.0033 |"));
+  CHECK_THAT(text, Catch::Contains("| B | s10 +0.100 / s11 -0.100 / s12 +0.300 | +0.100 ± 0.200 | no difference shown |"));
+  CHECK_THAT(text, Catch::Contains("Across 2 complete of 2 captures: mean of the per-capture means +0.150 ± 0.071 dB."));
+  CHECK_THAT(text, Catch::Contains("Reading: **does not hold across captures: pays on 1 of 2**."));
+  CHECK(handscs::read_file(kDir + "/table.md") + "\n" == text);
+  // Every capture paying holds; a capture short of a seed gives no verdict.
+  text = run("--capture A=" + a + " --capture A_again=" + a + " --gain scs=full-c");
+  CHECK_THAT(text, Catch::Contains("Reading: **holds across captures (pays on every capture)**."));
+  const std::string short_of_one = sweep("C", {{"c.view.s10", 30.0, 0.9, 0.1}, {"full.view.s10", 30.5, 0.9, 0.1}});
+  text = run("--capture A=" + a + " --capture C=" + short_of_one + " --gain scs=full-c");
+  CHECK_THAT(text, Catch::Contains("| C | s10 +0.500 | +0.500 ± n/a | incomplete (1 of 3 seeds) |"));
+  CHECK_THAT(text, Catch::Contains("Reading: **no verdict yet: 1 capture(s) incomplete**."));
+}
+
+TEST_CASE("capture_factor.py: the published novel-view gains read back from docs/bench") {
+  const std::string bench = handscs_test::kSource + "/docs/bench/";
+  const std::string text = run("--capture seed1=" + bench + "scaling_view_10000_tau003.csv," + bench +
+                               "scaling_view_10000.csv --gain scs=full_tau003-inter_pose_tau003 "
+                               "--gain embeddings=embedding-baseline");
+  // docs/SCALING.md: SCS +0.229 ± 0.035 dB, the embeddings +1.553 ± 0.014 dB.
+  CHECK_THAT(text, Catch::Contains("| +0.229 ± 0.035 | pays |"));
+  CHECK_THAT(text, Catch::Contains("| +1.553 ± 0.014 | pays |"));
+}
