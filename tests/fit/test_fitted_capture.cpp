@@ -29,10 +29,10 @@ struct BareCapture {
   json keypoints;  // a keypoint file of its right hands' joints, every frame but the last
 };
 
-// The tiny capture in the project's layout with its hands removed (images linked), and a keypoint
-// file of its true joints named by frame number.
-BareCapture bare_tiny_capture(const std::string& name) {
-  const std::string source = data_test::tiny_capture_in("handscs");
+// The tiny capture in `layout` (handscs or easymocap) with its hands removed (images and
+// calibration linked), and a keypoint file of its true joints named by frame number.
+BareCapture bare_tiny_capture(const std::string& name, const std::string& layout = "handscs") {
+  const std::string source = data_test::tiny_capture_in(layout);
   BareCapture bare;
   bare.root = data_test::fresh_dir(name);
   bare.truth = parse_json_file(source + "/capture.json");
@@ -48,7 +48,8 @@ BareCapture bare_tiny_capture(const std::string& name) {
     f.erase("hand_type");
   }
   std::ofstream(bare.root + "/capture.json") << doc.dump();
-  fs::create_symlink(source + "/images", bare.root + "/images");
+  for (const char* linked : {"images", "intri.yml", "extri.yml"})
+    if (fs::exists(source + "/" + linked)) fs::create_symlink(source + "/" + linked, bare.root + "/" + linked);
   bare.keypoints = {{"format", "handscs-keypoints"}, {"order", "mano21"}, {"units", "m"}, {"frames", frames}};
   return bare;
 }
@@ -112,6 +113,18 @@ TEST_CASE("handscs-fit --capture-dir: a capture without hands gets the fitted on
   });
   REQUIRE(same != source.frames().end());
   CHECK(fs::equivalent(first.image_path, same->image_path));
+}
+
+TEST_CASE("handscs-fit --capture-dir: an EasyMocap capture stays one, its calibration linked") {
+  const BareCapture bare = bare_tiny_capture("fitted_capture_easymocap", "easymocap");
+  const FitCommandOptions o = options_for(bare, bare.keypoints, "fitted_easymocap");
+  run_fit_command(o);
+  CHECK_FALSE(parse_json_file(o.out + "/capture.json").contains("cameras"));
+  for (const char* linked : {"intri.yml", "extri.yml", "images"}) CHECK(fs::is_symlink(o.out + "/" + linked));
+  const Capture source = Capture::open(data_test::tiny_config(data_test::tiny_capture_in("easymocap")));
+  const Capture fitted = Capture::open(data_test::tiny_config(o.out));
+  const int64_t cameras = static_cast<int64_t>(source.frames().size() / bare.truth["frames"].size());
+  CHECK(static_cast<int64_t>(fitted.frames().size()) == static_cast<int64_t>(source.frames().size()) - cameras);
 }
 
 TEST_CASE("handscs-fit --capture-dir: frames the capture does not have are refused before anything is written") {
