@@ -29,8 +29,8 @@ int main(int argc, char** argv) {
   app.add_option("--out", options.out, "output folder (refused when not empty, unless --overwrite)")->required();
   app.add_flag("--overwrite", options.overwrite, "replace the fit in a non-empty --out");
   app.add_option("--config", options.config, "JSON file of fit settings (keys: docs/FIT.md); --set overrides keys");
-  app.add_option("--rig-right", options.rig_right, "right-hand rig: builtin or a rig file (docs/RIG_FORMAT.md)");
-  app.add_option("--rig-left", options.rig_left, "left-hand rig: builtin:left or a rig file");
+  app.add_option("--rig-right", options.rig_right, "right-hand rig: builtin, builtin+fingers (per-finger length modes) or a rig file (docs/RIG_FORMAT.md)");
+  app.add_option("--rig-left", options.rig_left, "left-hand rig: builtin:left, builtin+fingers:left or a rig file");
   app.add_flag("--flat-hand-mean", options.flat_hand_mean,
                "write absolute poses (default: relative to the rig's hands_mean, as InterHand2.6M's)");
   app.add_option("--overlay-views", options.overlay_views,

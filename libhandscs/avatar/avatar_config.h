@@ -12,7 +12,7 @@ namespace handscs {
 struct AvatarConfig {
   // The rig and its pose convention. Not keys of the model section: a run config reads them from
   // data.rig and data.flat_hand_mean (run/run_config.h), as masks and avatar are posed alike.
-  std::string rig = "builtin";  // "builtin", "builtin:left" or a rig file (docs/RIG_FORMAT.md)
+  std::string rig = "builtin";  // a rig source: "builtin", "builtin+fingers", ... or a rig file (load_rig_source, docs/RIG_FORMAT.md)
   bool flat_hand_mean = false;  // false: poses are relative to the rig's hands_mean (InterHand2.6M)
   bool embeddings = true;       // per-Gaussian embeddings e_g, e_a as decoder inputs
   int embedding_dim = 32;       // d of e_g and e_a (paper)

@@ -52,6 +52,14 @@ inline std::string bytes_text(double bytes) {
   return text;
 }
 
+// True when `text` is 1 to max_digits decimal digits (no sign, no space).
+inline bool all_digits(const std::string& text, size_t max_digits) {
+  if (text.empty() || text.size() > max_digits) return false;
+  for (const char c : text)
+    if (!std::isdigit(static_cast<unsigned char>(c))) return false;
+  return true;
+}
+
 // A path's extension in lower case, with its dot (".JPG" -> ".jpg"; "" when it has none).
 inline std::string lower_extension(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();

@@ -191,6 +191,11 @@ void split_frames(const std::vector<FrameInfo>& frames, CaptureConfig::SplitRule
 
 Rig capture_rig(const CaptureConfig& config, Handedness side, const std::string& config_key) {
   const bool left = side == Handedness::left;
+  std::error_code ec;
+  if (config.rig.rfind(kBuiltinFingersRig, 0) == 0 && fs::exists(fs::path(config.root) / kSynthSettingsFile, ec))
+    throw Error(config_key + ".rig: " + config.rig + " reads shape betas 7-9, which a synthetic capture (" +
+                (fs::path(config.root) / kSynthSettingsFile).string() +
+                " marks one) fills with values its images never showed; use builtin");
   if (config.rig == "builtin" || config.rig == kBuiltinFingersRig)  // the hand of data.hand
     return load_rig_source(config.rig + (left ? ":left" : ""));
   Rig rig = load_rig_source(config.rig);

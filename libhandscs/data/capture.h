@@ -102,9 +102,10 @@ struct SkippedImage {
 };
 
 // The rig of hand `side`, one of config.hand's, that the capture poses for its masks and the
-// trainer builds that hand's avatar on: "builtin" is the built-in hand of that side; a rig file is
-// used for its own hand and mirrored for the other (data.hand both). Throws Error naming
-// <config_key>.rig when one hand is selected and the file's rig is of the other.
+// trainer builds that hand's avatar on: "builtin" and "builtin+fingers" are that built-in hand of
+// that side; a rig file is used for its own hand and mirrored for the other (data.hand both).
+// Throws Error naming <config_key>.rig when one hand is selected and the file's rig is of the
+// other, and for builtin+fingers on a synthetic capture (its betas 7-9 were never shown).
 Rig capture_rig(const CaptureConfig& config, Handedness side, const std::string& config_key = "data");
 
 // novel_view camera choice when the config names none: n = min(train + test, available) cameras

@@ -13,6 +13,8 @@ namespace handscs {
 constexpr char kHandscsCaptureFile[] = "capture.json";
 constexpr char kEasyMocapIntrinsicsFile[] = "intri.yml";
 constexpr char kEasyMocapExtrinsicsFile[] = "extri.yml";
+// The generator's settings, which handscs-synth writes beside every synthetic capture's layout.
+constexpr char kSynthSettingsFile[] = "synth.json";
 
 // The layout of `root`: `setting` as given, or for automatic easymocap when root holds intri.yml,
 // else handscs when it holds capture.json, else neus when it holds a NeuS/IDR camera archive

@@ -42,7 +42,7 @@ std::map<int64_t, std::string> frame_folders(const std::string& root) {
   std::map<int64_t, std::string> out;
   for (const auto& entry : fs::directory_iterator(root, ec)) {
     const std::string name = entry.path().filename().string();
-    if (name.empty() || name.size() > 9 || name.find_first_not_of("0123456789") != std::string::npos) continue;
+    if (!all_digits(name, 9)) continue;
     if (!entry.is_directory(ec) || find_neus_image_folder(entry.path().string()).empty()) continue;
     const int64_t frame = std::stoll(name);
     if (!out.emplace(frame, entry.path().string()).second)

@@ -153,7 +153,6 @@ json poses_json(const JointModel& model, const SideResult& r, bool flat) {
 
 // Per-finger mean residual (mm) over a side's fitted frames: the finger's three joints and tip.
 std::map<std::string, double> finger_means(const SideResult& r) {
-  static const char* names[5] = {"thumb", "index", "middle", "ring", "pinky"};
   std::map<std::string, double> out;
   for (int f = 0; f < kFingers; ++f) {
     double sum = 0;
@@ -166,20 +165,14 @@ std::map<std::string, double> finger_means(const SideResult& r) {
           ++n;
         }
     }
-    out[names[f]] = n ? sum / n : std::nan("");
+    out[kFingerNames[f]] = n ? sum / n : std::nan("");
   }
   return out;
-}
-
-// The MANO21 parent of each joint but the wrist: a rig joint's, a tip's the finger's last joint.
-int mano21_parent(int j) {
-  return j < kTipJoint0 ? static_cast<int>(kManoParents[j]) : kFingerJoints[j - kTipJoint0][2];
 }
 
 // How the fitted rig's bone lengths differ from the keypoints' (mm, fitted minus keypoints) over a
 // side's fitted frames, for bones with both keypoints: whether the rig's shape matches the person.
 json bone_length_summary(const SideResult& r) {
-  static const char* names[5] = {"thumb", "index", "middle", "ring", "pinky"};
   std::array<double, kFingers> sum{}, sum_abs{};
   std::array<int, kFingers> count{};
   double max_abs = 0;
@@ -193,10 +186,7 @@ json bone_length_summary(const SideResult& r) {
         return std::hypot(x[3 * j] - x[3 * p], x[3 * j + 1] - x[3 * p + 1], x[3 * j + 2] - x[3 * p + 2]);
       };
       const double error = 1e3 * (length(r.fits[i].joints) - length(k.joints));
-      int finger = 0;
-      for (int f = 0; f < kFingers; ++f)
-        for (int fj : {kFingerJoints[f][0], kFingerJoints[f][1], kFingerJoints[f][2], kTipJoint0 + f})
-          if (fj == j) finger = f;
+      const int finger = mano21_finger(j);
       sum[finger] += error;
       sum_abs[finger] += std::fabs(error);
       ++count[finger];
@@ -210,7 +200,7 @@ json bone_length_summary(const SideResult& r) {
     total += sum[f];
     total_abs += sum_abs[f];
     n += count[f];
-    per_finger[names[f]] = count[f] ? json(sum[f] / count[f]) : json(nullptr);
+    per_finger[kFingerNames[f]] = count[f] ? json(sum[f] / count[f]) : json(nullptr);
   }
   if (!n) return nullptr;
   return {{"mean_mm", total / n}, {"mean_abs_mm", total_abs / n}, {"max_abs_mm", max_abs},
@@ -280,7 +270,7 @@ void log_summary(const std::array<SideResult, 2>& results) {
                  sum["fitted"].get<int>(), sum["frames"].get<int>(), mm(sum["mean_mm"]), mm(sum["max_mm"]),
                  r.ms_per_frame);
     if (!sum["bone_length_error"].is_null())
-      spdlog::info("{} hand: fitted bones {} mm longer than the keypoints' on average ({} mm apart, at most {} mm)",
+      spdlog::info("{} hand: bone lengths, fitted minus keypoints: {} mm on average ({} mm apart, at most {} mm)",
                    kSides[s], mm(sum["bone_length_error"]["mean_mm"]), mm(sum["bone_length_error"]["mean_abs_mm"]),
                    mm(sum["bone_length_error"]["max_abs_mm"]));
     for (size_t f = 0; f < r.fits.size(); ++f)
@@ -492,7 +482,7 @@ void run_fit_command(const FitCommandOptions& o) {
                                                   ? read_keypoint_file(o.keypoints)
                                                   : read_interhand_keypoints(o.interhand_joints, o.capture);
     if (!o.capture_dir.empty()) {
-      target = read_fitted_capture_source(o.capture_dir);
+      target = read_fitted_capture_source(o.capture_dir, o.out);
       std::map<int64_t, std::string> named;  // checked before any fitting
       for (const KeypointFrame& f : frames) {
         const auto [it, fresh] = named.emplace(capture_frame_of(f.name, target, o.keypoints), f.name);

@@ -1,12 +1,12 @@
 #include "fit/fitted_capture.h"
 
 #include <filesystem>
-#include <set>
 
 #include <spdlog/spdlog.h>
 
 #include "core/atomic_file.h"
 #include "core/config.h"
+#include "core/text.h"
 #include "data/capture_layout.h"
 #include "data/handscs_capture.h"
 #include "data/json_view.h"
@@ -18,38 +18,42 @@ using json = nlohmann::json;
 
 namespace {
 
-// Frame numbers are at most 18 digits: any longer name overflows int64 and names no real frame.
+// Frame numbers are at most 18 digits (leading zeros aside): any longer overflows int64.
 constexpr size_t kMaxFrameDigits = 18;
 
 std::string frame_range(const FittedCaptureSource& source) {
-  int64_t lo = source.frames.front().frame, hi = lo;
-  for (const auto& f : source.frames) {
-    lo = std::min(lo, f.frame);
-    hi = std::max(hi, f.frame);
-  }
-  return std::to_string(source.frames.size()) + " frames, numbered " + std::to_string(lo) + "-" + std::to_string(hi);
+  return std::to_string(source.frames.size()) + " frames, numbered " + std::to_string(*source.numbers.begin()) + "-" +
+         std::to_string(*source.numbers.rbegin());
 }
 
-// A link at `out/name` to `source/name`, when the source has it.
-void link_if_present(const std::string& source, const std::string& out, const std::string& name) {
-  std::error_code ec;
-  const fs::path from = fs::path(source) / name;
-  if (!fs::exists(fs::symlink_status(from, ec))) return;
-  fs::create_symlink(fs::canonical(from), fs::path(out) / name);
+// True when `inner` is `outer` or lies inside it (both resolved as far as they exist).
+bool inside(const fs::path& inner, const fs::path& outer) {
+  auto resolved = [](const fs::path& p) {
+    std::string text = fs::weakly_canonical(fs::absolute(p)).lexically_normal().string();
+    while (text.size() > 1 && text.back() == '/') text.pop_back();
+    return text;
+  };
+  const std::string a = resolved(inner), b = resolved(outer);
+  return a == b || a.rfind(b + "/", 0) == 0;
 }
 
 }  // namespace
 
-FittedCaptureSource read_fitted_capture_source(const std::string& root) {
-  std::error_code ec;
-  if (!fs::is_directory(root, ec)) throw Error(root + ": not a folder (--capture-dir: a capture in the project's layout)");
+FittedCaptureSource read_fitted_capture_source(const std::string& root, const std::string& out) {
   FittedCaptureSource source;
   source.root = root;
   source.layout = detect_capture_layout(root, CaptureConfig::Layout::automatic, "--capture-dir");
   if (source.layout != CaptureConfig::Layout::handscs && source.layout != CaptureConfig::Layout::easymocap)
     throw Error(root + ": holds no " + kHandscsCaptureFile + " (--capture-dir takes a capture in the project's or "
                 "EasyMocap's layout, docs/CAPTURE_FORMAT.md; its frames may carry no hands)");
+  if (!out.empty() && inside(root, out))
+    throw Error("--capture-dir " + root + " lies inside --out " + out +
+                ", which the fit replaces: the written capture would link into what it removes");
   const std::string path = (fs::path(root) / kHandscsCaptureFile).string();
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec))
+    throw Error(path + ": missing (the " + layout_name(source.layout) + " layout lists its frames there; "
+                "docs/CAPTURE_FORMAT.md)");
   const json document = parse_json_file(path);
   const JsonView top(document, path, "");
   // The reader checks every camera, image folder and frame; the file's own flat_hand_mean is the
@@ -57,23 +61,35 @@ FittedCaptureSource read_fitted_capture_source(const std::string& root) {
   const bool file_flat = top.at("flat_hand_mean").flag();
   read_handscs_capture(root, source.layout, file_flat, path + ": flat_hand_mean");
   if (source.layout == CaptureConfig::Layout::handscs) source.cameras = document.at("cameras");
-  for (const CaptureFrameEntry& entry : read_capture_frames(top.at("frames")))
+  for (const CaptureFrameEntry& entry : read_capture_frames(top.at("frames"))) {
     source.frames.push_back({entry.frame, entry.sequence});
+    source.numbers.insert(entry.frame);
+  }
+  std::vector<std::string> names = {"images", "masks", "regions"};
+  if (source.layout == CaptureConfig::Layout::easymocap)
+    names.insert(names.end(), {kEasyMocapIntrinsicsFile, kEasyMocapExtrinsicsFile});
+  for (const std::string& name : names) {
+    const fs::path from = fs::path(root) / name;
+    if (!fs::exists(fs::symlink_status(from, ec))) continue;
+    const fs::path target = fs::canonical(from, ec);
+    if (ec) throw Error(from.string() + ": cannot be resolved (" + ec.message() + "); the written capture links to it");
+    source.links.emplace_back(name, target.string());
+  }
   return source;
 }
 
 int64_t capture_frame_of(const std::string& name, const FittedCaptureSource& source,
                          const std::string& keypoint_file) {
-  const bool digits = !name.empty() && name.size() <= kMaxFrameDigits &&
-                      name.find_first_not_of("0123456789") == std::string::npos;
-  if (!digits)
+  const size_t first = name.find_first_not_of('0');
+  const std::string significant = first == std::string::npos ? "0" : name.substr(first);
+  if (name.empty() || !all_digits(name, name.size()) || !all_digits(significant, kMaxFrameDigits))
     throw Error(keypoint_file + ": frame \"" + name + "\": with --capture-dir, a frame's name is its frame number in " +
                 source.root + " (\"000042\" or \"42\")");
-  const int64_t frame = std::stoll(name);
-  for (const auto& f : source.frames)
-    if (f.frame == frame) return frame;
-  throw Error(keypoint_file + ": frame \"" + name + "\" is not a frame of " +
-              (fs::path(source.root) / kHandscsCaptureFile).string() + " (" + frame_range(source) + ")");
+  const int64_t frame = std::stoll(significant);
+  if (!source.numbers.count(frame))
+    throw Error(keypoint_file + ": frame \"" + name + "\" is not a frame of " +
+                (fs::path(source.root) / kHandscsCaptureFile).string() + " (" + frame_range(source) + ")");
+  return frame;
 }
 
 void write_fitted_capture(const FittedCaptureSource& source, const std::string& out, bool flat_hand_mean,
@@ -100,9 +116,7 @@ void write_fitted_capture(const FittedCaptureSource& source, const std::string& 
   if (source.layout == CaptureConfig::Layout::handscs) capture["cameras"] = source.cameras;
   capture["frames"] = frames;
   write_file_atomic((fs::path(out) / kHandscsCaptureFile).string(), capture.dump(1) + "\n");
-  for (const char* name : {"images", "masks", "regions"}) link_if_present(source.root, out, name);
-  if (source.layout == CaptureConfig::Layout::easymocap)
-    for (const char* name : {kEasyMocapIntrinsicsFile, kEasyMocapExtrinsicsFile}) link_if_present(source.root, out, name);
+  for (const auto& [name, target] : source.links) fs::create_symlink(target, fs::path(out) / name);
 }
 
 }  // namespace handscs

@@ -7,7 +7,9 @@
 #include <array>
 #include <cstdint>
 #include <map>
+#include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -25,11 +27,16 @@ struct FittedCaptureSource {
     std::string sequence;            // "" when not stated
   };
   std::vector<Frame> frames;         // in capture.json's order
+  std::set<int64_t> numbers;         // their frame numbers
+  // What the written capture links to: images, masks, regions and EasyMocap's calibration, each
+  // the source's entry of that name, resolved.
+  std::vector<std::pair<std::string, std::string>> links;
 };
 
 // Reads and checks the capture at `root` as the training reader would (cameras, image folders,
-// frames); refuses any other layout by name.
-FittedCaptureSource read_fitted_capture_source(const std::string& root);
+// frames) and resolves what will be linked; refuses any other layout by name, a link that leads
+// nowhere, and a capture inside `out` (the folder the fit replaces).
+FittedCaptureSource read_fitted_capture_source(const std::string& root, const std::string& out);
 
 // The capture's frame number a keypoint frame's name gives ("000042" or "42"); an error naming
 // `keypoint_file` when the name is not a frame number of `source`.

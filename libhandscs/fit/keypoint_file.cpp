@@ -73,7 +73,7 @@ HandKeypoints keypoints_to_mano21(const std::array<double, 63>& points,
 void check_keypoint_units(const HandKeypoints& hand, const std::string& where) {
   std::vector<double> bones;
   for (int k = 1; k < 21; ++k) {
-    int parent = k < kRigJoints ? static_cast<int>(kManoParents[k]) : kFingerJoints[k - kTipJoint0][2];
+    const int parent = mano21_parent(k);
     if (!hand.valid[k] || !hand.valid[parent]) continue;
     const Vec3 a{hand.joints[3 * k], hand.joints[3 * k + 1], hand.joints[3 * k + 2]};
     const Vec3 b{hand.joints[3 * parent], hand.joints[3 * parent + 1], hand.joints[3 * parent + 2]};

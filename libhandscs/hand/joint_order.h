@@ -30,6 +30,23 @@ constexpr std::array<std::array<int, 3>, 5> kFingerJoints = {{
 // MANO21 index of each finger's tip (16 + Finger).
 constexpr int kTipJoint0 = 16;
 
+// Finger names, indexed by Finger, for logs and files.
+constexpr std::array<const char*, 5> kFingerNames = {"thumb", "index", "middle", "ring", "pinky"};
+
+// The MANO21 parent of joint j (1-20): a rig joint's parent, or for a tip its finger's last joint.
+constexpr int mano21_parent(int j) {
+  return j < kTipJoint0 ? static_cast<int>(kManoParents[j]) : kFingerJoints[j - kTipJoint0][2];
+}
+
+// The finger (Finger) MANO21 joint j (1-20) belongs to.
+constexpr int mano21_finger(int j) {
+  if (j >= kTipJoint0) return j - kTipJoint0;
+  for (int f = 0; f < kFingers; ++f)
+    for (int fj : kFingerJoints[f])
+      if (fj == j) return f;
+  return -1;  // the wrist
+}
+
 // Names of the MANO21 joints, for logs and files.
 constexpr std::array<const char*, 21> kMano21Names = {
     "wrist",  "index1", "index2",    "index3",    "middle1",    "middle2",  "middle3",

@@ -9,7 +9,7 @@ namespace handscs {
 struct RigToolOptions {
   bool builtin = false;  // use the built-in procedural hand as the rig
   bool left = false;     // with builtin: the left hand
-  std::string info;      // rig source to describe ("builtin", "builtin:left" or a rig file)
+  std::string info;      // rig source to describe (a built-in name or a rig file: load_rig_source)
   std::string out;       // rig file to write (with builtin)
   std::string obj;       // OBJ file to write (template mesh of the chosen rig)
 };

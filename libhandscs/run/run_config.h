@@ -39,7 +39,7 @@ struct RunConfig {
 };
 
 // The rig hand `side`'s avatar is built on: data.rig (model.rig) as the capture poses it for
-// that hand's masks (capture_rig: "builtin" is the built-in hand of that side).
+// that hand's masks (capture_rig: a built-in name is the built-in hand of that side).
 Rig avatar_rig(const RunConfig& config, Handedness side);
 // A one-hand run's hand (data.hand); throws Error naming `what` for data.hand both.
 Handedness avatar_hand(const RunConfig& config, const std::string& what);

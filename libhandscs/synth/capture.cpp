@@ -23,6 +23,7 @@
 #include "core/progress.h"
 #include "core/stop_signal.h"
 #include "core/threads.h"
+#include "data/capture_layout.h"
 #include "data/mesh_mask.h"
 #include "hand/joint_order.h"
 #include "hand/lbs.h"
@@ -510,7 +511,7 @@ SynthReport write_synth_capture(const SynthScene& scene, const std::string& out_
   else bytes += write_interhand_annotations(scene, boxes, out_dir);
   // The resolved generator settings, beside (not inside) the capture's layout.
   SynthConfig resolved = c;
-  write_file_atomic((root / "synth.json").string(), config_to_json(resolved).dump(2));
+  write_file_atomic((root / kSynthSettingsFile).string(), config_to_json(resolved).dump(2));
   write_csv_atomic((root / "frames.csv").string(), frames_csv(scene, c.held_out_frames));
   for (int64_t s : sizes) bytes += s;
   SynthReport report;

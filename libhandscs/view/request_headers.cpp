@@ -2,19 +2,14 @@
 
 #include <cctype>
 
+#include "core/text.h"
+
 namespace handscs {
 
 namespace {
 
 // A TCP port has at most 5 digits (65535); a longer run of digits is no port.
 constexpr size_t kMaxPortDigits = 5;
-
-bool all_digits(const std::string& text, size_t max_digits) {
-  if (text.empty() || text.size() > max_digits) return false;
-  for (const char c : text)
-    if (!std::isdigit(static_cast<unsigned char>(c))) return false;
-  return true;
-}
 
 // Four decimal octets of 0-255 separated by dots, the first 127.
 bool is_loopback_dotted_quad(const std::string& host) {

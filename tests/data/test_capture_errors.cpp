@@ -341,3 +341,12 @@ TEST_CASE("capture errors: missing folders and annotation files") {
   std::filesystem::rename(batch + "/images", batch + "/InterHand2.6M_5fps_batch1/images");
   CHECK(Capture::open(data_test::tiny_config(batch)).frames().size() == 48);
 }
+
+TEST_CASE("capture errors: builtin+fingers is refused on a synthetic capture, whose betas 7-9 were never shown") {
+  const std::string root = data_test::tiny_capture().root;
+  auto config = data_test::tiny_config(root);
+  config.rig = "builtin+fingers";
+  CHECK(error_of([&] { Capture::open(config); }) ==
+        "data.rig: builtin+fingers reads shape betas 7-9, which a synthetic capture (" + root +
+            "/synth.json marks one) fills with values its images never showed; use builtin");
+}

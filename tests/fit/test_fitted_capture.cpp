@@ -11,6 +11,7 @@
 
 #include "core/config.h"
 #include "data/capture.h"
+#include "data/handscs_capture.h"
 #include "data/synth_fixture.h"
 #include "fit/fit_command.h"
 #include "hand/lbs_one_pose.h"
@@ -40,9 +41,8 @@ BareCapture bare_tiny_capture(const std::string& name, const std::string& layout
   json frames = json::array();
   for (size_t k = 0; k < doc["frames"].size(); ++k) {
     json& f = doc["frames"][k];
-    char stem[16];
-    std::snprintf(stem, sizeof(stem), "%06lld", static_cast<long long>(f["frame"].get<int64_t>()));
-    if (k + 1 < doc["frames"].size()) frames.push_back({{"name", stem}, {"right", f["right"]["joints"]}});
+    if (k + 1 < doc["frames"].size())
+      frames.push_back({{"name", frame_file_stem(f["frame"].get<int64_t>())}, {"right", f["right"]["joints"]}});
     f["right"] = nullptr;
     f["left"] = nullptr;
     f.erase("hand_type");
@@ -146,8 +146,7 @@ TEST_CASE("handscs-fit --capture-dir: frames the capture does not have are refus
   const std::string range = std::to_string(frames.size()) + " frames, numbered " + frames.front()["frame"].dump() +
                             "-" + frames.back()["frame"].dump();
   const std::string second = frames[1]["frame"].dump();  // named twice below, once padded
-  char padded[16];
-  std::snprintf(padded, sizeof(padded), "%06d", frames[1]["frame"].get<int>());
+  const std::string padded = frame_file_stem(frames[1]["frame"].get<int64_t>());
   for (const Case& c : std::vector<Case>{
            {{"000000", "f1"},
             kp_file + ": frame \"f1\": with --capture-dir, a frame's name is its frame number in " + bare.root +
@@ -159,6 +158,46 @@ TEST_CASE("handscs-fit --capture-dir: frames the capture does not have are refus
     FitCommandOptions o = options_for(bare, with_names(c.names), "names");
     CHECK(handscs_test::error_of([&] { run_fit_command(o); }) == c.error);
     CHECK_FALSE(fs::exists(o.out));
+  }
+  // Leading zeros beyond 18 digits still name a frame; 19 significant digits name none.
+  {
+    json k = bare.keypoints;
+    k["frames"] = json::array({{{"name", std::string(20, '0') + second}, {"right", bare.keypoints["frames"][1]["right"]}}});
+    FitCommandOptions o = options_for(bare, k, "zeros");
+    run_fit_command(o);
+    CHECK(parse_json_file(o.out + "/capture.json")["frames"][1]["hand_type"] == "right");
+    k["frames"][0]["name"] = "1234567890123456789";
+    o = options_for(bare, k, "too_long");
+    CHECK_THAT(handscs_test::error_of([&] { run_fit_command(o); }),
+               Catch::Contains(": frame \"1234567890123456789\": with --capture-dir, a frame's name is its frame number"));
+  }
+  // The capture inside the folder the fit replaces; a link in it that leads nowhere: refused before
+  // fitting, and the earlier fit in --out is kept.
+  {
+    FitCommandOptions o = options_for(bare, bare.keypoints, "holder");
+    run_fit_command(o);
+    const std::string inner = o.out + "/recording";
+    fs::create_directories(inner);
+    fs::copy(bare.root + "/capture.json", inner + "/capture.json");
+    fs::create_symlink(fs::read_symlink(bare.root + "/images"), inner + "/images");
+    const auto before = handscs_test::snapshot(o.out);
+    FitCommandOptions again = o;
+    again.capture_dir = inner;
+    again.overwrite = true;
+    CHECK(handscs_test::error_of([&] { run_fit_command(again); }) ==
+          "--capture-dir " + inner + " lies inside --out " + o.out +
+              ", which the fit replaces: the written capture would link into what it removes");
+    CHECK(handscs_test::snapshot(o.out) == before);
+    const std::string broken = data_test::fresh_dir("fitted_capture_broken_link");
+    fs::copy(bare.root + "/capture.json", broken + "/capture.json");
+    fs::create_symlink(fs::read_symlink(bare.root + "/images"), broken + "/images");
+    fs::create_symlink("/nonexistent/regions", broken + "/regions");
+    FitCommandOptions dangling = options_for(bare, bare.keypoints, "dangling");
+    dangling.capture_dir = broken;
+    CHECK_THAT(handscs_test::error_of([&] { run_fit_command(dangling); }),
+               Catch::StartsWith(broken + "/regions: cannot be resolved (") &&
+                   Catch::EndsWith("); the written capture links to it"));
+    CHECK_FALSE(fs::exists(dangling.out));
   }
   // Not a capture in the project's layout; not with a multi-view capture.
   FitCommandOptions o = options_for(bare, bare.keypoints, "not_a_capture");

@@ -1,6 +1,6 @@
 // The built-in hand with per-finger length modes: modes 7-9 are mode 1 split by finger, each moves
 // its own finger's joints alone, the left variant mirrors the right, and joints made with a
-// shorter ring and pinky fit back only with the modes.
+// shorter ring and a longer pinky fit back only with the modes.
 #include <catch2/catch.hpp>
 
 #include "hand/finger_length_modes.h"
@@ -34,6 +34,8 @@ TEST_CASE("builtin+fingers: modes 7-9 split mode 1 by finger and leave modes 0-6
   // Each vertex's new modes are zero or its mode 1, at most one of them non-zero.
   const auto mode1 = fingers.shapedirs.select(2, 1);
   int64_t moved = 0;
+  const auto rows_moved_by_new_modes = (fingers.shapedirs.narrow(2, 7, 3).abs().sum(1) > 0).sum(1);  // [V]
+  CHECK(rows_moved_by_new_modes.max().item<int64_t>() == 1);
   for (int mode = 7; mode < 10; ++mode) {
     const auto m = fingers.shapedirs.select(2, mode);
     const auto rows = m.abs().sum(1) > 0;
@@ -83,7 +85,7 @@ TEST_CASE("builtin+fingers:left mirrors the right hand, modes included") {
   }
 }
 
-TEST_CASE("builtin+fingers: a shorter ring and pinky fit back with the modes, not without") {
+TEST_CASE("builtin+fingers: a shorter ring and a longer pinky fit back with the modes, not without") {
   const JointModel fingers = make_joint_model(load_rig_source(kBuiltinFingersRig));
   const JointModel plain = make_joint_model(load_rig_source("builtin"));
   JointParams truth;

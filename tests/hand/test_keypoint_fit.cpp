@@ -258,3 +258,23 @@ TEST_CASE("keypoint fit: a left hand's keypoints fitted with the right rig miss 
   }
   CHECK(caught >= 9);
 }
+
+TEST_CASE("keypoint fit: fit.shape_limit is where the shape's soft limit starts") {
+  const JointModel model = make_joint_model(make_procedural_hand(Handedness::right));
+  JointParams truth;
+  truth.shape[2] = 5.0;  // a palm 25 % wider than the built-in hand's, beyond the default limit
+  truth.trans = {0.0, 0.0, 0.8};
+  HandKeypoints k;
+  joint_positions(model, truth, k.joints.data());
+  k.valid.fill(1);
+  KeypointFitConfig config;
+  const HandFit held = fit_keypoints(model, k, config);
+  config.shape_limit = 8.0;
+  const HandFit free = fit_keypoints(model, k, config);
+  INFO("held " << held.params.shape[2] << " (" << held.mean_mm << " mm), free " << free.params.shape[2] << " (" << free.mean_mm << " mm)");
+  CHECK(free.params.shape[2] > 4.7);  // the shape prior and the other modes take a little of it
+  CHECK(free.mean_mm < 0.05);
+  // The default limit holds the palm short of its width, and the joints pay for it.
+  CHECK(held.params.shape[2] < 3.2);
+  CHECK(held.mean_mm > 2 * free.mean_mm);
+}

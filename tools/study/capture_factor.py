@@ -21,43 +21,25 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from paired_gains import read_sweep  # noqa: E402
+from confirm_rule import paired  # noqa: E402
+from paired_gains import parse_gain, read_sweep, reading  # noqa: E402
 from seed_stats import mean_std  # noqa: E402
 
 
-def capture_runs(folders, cell, budget):
-    """{(row, seed): metrics} of one capture's runs in the cell at the budget (later folders win)."""
+def capture_runs(folders, budget):
+    """{(row, cell, budget, seed): metrics} of one capture's runs at the budget (later folders win)."""
     runs = {}
     for folder in folders:
         results, _ = read_sweep(folder)
-        for (row, c, b, seed), values in results.items():
-            if c == cell and b == budget:
-                runs[(row, seed)] = values
+        runs.update({key: values for key, values in results.items() if key[2] == budget})
     return runs
 
 
-def paired(runs, row, base, metric):
-    """{seed: row - base} where both rows have the metric."""
-    out = {}
-    for (r, seed), values in runs.items():
-        if r != row or (base, seed) not in runs:
-            continue
-        a, b = values.get(metric), runs[(base, seed)].get(metric)
-        if a is not None and b is not None:
-            out[seed] = a - b
-    return dict(sorted(out.items()))
-
-
 def rule(gains, seeds):
-    """The study's reading of one capture's paired gains."""
+    """The study's reading of one capture's paired gains ({seed: gain}), once all seeds are in."""
     if len(gains) < seeds:
         return f'incomplete ({len(gains)} of {seeds} seeds)'
-    values = list(gains.values())
-    if all(g > 0 for g in values):
-        return 'pays'
-    if all(g < 0 for g in values):
-        return 'costs'
-    return 'no difference shown'
+    return reading(list(gains.values()))
 
 
 def fmt(value, digits=3, signed=True):
@@ -75,11 +57,11 @@ def analyse(captures, gains, cell, budget, seeds):
                   '|---|---|---|---|---|---|']
         means, readings = [], []
         for capture, runs in captures.items():
-            psnr = paired(runs, row, base, 'psnr')
+            psnr = paired(runs, row, base, cell, 'psnr')
             mean, std = mean_std(list(psnr.values()))
             reading = rule(psnr, seeds)
-            ssim_mean, _ = mean_std(list(paired(runs, row, base, 'ssim').values()))
-            lpips_mean, _ = mean_std(list(paired(runs, row, base, 'lpips').values()))
+            ssim_mean, _ = mean_std(list(paired(runs, row, base, cell, 'ssim').values()))
+            lpips_mean, _ = mean_std(list(paired(runs, row, base, cell, 'lpips').values()))
             per_seed = ' / '.join(f's{s} {fmt(g)}' for s, g in psnr.items()) or 'none'
             lines.append(f'| {capture} | {per_seed} | {fmt(mean)} ± {fmt(std, signed=False)} | {reading} | '
                          f'{fmt(ssim_mean, 4)} | {fmt(lpips_mean, 4)} |')
@@ -116,13 +98,12 @@ def main():
         name, sep, folders = spec.partition('=')
         if not sep or not folders:
             sys.exit(f'--capture {spec}: expected NAME=FOLDER[,FOLDER...]')
-        captures[name] = capture_runs(folders.split(','), args.cell, args.budget)
+        captures[name] = capture_runs(folders.split(','), args.budget)
     gains = {}
     for spec in args.gain:
-        name, sep, pair = spec.partition('=')
-        row, dash, base = pair.partition('-')
-        if not sep or not dash or not row or not base:
-            sys.exit(f'--gain {spec}: expected NAME=ROW-BASE')
+        name, row, row_budget, base, base_budget = parse_gain(spec)
+        if row_budget is not None or base_budget is not None:
+            sys.exit(f'--gain {spec}: both rows are read at --budget; give NAME=ROW-BASE')
         gains[name] = (row, base)
     text = '\n'.join(analyse(captures, gains, args.cell, args.budget, args.seeds))
     print(text)
