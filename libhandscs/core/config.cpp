@@ -198,7 +198,7 @@ json load_json_file(const std::string& path) {
   std::error_code ec;
   if (fs::path(path).is_relative() && !fs::exists(fs::symlink_status(path, ec))) {
     const fs::path installed =
-        fs::weakly_canonical(fs::path(executable_dir()) / ".." / "share" / "handscs" / path, ec);
+        fs::weakly_canonical(fs::path(installed_share_dir()) / path, ec);
     if (!ec && fs::is_regular_file(installed, ec))
       throw Error(path + ": no such file in " + fs::current_path(ec).string() + "; the installed " +
                   "one is " + installed.string() + " (give that path)");

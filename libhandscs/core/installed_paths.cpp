@@ -13,8 +13,12 @@ std::string executable_dir() {
   return exe.parent_path().string();
 }
 
+std::string installed_share_dir() {
+  return (std::filesystem::path(executable_dir()).parent_path() / "share" / "handscs").string();
+}
+
 std::string installed_script(const std::string& name) {
-  const auto path = std::filesystem::path(executable_dir()).parent_path() / "share/handscs/scripts" / name;
+  const auto path = std::filesystem::path(installed_share_dir()) / "scripts" / name;
   std::error_code error;
   if (!std::filesystem::is_regular_file(path, error))
     throw Error(name + " not found: tried " + path.string() + " (installed programs keep it in " +

@@ -420,17 +420,18 @@ void write_multiview_outputs(const FitCommandOptions& o, const MultiviewCapture&
   }
 }
 
-// Each fitted frame's hands as capture.json entries, by the capture's frame number.
+// Each fitted frame's hands as capture.json entries, by the capture's frame number (`frame_of` a
+// keypoint frame's name).
 std::map<int64_t, std::array<json, 2>> fitted_hands(const std::array<SideResult, 2>& results,
                                                     const std::array<JointModel, 2>& models, const FitCommandOptions& o,
-                                                    const FittedCaptureSource& target) {
+                                                    const std::map<std::string, int64_t>& frame_of) {
   std::map<int64_t, std::array<json, 2>> hands;
   for (int s = 0; s < 2; ++s)
     for (size_t f = 0; f < results[s].fits.size(); ++f) {
       if (!results[s].skip_reason[f].empty()) continue;
       const HandFit& fit = results[s].fits[f];
       const auto pose = rig_pose(models[s], fit.params, o.flat_hand_mean);
-      hands[capture_frame_of(results[s].names[f], target, o.keypoints)][s] =
+      hands[frame_of.at(results[s].names[f])][s] =
           capture_hand_json(pose.data(), fit.params.shape.data(), fit.params.trans.data(), fit.joints.data());
     }
   return hands;
@@ -458,6 +459,7 @@ void run_fit_command(const FitCommandOptions& o) {
   std::vector<TriangulatedHand> hands;
   std::array<int, 2> side_of_hand{-1, -1};
   FittedCaptureSource target;  // --capture-dir
+  std::map<std::string, int64_t> frame_of;  // --capture-dir: the capture's frame each keypoint frame names
   if (!o.multiview.empty()) {
     cap = read_multiview_capture(o.multiview);
     for (int v : o.overlay_views)
@@ -489,6 +491,7 @@ void run_fit_command(const FitCommandOptions& o) {
         if (!fresh)
           throw Error(o.keypoints + ": frames \"" + it->second + "\" and \"" + f.name + "\" both name frame " +
                       std::to_string(it->first) + " of " + o.capture_dir);
+        frame_of[f.name] = it->first;
       }
     }
     for (const KeypointFrame& f : frames)
@@ -526,7 +529,7 @@ void run_fit_command(const FitCommandOptions& o) {
                           poses_json(models[s], results[s], o.flat_hand_mean).dump(1) + "\n");
     write_reports(stage, results);
     if (!o.multiview.empty()) write_multiview_outputs(staged, cap, hands, side_of_hand, results, rigs, models);
-    if (!o.capture_dir.empty()) write_fitted_capture(target, stage, o.flat_hand_mean, fitted_hands(results, models, o, target));
+    if (!o.capture_dir.empty()) write_fitted_capture(target, stage, o.flat_hand_mean, fitted_hands(results, models, o, frame_of));
     write_file_atomic((fs::path(stage) / kFitMarker).string(), config_to_json(config).dump(1) + "\n");
     finish_output(o, stage);
   } catch (...) {

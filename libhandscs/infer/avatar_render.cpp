@@ -88,9 +88,7 @@ AvatarRenderResult render_avatar(const AvatarRenderOptions& options) {
           "--ply-sh-degree " + std::to_string(options.ply_sh_degree) + ": must be 0.." +
               std::to_string(kMaxPlyShDegree));
   TrainedAvatar trained = open_trained_avatar(options.checkpoint);
-  const std::vector<PoseFrame> poses =
-      read_pose_source(options.poses, keypoint_target(trained));
-  check_poses_for_avatar(poses, trained, options.poses);
+  const std::vector<PoseFrame> poses = read_poses_for_avatar(options.poses, trained);
   PosedHands hands(trained);
 
   std::vector<Camera> cameras;

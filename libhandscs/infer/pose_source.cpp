@@ -377,4 +377,10 @@ void check_poses_for_avatar(const std::vector<PoseFrame>& poses, const TrainedAv
   }
 }
 
+std::vector<PoseFrame> read_poses_for_avatar(const std::string& path, TrainedAvatar& trained) {
+  std::vector<PoseFrame> poses = read_pose_source(path, keypoint_target(trained));
+  check_poses_for_avatar(poses, trained, path);
+  return poses;
+}
+
 }  // namespace handscs

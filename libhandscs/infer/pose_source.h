@@ -53,6 +53,10 @@ KeypointTarget keypoint_target(TrainedAvatar& trained);
 void check_poses_for_avatar(const std::vector<PoseFrame>& poses, const TrainedAvatar& trained,
                             const std::string& path);
 
+// The poses of `path` (a POSES or keypoint file) for `trained`: read through its keypoint target,
+// then checked against its hands (check_poses_for_avatar).
+std::vector<PoseFrame> read_poses_for_avatar(const std::string& path, TrainedAvatar& trained);
+
 // Reads a POSES file; errors name the file and the key path (e.g. "poses[2].pose: expected 48
 // numbers, got 45"). A keypoint file needs `target`.
 std::vector<PoseFrame> read_pose_source(const std::string& path, const KeypointTarget& target = {});

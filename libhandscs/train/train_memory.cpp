@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/text.h"
 #include "data/capture.h"
+#include "data/mesh_mask.h"
 #include "data/roi.h"
 
 namespace handscs {
@@ -65,21 +66,11 @@ TrainMemoryInputs train_memory_inputs(Capture& capture, int64_t initial_gaussian
   for (const FrameInfo& frame : capture.train()) {
     const Camera& camera = frame.camera;
     const std::vector<float>& vertices = capture.posed_vertices(frame.pose_index);
-    double x0 = camera.width, y0 = camera.height, x1 = 0, y1 = 0;
-    for (size_t v = 0; v + 2 < vertices.size(); v += 3) {
-      const auto c = camera.to_camera({vertices[v], vertices[v + 1], vertices[v + 2]});
-      if (c[2] <= camera.near_plane) continue;
-      const auto uv = camera.project_camera(c);
-      x0 = std::min(x0, uv[0]), x1 = std::max(x1, uv[0]);
-      y0 = std::min(y0, uv[1]), y1 = std::max(y1, uv[1]);
-    }
-    PixelRect rect{0, 0, camera.width, camera.height};  // nothing in view: the whole image
-    if (x1 > x0 && y1 > y0)
-      rect = grow_rect(PixelRect{static_cast<int>(std::floor(std::max(0.0, x0))),
-                                 static_cast<int>(std::floor(std::max(0.0, y0))),
-                                 static_cast<int>(std::ceil(std::min<double>(camera.width, x1))),
-                                 static_cast<int>(std::ceil(std::min<double>(camera.height, y1)))},
-                       margin, camera.width, camera.height);
+    const PixelRect bounds =
+        projected_bounds(vertices.data(), static_cast<int64_t>(vertices.size() / 3), camera);
+    // Nothing in view: the whole image, as the loader's ROI of an empty mask.
+    const PixelRect rect = bounds.empty() ? PixelRect{0, 0, camera.width, camera.height}
+                                          : grow_rect(bounds, margin, camera.width, camera.height);
     const int64_t pixels = std::max<int64_t>(0, int64_t{rect.x1 - rect.x0}) * std::max(0, rect.y1 - rect.y0);
     in.crop_pixels += pixels;
     in.largest_crop = std::max(in.largest_crop, pixels);

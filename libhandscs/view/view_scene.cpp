@@ -76,9 +76,7 @@ ViewScene::ViewScene(TrainedAvatar trained, std::vector<PoseFrame> held_out)
 ViewScene ViewScene::open(const std::string& checkpoint, const std::string& poses) {
   TrainedAvatar trained = open_trained_avatar(checkpoint);
   std::vector<PoseFrame> held_out =
-      poses.empty() ? held_out_poses(trained.config)
-                    : read_pose_source(poses, keypoint_target(trained));
-  if (!poses.empty()) check_poses_for_avatar(held_out, trained, poses);
+      poses.empty() ? held_out_poses(trained.config) : read_poses_for_avatar(poses, trained);
   return ViewScene(std::move(trained), std::move(held_out));
 }
 
