@@ -22,7 +22,8 @@ int main(int argc, char** argv) {
   app.add_option("--capture", options.capture, "capture number in --interhand-joints");
   app.add_option("--multiview", options.multiview,
                  "multi-view capture folder: camera/param.npz (or cameras.npz), img/NN.png, pose/NN.json "
-                 "(MediaPipe landmarks per view)");
+                 "(MediaPipe landmarks per view); a sequence holds img/ and pose/ in a folder per instant "
+                 "(<frame>/img/NN.png), fitted with one shape per hand");
   app.add_option("--capture-dir", options.capture_dir,
                  "with --keypoints: a capture in the project's or EasyMocap's layout (its frames may carry no hands) "
                  "whose frames the keypoint file's frame names number; --out gets it with the fitted hands, to train on");
@@ -35,6 +36,8 @@ int main(int argc, char** argv) {
                "write absolute poses (default: relative to the rig's hands_mean, as InterHand2.6M's)");
   app.add_option("--overlay-views", options.overlay_views,
                  "multi-view: view indices to draw the fitted meshes over (default: 4 spread views)");
+  app.add_option("--overlay-frame", options.overlay_frame,
+                 "multi-view sequence: the frame (its folder's number) drawn over (default: the first fitted)");
   CLI11_PARSE(app, argc, argv);
   options.overrides = common.overrides;
   try {

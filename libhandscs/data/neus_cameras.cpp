@@ -11,6 +11,7 @@
 #include "core/camera_checks.h"
 #include "core/error.h"
 #include "core/image_header.h"
+#include "core/text.h"
 #include "core/vec3.h"
 #include "io/npz.h"
 
@@ -248,6 +249,24 @@ NeusViews read_neus_views(const std::string& root, const std::string& frame_dir)
     out.views.push_back(view);
   }
   if (out.views.empty()) throw Error(archive + ": no view has an image in " + out.image_dir);
+  return out;
+}
+
+std::map<int64_t, std::string> neus_frame_folders(const std::string& root) {
+  if (!find_neus_image_folder(root).empty()) return {{0, root}};
+  std::error_code ec;
+  std::map<int64_t, std::string> out;
+  for (const auto& entry : fs::directory_iterator(root, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (!all_digits(name, 9)) continue;
+    if (!entry.is_directory(ec) || find_neus_image_folder(entry.path().string()).empty()) continue;
+    const int64_t frame = std::stoll(name);
+    if (!out.emplace(frame, entry.path().string()).second)
+      throw Error(entry.path().string() + ": a second folder of frame " + std::to_string(frame) + " (with " +
+                  out.at(frame) + ")");
+  }
+  if (out.empty())
+    throw Error(root + ": no image folder (img/ or image/), nor frame folders holding one (<frame>/img/)");
   return out;
 }
 

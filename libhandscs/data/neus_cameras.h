@@ -9,6 +9,8 @@
 // (docs/CAPTURE_FORMAT.md).
 #pragma once
 
+#include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -47,6 +49,11 @@ std::string neus_view_file(const std::string& dir, int i, const std::string& ext
 // image's size), world_mat_i and int_i/ext_i that disagree, an image numbered without a camera,
 // or no view with an image. A camera whose image is missing is skipped with a warning naming it.
 NeusViews read_neus_views(const std::string& root, const std::string& frame_dir = "");
+
+// The instants of `root` and their folders: {0, root} when root holds img/ or image/, else each
+// sub-folder named by a number ("3", "000003") that holds one, by that number. Throws Error when
+// there is neither, or when two folders name one frame.
+std::map<int64_t, std::string> neus_frame_folders(const std::string& root);
 
 // K, R, t of a 3x4 projection P = s K [R | t] (row-major), by RQ decomposition of its left 3x3:
 // K upper triangular with positive diagonal and K[2][2] = 1, R a rotation. Throws Error naming

@@ -34,31 +34,11 @@ void check_hands_in_front(const CaptureRecords& records, const std::string& hand
     }
 }
 
-// The instants of `root` and their folders: {0, root} when root holds img/ or image/, else each
-// sub-folder named by a number ("3", "000003") that holds one, by that number.
-std::map<int64_t, std::string> frame_folders(const std::string& root) {
-  if (!find_neus_image_folder(root).empty()) return {{0, root}};
-  std::error_code ec;
-  std::map<int64_t, std::string> out;
-  for (const auto& entry : fs::directory_iterator(root, ec)) {
-    const std::string name = entry.path().filename().string();
-    if (!all_digits(name, 9)) continue;
-    if (!entry.is_directory(ec) || find_neus_image_folder(entry.path().string()).empty()) continue;
-    const int64_t frame = std::stoll(name);
-    if (!out.emplace(frame, entry.path().string()).second)
-      throw Error(entry.path().string() + ": a second folder of frame " + std::to_string(frame) + " (with " +
-                  out.at(frame) + ")");
-  }
-  if (out.empty())
-    throw Error(root + ": no image folder (img/ or image/), nor frame folders holding one (<frame>/img/)");
-  return out;
-}
-
 }  // namespace
 
 CaptureRecords read_neus_capture(const CaptureConfig& c, const std::string& prefix) {
   const std::string hands_key = prefix + ".hands_file";
-  const std::map<int64_t, std::string> folders = frame_folders(c.root);
+  const std::map<int64_t, std::string> folders = neus_frame_folders(c.root);
   std::map<int64_t, NeusViews> views;
   for (const auto& [frame, folder] : folders) views[frame] = read_neus_views(c.root, folder);
   const std::string& archive = views.begin()->second.archive;

@@ -7,7 +7,6 @@
 #include <map>
 
 #include <fmt/format.h>
-#include <opencv2/imgcodecs.hpp>
 #include <spdlog/spdlog.h>
 
 #include "core/atomic_file.h"
@@ -17,11 +16,8 @@
 #include "fit/fitted_capture.h"
 #include "fit/keypoint_file.h"
 #include "fit/multiview_capture.h"
-#include "fit/overlay.h"
-#include "fit/triangulation.h"
+#include "fit/multiview_outputs.h"
 #include "hand/joint_order.h"
-#include "hand/lbs_one_pose.h"
-#include "io/png.h"
 
 namespace handscs {
 
@@ -29,16 +25,12 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr const char* kSides[2] = {"right", "left"};
 // Frames of a sequence on which the other hand's rig is tried as well (evenly spaced): enough to
 // tell a swapped hand, a fraction of the fit's time on a long capture.
 constexpr int kHandednessSamples = 10;
 // The other hand's rig must fit this much better (mean residual ratio) to call the hand swapped:
 // a true hand fits its rig to ~1-5 mm, its mirror image bends fingers backwards (10+ mm).
 constexpr double kSwappedRatio = 0.5;
-// Views drawn when none are named: this many, evenly spread over the capture.
-constexpr int kDefaultOverlayViews = 4;
-constexpr int kOverlayMarginPx = 40;
 
 struct SideInput {
   std::vector<std::string> names;    // frame names
@@ -52,14 +44,6 @@ struct SideResult {
   std::vector<HandKeypoints> keypoints;   // what was fitted
   double ms_per_frame = 0;
 };
-
-double percentile(std::vector<double> values, double q) {
-  if (values.empty()) return std::nan("");
-  std::sort(values.begin(), values.end());
-  const double at = q * (values.size() - 1);
-  const size_t lo = static_cast<size_t>(std::floor(at)), hi = std::min(lo + 1, values.size() - 1);
-  return values[lo] + (values[hi] - values[lo]) * (at - lo);
-}
 
 // The file that marks a folder as a fit's (what --overwrite may replace).
 constexpr const char* kFitMarker = "fit_config.json";
@@ -239,17 +223,17 @@ void write_reports(const std::string& out, const std::array<SideResult, 2>& resu
   for (int s = 0; s < 2; ++s) {
     const SideResult& r = results[s];
     if (r.fits.empty()) continue;
-    report["hands"][kSides[s]] = side_summary(r);
+    report["hands"][kHandSides[s]] = side_summary(r);
     for (size_t f = 0; f < r.fits.size(); ++f) {
       const HandFit& fit = r.fits[f];
       json residual = json::object();
       for (int j = 0; j < 21; ++j) {
         residual[kMano21Names[j]] = std::isnan(fit.residual_mm[j]) ? json(nullptr) : json(fit.residual_mm[j]);
         if (!std::isnan(fit.residual_mm[j]))
-          csv += r.names[f] + "," + kSides[s] + "," + kMano21Names[j] + "," + std::to_string(fit.residual_mm[j]) + "\n";
+          csv += r.names[f] + "," + kHandSides[s] + "," + kMano21Names[j] + "," + std::to_string(fit.residual_mm[j]) + "\n";
       }
       report["frames"].push_back({{"frame", r.names[f]},
-                                  {"hand", kSides[s]},
+                                  {"hand", kHandSides[s]},
                                   {"status", r.skip_reason[f].empty() ? "fitted" : "skipped: " + r.skip_reason[f]},
                                   {"mean_mm", fit.fitted ? json(fit.mean_mm) : json(nullptr)},
                                   {"max_mm", fit.fitted ? json(fit.max_mm) : json(nullptr)},
@@ -266,23 +250,24 @@ void log_summary(const std::array<SideResult, 2>& results) {
     if (r.fits.empty()) continue;
     const json sum = side_summary(r);
     auto mm = [](const json& v) { return v.is_null() ? std::string("-") : fmt::format("{:.2f}", v.get<double>()); };
-    spdlog::info("{} hand: {} of {} frames fitted, mean residual {} mm, max {} mm, {:.2f} ms a frame", kSides[s],
+    spdlog::info("{} hand: {} of {} frames fitted, mean residual {} mm, max {} mm, {:.2f} ms a frame", kHandSides[s],
                  sum["fitted"].get<int>(), sum["frames"].get<int>(), mm(sum["mean_mm"]), mm(sum["max_mm"]),
                  r.ms_per_frame);
     if (!sum["bone_length_error"].is_null())
       spdlog::info("{} hand: bone lengths, fitted minus keypoints: {} mm on average ({} mm apart, at most {} mm)",
-                   kSides[s], mm(sum["bone_length_error"]["mean_mm"]), mm(sum["bone_length_error"]["mean_abs_mm"]),
+                   kHandSides[s], mm(sum["bone_length_error"]["mean_mm"]), mm(sum["bone_length_error"]["mean_abs_mm"]),
                    mm(sum["bone_length_error"]["max_abs_mm"]));
     for (size_t f = 0; f < r.fits.size(); ++f)
-      if (!r.skip_reason[f].empty()) spdlog::warn("{} hand, frame {}: skipped: {}", kSides[s], r.names[f], r.skip_reason[f]);
+      if (!r.skip_reason[f].empty()) spdlog::warn("{} hand, frame {}: skipped: {}", kHandSides[s], r.names[f], r.skip_reason[f]);
   }
 }
 
 // --- multi-view ---
 
-// Which triangulated hand is right and which left: the assignment whose rigs fit best.
+// Which triangulated hand is right and which left: the assignment whose rigs fit best. Logs each
+// hand's residuals at `level` (a sequence's instants at debug).
 std::array<int, 2> assign_hands(const std::vector<TriangulatedHand>& hands, const std::array<JointModel, 2>& models,
-                                const KeypointFitConfig& config) {
+                                const KeypointFitConfig& config, spdlog::level::level_enum level) {
   std::array<int, 2> side_of_hand{-1, -1};  // hand index per side
   std::vector<std::array<double, 2>> cost(hands.size());
   for (size_t h = 0; h < hands.size(); ++h)
@@ -297,127 +282,9 @@ std::array<int, 2> assign_hands(const std::vector<TriangulatedHand>& hands, cons
     side_of_hand = straight ? std::array<int, 2>{0, 1} : std::array<int, 2>{1, 0};
   }
   for (size_t h = 0; h < hands.size(); ++h)
-    spdlog::info("hand {} ({} views): right rig {:.2f} mm, left rig {:.2f} mm", h, hands[h].detections.size(),
-                 cost[h][0], cost[h][1]);
+    spdlog::log(level, "hand {} ({} views): right rig {:.2f} mm, left rig {:.2f} mm", h, hands[h].detections.size(),
+                cost[h][0], cost[h][1]);
   return side_of_hand;
-}
-
-void write_multiview_outputs(const FitCommandOptions& o, const MultiviewCapture& cap,
-                             const std::vector<TriangulatedHand>& hands, const std::array<int, 2>& side_of_hand,
-                             const std::array<SideResult, 2>& results, const std::array<Rig, 2>& rigs,
-                             const std::array<JointModel, 2>& models) {
-  // capture.json in the project's layout, with links to the images and masks.
-  json cameras = json::object();
-  for (size_t v = 0; v < cap.cameras.size(); ++v) cameras["view" + cap.views[v]] = capture_camera_json(cap.cameras[v]);
-  json frame = {{"frame", 0}, {"hand_type", side_of_hand[0] >= 0 && side_of_hand[1] >= 0 ? "interacting"
-                                                 : side_of_hand[0] >= 0 ? "right" : "left"}};
-  for (int s = 0; s < 2; ++s) {
-    if (results[s].fits.empty() || !results[s].skip_reason[0].empty()) continue;
-    const HandFit& fit = results[s].fits[0];
-    const auto pose = rig_pose(models[s], fit.params, o.flat_hand_mean);
-    frame[kSides[s]] = capture_hand_json(pose.data(), fit.params.shape.data(), fit.params.trans.data(), fit.joints.data());
-  }
-  const json capture = {{"format", kHandscsCaptureFormat}, {"version", kHandscsCaptureVersion},
-                        {"flat_hand_mean", o.flat_hand_mean}, {"cameras", cameras},
-                        {"frames", json::array({frame})}};
-  write_file_atomic((fs::path(o.out) / "capture.json").string(), capture.dump(1) + "\n");
-  bool with_regions = false;
-  for (size_t v = 0; v < cap.cameras.size(); ++v) {
-    const fs::path dir = fs::path(o.out) / "images" / ("view" + cap.views[v]);
-    fs::create_directories(dir);
-    const fs::path link = dir / (frame_file_stem(0) + fs::path(cap.images[v]).extension().string());
-    fs::remove(link);
-    fs::create_symlink(fs::absolute(cap.images[v]), link);
-    // The capture's own masks (both hands in one) stand in for masks rasterised from the meshes,
-    // and are the region "hands" that handscs-eval scores apart (docs/METRICS.md).
-    if (cap.masks[v].empty()) continue;
-    const fs::path mask_dir = fs::path(o.out) / "masks" / ("view" + cap.views[v]);
-    fs::create_directories(mask_dir);
-    const fs::path mask_link = mask_dir / (frame_file_stem(0) + ".png");
-    fs::remove(mask_link);
-    fs::create_symlink(fs::absolute(cap.masks[v]), mask_link);
-    const cv::Mat mask = cv::imread(cap.masks[v], cv::IMREAD_GRAYSCALE);
-    if (mask.empty()) throw Error(cap.masks[v] + ": cannot read the mask");
-    const fs::path region_dir = fs::path(o.out) / "regions" / ("view" + cap.views[v]);
-    fs::create_directories(region_dir);
-    const cv::Mat region = (mask > 127) / 255;  // bit 1: the region "hands"
-    write_png((region_dir / (frame_file_stem(0) + ".png")).string(), region);
-    with_regions = true;
-  }
-  if (with_regions)
-    write_file_atomic((fs::path(o.out) / "regions" / "regions.json").string(),
-                      json{{"regions", {{{"name", "hands"}, {"bit", 1},
-                                         {"description", "the capture's own hand mask"}}}}}.dump(1) + "\n");
-  // Reprojection of the triangulated and the fitted joints against every view's landmarks.
-  std::string csv = "view,hand,joints,triangulated_median_px,triangulated_p90_px,fitted_median_px,fitted_p90_px\n";
-  json reprojection = json::object();
-  for (int s = 0; s < 2; ++s) {
-    const int h = side_of_hand[s];
-    if (h < 0 || results[s].fits.empty() || !results[s].skip_reason[0].empty()) continue;
-    std::vector<double> all_tri, all_fit;
-    for (int d : hands[h].detections) {
-      const Detection& det = cap.detections[d];
-      const Camera& cam = cap.cameras[det.view];
-      std::vector<double> tri, fit;
-      for (int j = 0; j < 21; ++j) {
-        if (!det.valid[j]) continue;
-        const double* fj = &results[s].fits[0].joints[3 * j];
-        fit.push_back(reprojection_error(cam, {fj[0], fj[1], fj[2]}, det.pixels[j]));
-        if (hands[h].keypoints.valid[j]) {
-          const double* tj = &hands[h].keypoints.joints[3 * j];
-          tri.push_back(reprojection_error(cam, {tj[0], tj[1], tj[2]}, det.pixels[j]));
-        }
-      }
-      all_tri.insert(all_tri.end(), tri.begin(), tri.end());
-      all_fit.insert(all_fit.end(), fit.begin(), fit.end());
-      csv += cap.views[det.view] + "," + kSides[s] + "," + std::to_string(fit.size()) + "," +
-             std::to_string(percentile(tri, 0.5)) + "," + std::to_string(percentile(tri, 0.9)) + "," +
-             std::to_string(percentile(fit, 0.5)) + "," + std::to_string(percentile(fit, 0.9)) + "\n";
-    }
-    json dropped = json::object();
-    for (int j = 0; j < 21; ++j) {
-      json views = json::array();
-      for (int v : hands[h].dropped_views[j]) views.push_back(cap.views[v]);
-      if (!views.empty()) dropped[kMano21Names[j]] = views;
-    }
-    json used = json::array();
-    for (int d : hands[h].detections)
-      used.push_back({{"view", cap.views[cap.detections[d].view]}, {"detector_label", cap.detections[d].label}});
-    reprojection[kSides[s]] = {{"views", used},
-                               {"triangulated_median_px", percentile(all_tri, 0.5)},
-                               {"triangulated_p90_px", percentile(all_tri, 0.9)},
-                               {"fitted_median_px", percentile(all_fit, 0.5)},
-                               {"fitted_p90_px", percentile(all_fit, 0.9)},
-                               {"dropped_views_per_joint", dropped}};
-    spdlog::info("{} hand: {} views; reprojection against the landmarks: triangulated median {:.1f} px (p90 {:.1f}), "
-                 "fitted median {:.1f} px (p90 {:.1f})", kSides[s], hands[h].detections.size(),
-                 percentile(all_tri, 0.5), percentile(all_tri, 0.9), percentile(all_fit, 0.5), percentile(all_fit, 0.9));
-  }
-  write_file_atomic((fs::path(o.out) / "reprojection.csv").string(), csv);
-  write_file_atomic((fs::path(o.out) / "reprojection.json").string(), reprojection.dump(1) + "\n");
-  // The fitted meshes over the photographs.
-  std::vector<int> views = o.overlay_views;
-  if (views.empty())
-    for (int i = 0; i < kDefaultOverlayViews && i < static_cast<int>(cap.cameras.size()); ++i)
-      views.push_back(i * static_cast<int>(cap.cameras.size()) / kDefaultOverlayViews);
-  std::vector<OverlayHand> drawn;
-  const cv::Scalar colours[2] = {cv::Scalar(60, 180, 255), cv::Scalar(255, 160, 60)};  // right orange, left blue
-  for (int s = 0; s < 2; ++s) {
-    if (results[s].fits.empty() || !results[s].skip_reason[0].empty()) continue;
-    const HandFit& fit = results[s].fits[0];
-    const auto f64 = torch::kFloat64;
-    const auto pose = torch::tensor(std::vector<double>(fit.params.pose.begin(), fit.params.pose.end()), f64);
-    const auto shape = torch::tensor(std::vector<double>(fit.params.shape.begin(), fit.params.shape.end()), f64);
-    const auto trans = torch::tensor(std::vector<double>(fit.params.trans.begin(), fit.params.trans.end()), f64);
-    const LbsOutput posed = lbs_one_pose(rigs[s], pose, shape, trans, LbsOptions{true});
-    drawn.push_back({&rigs[s], posed.vertices[0], fit.joints, colours[s]});
-  }
-  for (int v : views) {
-    const cv::Mat photo = cv::imread(cap.images[v], cv::IMREAD_COLOR);
-    if (photo.empty()) throw Error(cap.images[v] + ": cannot read the image");
-    write_png((fs::path(o.out) / "overlay" / ("view" + cap.views[v] + ".png")).string(),
-              draw_overlay(photo, cap.cameras[v], drawn, kOverlayMarginPx));
-  }
 }
 
 // Each fitted frame's hands as capture.json entries, by the capture's frame number (`frame_of` a
@@ -456,8 +323,8 @@ void run_fit_command(const FitCommandOptions& o) {
 
   std::array<SideInput, 2> inputs_by_side;
   MultiviewCapture cap;
-  std::vector<TriangulatedHand> hands;
-  std::array<int, 2> side_of_hand{-1, -1};
+  std::vector<MultiviewInstantFit> instant_fits;        // --multiview: by instant
+  std::array<std::vector<size_t>, 2> instant_of_input;  // --multiview: each side's input frame's instant
   FittedCaptureSource target;  // --capture-dir
   std::map<std::string, int64_t> frame_of;  // --capture-dir: the capture's frame each keypoint frame names
   if (!o.multiview.empty()) {
@@ -466,19 +333,43 @@ void run_fit_command(const FitCommandOptions& o) {
       if (v < 0 || v >= static_cast<int>(cap.cameras.size()))
         throw Error("--overlay-views: view " + std::to_string(v) + " is not in the capture (0-" +
                     std::to_string(cap.cameras.size() - 1) + ")");
-    spdlog::info("{}: {} views, {} hand detections", o.multiview, cap.cameras.size(), cap.detections.size());
-    hands = find_hands(cap.cameras, cap.detections, config.multiview);
-    if (hands.empty())
-      throw Error(o.multiview + ": no hand is seen by " + std::to_string(config.multiview.min_views) +
-                  " views that agree (multiview.inlier_px " + std::to_string(config.multiview.inlier_px) + " px)");
-    for (const TriangulatedHand& h : hands)
-      for (int j : h.dropped_joints) spdlog::warn("joint {}: no two views agree; left out of the fit", kMano21Names[j]);
-    side_of_hand = assign_hands(hands, models, config.fit);
-    for (int s = 0; s < 2; ++s)
-      if (side_of_hand[s] >= 0) {
-        inputs_by_side[s].names.push_back("frame0");
-        inputs_by_side[s].frames.push_back(hands[side_of_hand[s]].keypoints);
+    if (o.overlay_frame >= 0 &&
+        std::none_of(cap.instants.begin(), cap.instants.end(),
+                     [&](const MultiviewInstant& i) { return i.frame == o.overlay_frame; }))
+      throw Error("--overlay-frame: " + o.multiview + " has no frame " + std::to_string(o.overlay_frame) +
+                  " with landmarks");
+    size_t detections = 0;
+    for (const MultiviewInstant& instant : cap.instants) detections += instant.detections.size();
+    spdlog::info("{}: {} views, {} instant{}, {} hand detections", o.multiview, cap.cameras.size(),
+                 cap.instants.size(), cap.instants.size() == 1 ? "" : "s", detections);
+    const std::string unseen = "no hand is seen by " + std::to_string(config.multiview.min_views) +
+                               " views that agree (multiview.inlier_px " +
+                               std::to_string(config.multiview.inlier_px) + " px)";
+    instant_fits.resize(cap.instants.size());
+    for (size_t i = 0; i < cap.instants.size(); ++i) {
+      const MultiviewInstant& instant = cap.instants[i];
+      MultiviewInstantFit& fit = instant_fits[i];
+      const std::string where = cap.sequence ? "frame " + std::to_string(instant.frame) + ": " : "";
+      fit.hands = find_hands(cap.cameras, instant.detections, config.multiview);
+      if (fit.hands.empty()) {
+        if (!cap.sequence) throw Error(o.multiview + ": " + unseen);
+        spdlog::warn("{}: {}{}; not fitted", o.multiview, where, unseen);
+        continue;
       }
+      for (const TriangulatedHand& h : fit.hands)
+        for (int j : h.dropped_joints)
+          spdlog::warn("{}joint {}: no two views agree; left out of the fit", where, kMano21Names[j]);
+      fit.side_of_hand = assign_hands(fit.hands, models, config.fit,
+                                      cap.sequence ? spdlog::level::debug : spdlog::level::info);
+      for (int s = 0; s < 2; ++s)
+        if (fit.side_of_hand[s] >= 0) {
+          inputs_by_side[s].names.push_back(frame_file_stem(instant.frame));
+          inputs_by_side[s].frames.push_back(fit.hands[fit.side_of_hand[s]].keypoints);
+          instant_of_input[s].push_back(i);
+        }
+    }
+    if (inputs_by_side[0].frames.empty() && inputs_by_side[1].frames.empty())
+      throw Error(o.multiview + ": in no instant is a hand seen (" + unseen + ")");
   } else {
     const std::vector<KeypointFrame> frames = !o.keypoints.empty()
                                                   ? read_keypoint_file(o.keypoints)
@@ -507,7 +398,7 @@ void run_fit_command(const FitCommandOptions& o) {
   }
   std::array<SideResult, 2> results;
   for (int s = 0; s < 2; ++s)
-    results[s] = fit_side(models[s], models[1 - s], inputs_by_side[s], config, kSides[s], o.multiview.empty());
+    results[s] = fit_side(models[s], models[1 - s], inputs_by_side[s], config, kHandSides[s], o.multiview.empty());
   log_summary(results);
   // Nothing fitted is an error, not an empty result: the first skipped frame says why.
   bool any_fitted = false;
@@ -516,19 +407,23 @@ void run_fit_command(const FitCommandOptions& o) {
   if (!any_fitted)
     for (int s = 0; s < 2; ++s)
       if (!results[s].fits.empty())
-        throw Error("no hand could be fitted; " + std::string(kSides[s]) + " hand, frame " + results[s].names[0] +
+        throw Error("no hand could be fitted; " + std::string(kHandSides[s]) + " hand, frame " + results[s].names[0] +
                     ": " + results[s].skip_reason[0]);
   fs::remove_all(stage);
   ensure_directory(stage);
-  FitCommandOptions staged = o;  // every file goes to the staging folder first
-  staged.out = stage;
   try {
     for (int s = 0; s < 2; ++s)
       if (!results[s].fits.empty())
-        write_file_atomic((fs::path(stage) / ("poses_" + std::string(kSides[s]) + ".json")).string(),
+        write_file_atomic((fs::path(stage) / ("poses_" + std::string(kHandSides[s]) + ".json")).string(),
                           poses_json(models[s], results[s], o.flat_hand_mean).dump(1) + "\n");
     write_reports(stage, results);
-    if (!o.multiview.empty()) write_multiview_outputs(staged, cap, hands, side_of_hand, results, rigs, models);
+    if (!o.multiview.empty()) {
+      for (int s = 0; s < 2; ++s)
+        for (size_t k = 0; k < results[s].fits.size(); ++k)
+          if (results[s].skip_reason[k].empty()) instant_fits[instant_of_input[s][k]].fits[s] = &results[s].fits[k];
+      write_multiview_outputs({stage, o.flat_hand_mean, o.overlay_views, o.overlay_frame}, cap, instant_fits, rigs,
+                              models);
+    }
     if (!o.capture_dir.empty()) write_fitted_capture(target, stage, o.flat_hand_mean, fitted_hands(results, models, o, frame_of));
     write_file_atomic((fs::path(stage) / kFitMarker).string(), config_to_json(config).dump(1) + "\n");
     finish_output(o, stage);

@@ -5,6 +5,7 @@
 // the capture its frames belong to (--capture-dir). docs/FIT.md.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,7 @@ struct FitCommandOptions {
   std::string rig_right = "builtin", rig_left = "builtin:left";
   bool flat_hand_mean = false;   // write poses absolute instead of relative to hands_mean
   std::vector<int> overlay_views;  // multi-view: views to draw the fit over (default: 4 spread)
+  int64_t overlay_frame = -1;      // multi-view sequence: the instant drawn (-1: the first fitted)
 };
 
 void run_fit_command(const FitCommandOptions& options);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <set>
 
 #include <fmt/format.h>
@@ -62,35 +63,72 @@ std::vector<Detection> read_landmarks(const std::string& path, int view, int wid
 MultiviewCapture read_multiview_capture(const std::string& root) {
   MultiviewCapture cap;
   cap.root = root;
-  const NeusViews views = read_neus_views(root);
-  std::error_code ec;
-  std::string pose_dir;
-  for (const char* name : {"pose", "landmarks"})
-    if (pose_dir.empty() && fs::is_directory(fs::path(root) / name, ec)) pose_dir = (fs::path(root) / name).string();
-  if (pose_dir.empty())
-    throw Error(root + ": no landmark folder (pose/ or landmarks/, a NN.json of MediaPipe's landmarks "
-                       "for each view NN; docs/FIT.md)");
-  std::set<std::string> read;
-  for (const NeusView& view : views.views) {
-    // Detection::view indexes the views kept (a view without an image is left out).
-    const int v = static_cast<int>(cap.views.size());
+  const std::map<int64_t, std::string> folders = neus_frame_folders(root);
+  cap.sequence = !(folders.size() == 1 && folders.begin()->second == root);
+  // Every instant's views; the capture's views are their union, one camera each.
+  std::map<int64_t, NeusViews> views_of;
+  std::map<int, NeusView> first_seen;  // by view index
+  for (const auto& [frame, folder] : folders) {
+    NeusViews& views = views_of[frame] = read_neus_views(root, cap.sequence ? folder : "");
+    for (const NeusView& view : views.views) {
+      const auto [it, fresh] = first_seen.emplace(view.index, view);
+      const Camera& known = it->second.camera;
+      if (!fresh && (known.width != view.camera.width || known.height != view.camera.height))
+        throw Error(view.image + ": " + std::to_string(view.camera.width) + " x " +
+                    std::to_string(view.camera.height) + " px, but view " + view.name + " is " +
+                    std::to_string(known.width) + " x " + std::to_string(known.height) + " in " +
+                    it->second.image + " (one camera per view: every instant's image must have its size)");
+    }
+  }
+  std::map<int, int> position;  // view index -> position in cap.views (Detection::view)
+  for (const auto& [index, view] : first_seen) {
+    position[index] = static_cast<int>(cap.views.size());
     cap.views.push_back(view.name);
     cap.cameras.push_back(view.camera);
-    cap.images.push_back(view.image);
-    cap.masks.push_back(view.mask);
-    const std::string landmarks = neus_view_file(pose_dir, view.index, ".json");
-    if (landmarks.empty()) continue;
-    read.insert(fs::path(landmarks).filename().string());
-    for (Detection& d : read_landmarks(landmarks, v, view.camera.width, view.camera.height))
-      cap.detections.push_back(d);
   }
-  if (read.empty())
-    throw Error(pose_dir + ": no landmark file of any view (NN.json, numbered as the views' images)");
-  // A file numbered for no view (no camera, or no image) is named rather than passed over.
-  for (const auto& entry : fs::directory_iterator(pose_dir, ec))
-    if (entry.path().extension() == ".json" && !read.count(entry.path().filename().string()))
-      spdlog::warn("{}: no view of that number has a camera and an image; its landmarks are not used",
-                   entry.path().string());
+  std::error_code ec;
+  for (const auto& [frame, folder] : folders) {
+    std::string pose_dir;
+    for (const char* name : {"pose", "landmarks"})
+      if (pose_dir.empty() && fs::is_directory(fs::path(folder) / name, ec)) pose_dir = (fs::path(folder) / name).string();
+    if (pose_dir.empty()) {
+      if (!cap.sequence)
+        throw Error(root + ": no landmark folder (pose/ or landmarks/, a NN.json of MediaPipe's landmarks "
+                           "for each view NN; docs/FIT.md)");
+      spdlog::warn("{}: no landmark folder (pose/ or landmarks/): frame {} is not fitted", folder, frame);
+      continue;
+    }
+    MultiviewInstant instant;
+    instant.frame = frame;
+    instant.images.resize(cap.views.size());
+    instant.masks.resize(cap.views.size());
+    std::set<std::string> read;
+    for (const NeusView& view : views_of.at(frame).views) {
+      const int v = position.at(view.index);
+      instant.images[v] = view.image;
+      instant.masks[v] = view.mask;
+      const std::string landmarks = neus_view_file(pose_dir, view.index, ".json");
+      if (landmarks.empty()) continue;
+      read.insert(fs::path(landmarks).filename().string());
+      for (Detection& d : read_landmarks(landmarks, v, view.camera.width, view.camera.height))
+        instant.detections.push_back(d);
+    }
+    // A file numbered for no view (no camera, or no image) is named rather than passed over.
+    for (const auto& entry : fs::directory_iterator(pose_dir, ec))
+      if (entry.path().extension() == ".json" && !read.count(entry.path().filename().string()))
+        spdlog::warn("{}: no view of that number has a camera and an image; its landmarks are not used",
+                     entry.path().string());
+    if (read.empty()) {
+      const std::string what = pose_dir + ": no landmark file of any view (NN.json, numbered as the views' images)";
+      if (!cap.sequence) throw Error(what);
+      spdlog::warn("{}: frame {} is not fitted", what, frame);
+      continue;
+    }
+    cap.instants.push_back(std::move(instant));
+  }
+  if (cap.instants.empty())
+    throw Error(root + ": no frame folder holds landmarks (<frame>/pose/NN.json, MediaPipe's landmarks for "
+                       "each view NN; docs/FIT.md)");
   return cap;
 }
 

@@ -96,7 +96,9 @@ TEST_CASE("npz: FMHR's camera archive reads as numpy wrote it") {
 TEST_CASE("FMHR: both hands fitted from the 16 views' landmarks, closer to them than plain DLT") {
   const MultiviewCapture cap = read_multiview_capture(kFmhr);
   REQUIRE(cap.cameras.size() == 16);
-  CHECK(cap.detections.size() >= 16);
+  REQUIRE(cap.instants.size() == 1);
+  CHECK(!cap.sequence);
+  CHECK(cap.instants[0].detections.size() >= 16);
   FitCommandOptions o;
   o.multiview = kFmhr;
   o.out = handscs_test::scratch_path("fit_fmhr", "out");
@@ -108,7 +110,7 @@ TEST_CASE("FMHR: both hands fitted from the 16 views' landmarks, closer to them 
   for (const char* side : {"right", "left"}) {
     INFO(side);
     REQUIRE(r.contains(side));
-    CHECK(r[side]["views"].size() >= 8);
+    CHECK(r[side]["frames"]["000000"]["views"].size() >= 8);
     // The shared README measures plain DLT over every detection at a median of 16-21 px.
     CHECK(r[side]["triangulated_median_px"].get<double>() < 16.0);
     CHECK(r[side]["fitted_median_px"].get<double>() < 16.0);

@@ -110,12 +110,13 @@ def frame_report(a):
             errors = {t: [1000 * math.dist(p, q) for p, q in zip(joints, truth[t])] for t in truth}
             hand = min(errors, key=lambda t: statistics.fmean(errors[t]))
             e = errors[hand]
-            dropped = reprojection[side]["dropped_views_per_joint"]
+            instant = next(iter(reprojection[side]["frames"].values()))  # a capture of one instant
+            dropped = instant["dropped_views_per_joint"]
             report["hands"][side] = {
                 "true_hand": hand, "joint_mm": summary(e), "residual_mm": residual[side],
                 "finger_mm": {finger: statistics.fmean(e[j] for j in js) for finger, js in FINGERS.items()},
                 "per_joint_mm": e,
-                "views_used": [v["view"] for v in reprojection[side]["views"]],
+                "views_used": [v["view"] for v in instant["views"]],
                 "dropped_views_per_joint": dropped,
                 "joints_with_dropped_views": len(dropped),
                 "fitted_median_px": reprojection[side]["fitted_median_px"],
