@@ -4,6 +4,7 @@
   detector_vs_truth.py frame --capture CAP --frame F --multiview MV [--fit FIT] [--json OUT]
         [--max-landmark-px PX] [--max-joint-mm MM] [--min-views N]
   detector_vs_truth.py table FRAME_JSON...
+  detector_vs_truth.py pair DIR_A DIR_B
   detector_vs_truth.py exact --capture CAP --frame F --multiview MV
 
 `frame` reads CAP/capture.json (the project's layout: cameras and the frame's true joints), the
@@ -12,7 +13,9 @@ with --fit, handscs-fit's capture.json and reprojection.json. The true joints ar
 through capture.json's own cameras, not through the converted archive. The bounds make it a
 check: it exits 1 naming what broke them. --max-landmark-px bounds the median over the detections
 of each one's median landmark error; --max-joint-mm the fitted joints' mean error; --min-views the
-views with a detection. `table` prints the measurement's Markdown tables.
+views with a detection. `table` prints the measurement's Markdown tables; `pair` compares two runs'
+fitted joints frame by frame (FRAME.json in each folder). With a sequence's fit (several frames),
+`frame` reads the fitted frame numbered F.
 `exact` writes MV/pose/NN.json from the true joints projected, as a perfect detector would.
 Standard library only.
 """
@@ -96,12 +99,16 @@ def frame_report(a):
                           "max_px": max(errors[side])})
         report["views"][view] = {"camera": name, "detections": found}
     if a.fit:
+        # A fit of one instant holds frame 0; a sequence's fit holds the frame by its number.
         with open(os.path.join(a.fit, "capture.json")) as f:
-            fitted = json.load(f)["frames"][0]
+            frames = json.load(f)["frames"]
+        sequence = len(frames) > 1
+        fitted = next(f for f in frames if f["frame"] == a.frame) if sequence else frames[0]
+        stem = f"{fitted['frame']:06d}"
         with open(os.path.join(a.fit, "reprojection.json")) as f:
             reprojection = json.load(f)
         with open(os.path.join(a.fit, "report.json")) as f:
-            residual = {h["hand"]: h["mean_mm"] for h in json.load(f)["frames"]}
+            residual = {h["hand"]: h["mean_mm"] for h in json.load(f)["frames"] if h["frame"] == stem}
         for side in ("right", "left"):
             if not fitted.get(side):
                 continue
@@ -110,7 +117,7 @@ def frame_report(a):
             errors = {t: [1000 * math.dist(p, q) for p, q in zip(joints, truth[t])] for t in truth}
             hand = min(errors, key=lambda t: statistics.fmean(errors[t]))
             e = errors[hand]
-            instant = next(iter(reprojection[side]["frames"].values()))  # a capture of one instant
+            instant = reprojection[side]["frames"][stem]
             dropped = instant["dropped_views_per_joint"]
             report["hands"][side] = {
                 "true_hand": hand, "joint_mm": summary(e), "residual_mm": residual[side],
@@ -119,8 +126,8 @@ def frame_report(a):
                 "views_used": [v["view"] for v in instant["views"]],
                 "dropped_views_per_joint": dropped,
                 "joints_with_dropped_views": len(dropped),
-                "fitted_median_px": reprojection[side]["fitted_median_px"],
-                "triangulated_median_px": reprojection[side]["triangulated_median_px"]}
+                "fitted_median_px": instant["fitted_median_px"],
+                "triangulated_median_px": instant["triangulated_median_px"]}
     return report
 
 
@@ -201,6 +208,32 @@ def table(paths):
                   f"{sum(1 for x in px if x > 30)} over 30 px.")
 
 
+def pair(dir_a, dir_b):
+    """Per frame, the fitted joints' mean error of run A and run B (FRAME.json in each folder), the
+    gain A - B, and its mean and std over the frames both fitted."""
+    def mean_mm(path):
+        with open(path) as f:
+            hands = json.load(f)["hands"]
+        hand = hands.get("right") or hands.get("left")
+        return hand["joint_mm"]["mean"] if hand else None
+    names = sorted((n for n in os.listdir(dir_a) if n.endswith(".json") and os.path.exists(os.path.join(dir_b, n))),
+                   key=lambda n: int(n[:-5]))
+    print(f"| frame | {dir_a}: joints mean mm | {dir_b}: joints mean mm | gain A - B, mm |")
+    print("|---|---|---|---|")
+    gains = []
+    for n in names:
+        a, b = mean_mm(os.path.join(dir_a, n)), mean_mm(os.path.join(dir_b, n))
+        gain = a - b if a is not None and b is not None else None
+        if gain is not None:
+            gains.append(gain)
+        cell = lambda x: "no hand fitted" if x is None else f"{x:.2f}"
+        print(f"| {n[:-5]} | {cell(a)} | {cell(b)} | {'-' if gain is None else f'{gain:+.2f}'} |")
+    if len(gains) > 1:
+        print(f"\nGain A - B over {len(gains)} frames: mean {statistics.fmean(gains):+.2f} mm, std "
+              f"{statistics.stdev(gains):.2f} mm; positive on {sum(1 for g in gains if g > 0)}, negative on "
+              f"{sum(1 for g in gains if g < 0)}.")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -219,9 +252,15 @@ def main():
     e.add_argument("--frame", required=True, type=int)
     t = sub.add_parser("table")
     t.add_argument("reports", nargs="+")
+    p = sub.add_parser("pair")
+    p.add_argument("a")
+    p.add_argument("b")
     a = parser.parse_args()
     if a.command == "table":
         table(a.reports)
+        return
+    if a.command == "pair":
+        pair(a.a, a.b)
         return
     if a.command == "exact":
         write_exact_landmarks(a)
