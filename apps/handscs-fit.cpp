@@ -37,7 +37,8 @@ int main(int argc, char** argv) {
   app.add_option("--overlay-views", options.overlay_views,
                  "multi-view: view indices to draw the fitted meshes over (default: 4 spread views)");
   app.add_option("--overlay-frame", options.overlay_frame,
-                 "multi-view sequence: the frame (its folder's number) drawn over (default: the first fitted)");
+                 "multi-view sequence: the frame (its folder's number) drawn over (default: the first fitted)")
+      ->check(CLI::NonNegativeNumber);
   CLI11_PARSE(app, argc, argv);
   options.overrides = common.overrides;
   try {

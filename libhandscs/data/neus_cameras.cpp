@@ -258,8 +258,13 @@ std::map<int64_t, std::string> neus_frame_folders(const std::string& root) {
   std::map<int64_t, std::string> out;
   for (const auto& entry : fs::directory_iterator(root, ec)) {
     const std::string name = entry.path().filename().string();
-    if (!all_digits(name, 9)) continue;
-    if (!entry.is_directory(ec) || find_neus_image_folder(entry.path().string()).empty()) continue;
+    // Up to 9 digits: any frame number a capture holds, and std::stoll cannot overflow.
+    if (!all_digits(name, 9) || !entry.is_directory(ec)) continue;
+    if (find_neus_image_folder(entry.path().string()).empty()) {
+      spdlog::warn("{}: a frame folder without an image folder (img/, image/ or images/): left out",
+                   entry.path().string());
+      continue;
+    }
     const int64_t frame = std::stoll(name);
     if (!out.emplace(frame, entry.path().string()).second)
       throw Error(entry.path().string() + ": a second folder of frame " + std::to_string(frame) + " (with " +

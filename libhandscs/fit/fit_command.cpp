@@ -333,11 +333,6 @@ void run_fit_command(const FitCommandOptions& o) {
       if (v < 0 || v >= static_cast<int>(cap.cameras.size()))
         throw Error("--overlay-views: view " + std::to_string(v) + " is not in the capture (0-" +
                     std::to_string(cap.cameras.size() - 1) + ")");
-    if (o.overlay_frame >= 0 &&
-        std::none_of(cap.instants.begin(), cap.instants.end(),
-                     [&](const MultiviewInstant& i) { return i.frame == o.overlay_frame; }))
-      throw Error("--overlay-frame: " + o.multiview + " has no frame " + std::to_string(o.overlay_frame) +
-                  " with landmarks");
     size_t detections = 0;
     for (const MultiviewInstant& instant : cap.instants) detections += instant.detections.size();
     spdlog::info("{}: {} views, {} instant{}, {} hand detections", o.multiview, cap.cameras.size(),
@@ -370,6 +365,13 @@ void run_fit_command(const FitCommandOptions& o) {
     }
     if (inputs_by_side[0].frames.empty() && inputs_by_side[1].frames.empty())
       throw Error(o.multiview + ": in no instant is a hand seen (" + unseen + ")");
+    // The instant to draw must have a hand before any fitting.
+    bool drawable = o.overlay_frame < 0;
+    for (size_t i = 0; i < cap.instants.size(); ++i)
+      drawable = drawable || (cap.instants[i].frame == o.overlay_frame && !instant_fits[i].hands.empty());
+    if (!drawable)
+      throw Error("--overlay-frame: " + o.multiview + " has no frame " + std::to_string(o.overlay_frame) +
+                  " with a hand seen by its landmarks");
   } else {
     const std::vector<KeypointFrame> frames = !o.keypoints.empty()
                                                   ? read_keypoint_file(o.keypoints)

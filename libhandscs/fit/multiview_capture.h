@@ -33,7 +33,7 @@ struct MultiviewCapture {
 
 // Throws Error naming the file for a malformed landmark file, and for a capture with no landmarks
 // at all. In a sequence, an instant without landmarks is left out with a warning; its views must
-// have the sizes of the first instant's (one camera per view).
+// have the sizes they have in the first instant holding them (one camera per view).
 MultiviewCapture read_multiview_capture(const std::string& root);
 
 }  // namespace handscs

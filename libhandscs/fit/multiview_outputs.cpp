@@ -25,6 +25,7 @@ namespace {
 
 // Views drawn when none are named: this many, evenly spread over the capture.
 constexpr int kDefaultOverlayViews = 4;
+// Pixels kept around the hands when an overlay is cropped to them: room for the joints' markers.
 constexpr int kOverlayMarginPx = 40;
 
 double percentile(std::vector<double> values, double q) {
@@ -198,7 +199,10 @@ void write_overlays(const MultiviewOutputOptions& o, const MultiviewCapture& cap
   }
   if (cap.sequence) spdlog::info("overlays: frame {}", instant.frame);
   for (int v : views) {
-    if (instant.images[v].empty()) continue;  // the view has no image at this instant
+    if (instant.images[v].empty()) {
+      spdlog::warn("overlays: view {} has no image at frame {}; not drawn", cap.views[v], instant.frame);
+      continue;
+    }
     const cv::Mat photo = cv::imread(instant.images[v], cv::IMREAD_COLOR);
     if (photo.empty()) throw Error(instant.images[v] + ": cannot read the image");
     write_png((fs::path(o.out) / "overlay" / ("view" + cap.views[v] + ".png")).string(),

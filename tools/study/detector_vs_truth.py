@@ -99,11 +99,13 @@ def frame_report(a):
                           "max_px": max(errors[side])})
         report["views"][view] = {"camera": name, "detections": found}
     if a.fit:
-        # A fit of one instant holds frame 0; a sequence's fit holds the frame by its number.
+        # A fit of one instant holds frame 0; a sequence's fit holds each fitted frame by its number.
         with open(os.path.join(a.fit, "capture.json")) as f:
             frames = json.load(f)["frames"]
-        sequence = len(frames) > 1
-        fitted = next(f for f in frames if f["frame"] == a.frame) if sequence else frames[0]
+        if [f["frame"] for f in frames] == [0]:
+            fitted = frames[0]  # a fit of one instant
+        else:
+            fitted = next((f for f in frames if f["frame"] == a.frame), {"frame": a.frame})  # unfitted: no hands
         stem = f"{fitted['frame']:06d}"
         with open(os.path.join(a.fit, "reprojection.json")) as f:
             reprojection = json.load(f)
@@ -210,13 +212,15 @@ def table(paths):
 
 def pair(dir_a, dir_b):
     """Per frame, the fitted joints' mean error of run A and run B (FRAME.json in each folder), the
-    gain A - B, and its mean and std over the frames both fitted."""
+    gain A - B, and its mean and std over the frames both fitted. One hand per frame: the right one
+    when fitted, else the left (the measurement's capture holds one hand)."""
     def mean_mm(path):
         with open(path) as f:
             hands = json.load(f)["hands"]
         hand = hands.get("right") or hands.get("left")
         return hand["joint_mm"]["mean"] if hand else None
-    names = sorted((n for n in os.listdir(dir_a) if n.endswith(".json") and os.path.exists(os.path.join(dir_b, n))),
+    names = sorted((n for n in os.listdir(dir_a)
+                    if n[:-5].isdigit() and n.endswith(".json") and os.path.exists(os.path.join(dir_b, n))),
                    key=lambda n: int(n[:-5]))
     print(f"| frame | {dir_a}: joints mean mm | {dir_b}: joints mean mm | gain A - B, mm |")
     print("|---|---|---|---|")
