@@ -223,17 +223,17 @@ void write_reports(const std::string& out, const std::array<SideResult, 2>& resu
   for (int s = 0; s < 2; ++s) {
     const SideResult& r = results[s];
     if (r.fits.empty()) continue;
-    report["hands"][kHandSides[s]] = side_summary(r);
+    report["hands"][hand_name(kFitSides[s])] = side_summary(r);
     for (size_t f = 0; f < r.fits.size(); ++f) {
       const HandFit& fit = r.fits[f];
       json residual = json::object();
       for (int j = 0; j < 21; ++j) {
         residual[kMano21Names[j]] = std::isnan(fit.residual_mm[j]) ? json(nullptr) : json(fit.residual_mm[j]);
         if (!std::isnan(fit.residual_mm[j]))
-          csv += r.names[f] + "," + kHandSides[s] + "," + kMano21Names[j] + "," + std::to_string(fit.residual_mm[j]) + "\n";
+          csv += r.names[f] + "," + hand_name(kFitSides[s]) + "," + kMano21Names[j] + "," + std::to_string(fit.residual_mm[j]) + "\n";
       }
       report["frames"].push_back({{"frame", r.names[f]},
-                                  {"hand", kHandSides[s]},
+                                  {"hand", hand_name(kFitSides[s])},
                                   {"status", r.skip_reason[f].empty() ? "fitted" : "skipped: " + r.skip_reason[f]},
                                   {"mean_mm", fit.fitted ? json(fit.mean_mm) : json(nullptr)},
                                   {"max_mm", fit.fitted ? json(fit.max_mm) : json(nullptr)},
@@ -250,15 +250,15 @@ void log_summary(const std::array<SideResult, 2>& results) {
     if (r.fits.empty()) continue;
     const json sum = side_summary(r);
     auto mm = [](const json& v) { return v.is_null() ? std::string("-") : fmt::format("{:.2f}", v.get<double>()); };
-    spdlog::info("{} hand: {} of {} frames fitted, mean residual {} mm, max {} mm, {:.2f} ms a frame", kHandSides[s],
+    spdlog::info("{} hand: {} of {} frames fitted, mean residual {} mm, max {} mm, {:.2f} ms a frame", hand_name(kFitSides[s]),
                  sum["fitted"].get<int>(), sum["frames"].get<int>(), mm(sum["mean_mm"]), mm(sum["max_mm"]),
                  r.ms_per_frame);
     if (!sum["bone_length_error"].is_null())
       spdlog::info("{} hand: bone lengths, fitted minus keypoints: {} mm on average ({} mm apart, at most {} mm)",
-                   kHandSides[s], mm(sum["bone_length_error"]["mean_mm"]), mm(sum["bone_length_error"]["mean_abs_mm"]),
+                   hand_name(kFitSides[s]), mm(sum["bone_length_error"]["mean_mm"]), mm(sum["bone_length_error"]["mean_abs_mm"]),
                    mm(sum["bone_length_error"]["max_abs_mm"]));
     for (size_t f = 0; f < r.fits.size(); ++f)
-      if (!r.skip_reason[f].empty()) spdlog::warn("{} hand, frame {}: skipped: {}", kHandSides[s], r.names[f], r.skip_reason[f]);
+      if (!r.skip_reason[f].empty()) spdlog::warn("{} hand, frame {}: skipped: {}", hand_name(kFitSides[s]), r.names[f], r.skip_reason[f]);
   }
 }
 
@@ -400,7 +400,7 @@ void run_fit_command(const FitCommandOptions& o) {
   }
   std::array<SideResult, 2> results;
   for (int s = 0; s < 2; ++s)
-    results[s] = fit_side(models[s], models[1 - s], inputs_by_side[s], config, kHandSides[s], o.multiview.empty());
+    results[s] = fit_side(models[s], models[1 - s], inputs_by_side[s], config, hand_name(kFitSides[s]), o.multiview.empty());
   log_summary(results);
   // Nothing fitted is an error, not an empty result: the first skipped frame says why.
   bool any_fitted = false;
@@ -409,14 +409,14 @@ void run_fit_command(const FitCommandOptions& o) {
   if (!any_fitted)
     for (int s = 0; s < 2; ++s)
       if (!results[s].fits.empty())
-        throw Error("no hand could be fitted; " + std::string(kHandSides[s]) + " hand, frame " + results[s].names[0] +
+        throw Error("no hand could be fitted; " + hand_name(kFitSides[s]) + " hand, frame " + results[s].names[0] +
                     ": " + results[s].skip_reason[0]);
   fs::remove_all(stage);
   ensure_directory(stage);
   try {
     for (int s = 0; s < 2; ++s)
       if (!results[s].fits.empty())
-        write_file_atomic((fs::path(stage) / ("poses_" + std::string(kHandSides[s]) + ".json")).string(),
+        write_file_atomic((fs::path(stage) / ("poses_" + hand_name(kFitSides[s]) + ".json")).string(),
                           poses_json(models[s], results[s], o.flat_hand_mean).dump(1) + "\n");
     write_reports(stage, results);
     if (!o.multiview.empty()) {

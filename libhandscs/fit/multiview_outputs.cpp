@@ -58,7 +58,7 @@ void write_capture_json(const MultiviewOutputOptions& o, const MultiviewCapture&
       if (!fitted[s]) continue;
       const HandFit& fit = *fitted[s];
       const auto pose = rig_pose(models[s], fit.params, o.flat_hand_mean);
-      frame[kHandSides[s]] =
+      frame[hand_name(kFitSides[s])] =
           capture_hand_json(pose.data(), fit.params.shape.data(), fit.params.trans.data(), fit.joints.data());
     }
     frames.push_back(frame);
@@ -133,7 +133,7 @@ void write_reprojection(const MultiviewOutputOptions& o, const MultiviewCapture&
         }
         frame_tri.insert(frame_tri.end(), tri.begin(), tri.end());
         frame_fit.insert(frame_fit.end(), fit.begin(), fit.end());
-        csv += stem + "," + cap.views[det.view] + "," + kHandSides[s] + "," + std::to_string(fit.size()) + "," +
+        csv += stem + "," + cap.views[det.view] + "," + hand_name(kFitSides[s]) + "," + std::to_string(fit.size()) + "," +
                std::to_string(percentile(tri, 0.5)) + "," + std::to_string(percentile(tri, 0.9)) + "," +
                std::to_string(percentile(fit, 0.5)) + "," + std::to_string(percentile(fit, 0.9)) + "\n";
       }
@@ -156,14 +156,14 @@ void write_reprojection(const MultiviewOutputOptions& o, const MultiviewCapture&
       all_fit.insert(all_fit.end(), frame_fit.begin(), frame_fit.end());
     }
     if (frames.empty()) continue;
-    reprojection[kHandSides[s]] = {{"triangulated_median_px", percentile(all_tri, 0.5)},
+    reprojection[hand_name(kFitSides[s])] = {{"triangulated_median_px", percentile(all_tri, 0.5)},
                                    {"triangulated_p90_px", percentile(all_tri, 0.9)},
                                    {"fitted_median_px", percentile(all_fit, 0.5)},
                                    {"fitted_p90_px", percentile(all_fit, 0.9)},
                                    {"frames", frames}};
     spdlog::info("{} hand: {} views over {} frame{}; reprojection against the landmarks: triangulated median "
                  "{:.1f} px (p90 {:.1f}), fitted median {:.1f} px (p90 {:.1f})",
-                 kHandSides[s], views_used, frames.size(), frames.size() == 1 ? "" : "s", percentile(all_tri, 0.5),
+                 hand_name(kFitSides[s]), views_used, frames.size(), frames.size() == 1 ? "" : "s", percentile(all_tri, 0.5),
                  percentile(all_tri, 0.9), percentile(all_fit, 0.5), percentile(all_fit, 0.9));
   }
   write_file_atomic((fs::path(o.out) / "reprojection.csv").string(), csv);

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "data/capture_config.h"
 #include "fit/multiview_capture.h"
 #include "fit/multiview_hands.h"
 #include "hand/joint_model.h"
@@ -18,8 +19,8 @@
 
 namespace handscs {
 
-// The fit's two hands by index: 0 right, 1 left.
-constexpr const char* kHandSides[2] = {"right", "left"};
+// The fit's two hands by index: 0 right, 1 left (named by hand_name, data/capture_config.h).
+constexpr Handedness kFitSides[2] = {Handedness::right, Handedness::left};
 
 // One instant's hands as the fit left them.
 struct MultiviewInstantFit {
