@@ -2,9 +2,15 @@
 
 #include <torch/types.h>
 
+#include <algorithm>
+#include <cmath>
 #include <limits>
+#include <type_traits>
+#include <vector>
 
+#include "core/error.h"
 #include "hand/lbs.h"
+#include "train/nearest_in_double.h"
 
 namespace handscs {
 
@@ -29,40 +35,88 @@ double pose_similarity(const torch::Tensor& feature_a, const torch::Tensor& feat
 
 torch::Tensor correspond_exact(const torch::Tensor& query, const torch::Tensor& reference) {
   torch::NoGradGuard no_grad;
-  const auto q = query.detach();
-  const auto r = reference.detach();
+  // Searched in double when given double (gradient checks), else in float32.
+  const auto dtype = query.scalar_type() == torch::kFloat64 ? torch::kFloat64 : torch::kFloat32;
+  const auto q = query.detach().to(dtype).contiguous();
+  const auto r = reference.detach().to(dtype).contiguous();
+  const int64_t d = q.size(1);
+  auto out = torch::empty({q.size(0)}, torch::kInt64);
+  if (q.size(0) == 0) return out;
+  require(r.size(0) > 0, "correspond_exact: no reference rows to search");
   const auto r_sq = r.pow(2).sum(1);  // [N']
-  std::vector<torch::Tensor> parts;
+  const double r_norm = std::sqrt(r_sq.max().item<double>());
+  const auto q_norm = q.pow(2).sum(1).sqrt().to(torch::kFloat64).contiguous();
+  const bool float64 = dtype == torch::kFloat64;
+  int64_t* op = out.data_ptr<int64_t>();
   for (int64_t start = 0; start < q.size(0); start += kSearchBlock) {
-    const auto block = q.slice(0, start, std::min(start + kSearchBlock, q.size(0)));
+    const int64_t end = std::min(start + kSearchBlock, q.size(0));
+    const auto block = q.slice(0, start, end);
     // |q - r|^2 = |q|^2 - 2 q.r + |r|^2; |q|^2 is constant per row and does not change the argmin.
     const auto dist = r_sq.unsqueeze(0) - 2 * block.matmul(r.t());
-    parts.push_back(dist.argmin(1));
+    // Every row within the GEMM's rounding of the row's least value may be the nearest (a double
+    // GEMM's rounding is far below any distance the training tells apart: ties only).
+    auto tolerance = torch::zeros({end - start, 1}, dist.options());
+    if (!float64) {
+      const double* norms = q_norm.data_ptr<double>();
+      float* tol = tolerance.data_ptr<float>();
+      for (int64_t i = start; i < end; ++i)
+        tol[i - start] = gemm_search_tolerance(d, norms[i], r_norm);
+    }
+    // A row with no number in it keeps the GEMM's own argmin (the training checks skip its step).
+    out.slice(0, start, end).copy_(dist.argmin(1));
+    // [M, 2]: (row of the block, reference row), by row.
+    const auto within = dist.le(std::get<0>(dist.min(1, true)) + tolerance).nonzero().contiguous();
+    const int64_t* pairs = within.data_ptr<int64_t>();
+    std::vector<int64_t> rows;
+    for (int64_t m = 0; m < within.size(0);) {
+      const int64_t row = pairs[2 * m];
+      rows.clear();
+      for (; m < within.size(0) && pairs[2 * m] == row; ++m) rows.push_back(pairs[2 * m + 1]);
+      // The last step in double (train/nearest_in_double.h).
+      op[start + row] = float64 ? nearest_in_double(q.data_ptr<double>() + (start + row) * d,
+                                                    r.data_ptr<double>(), d, rows.data(), rows.size())
+                                : nearest_in_double(q.data_ptr<float>() + (start + row) * d,
+                                                    r.data_ptr<float>(), d, rows.data(), rows.size());
+    }
   }
-  if (parts.empty()) return torch::zeros({0}, torch::kInt64);
-  return torch::cat(parts);
+  return out;
 }
 
 namespace {
 
 // argmin over each row's candidates by direct loops: no [N, K, D] temporaries (at N = 10k, K = 32,
-// |P| = 36 those were 46 MB each and most of the search's time).
+// |P| = 36 those were 46 MB each and most of the search's time). The float distances find the
+// candidates within their rounding of the least; the distance in double picks among them.
 template <class T>
 void candidate_argmin(const T* query, const T* reference, const int64_t* candidates, int64_t n,
                       int64_t k, int64_t d, int64_t* out) {
-#pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < n; ++i) {
-    const T* q = query + i * d;
-    T best = std::numeric_limits<T>::infinity();
-    int64_t arg = candidates[i * k];
-    for (int64_t c = 0; c < k; ++c) {
-      const int64_t j = candidates[i * k + c];
-      const T* r = reference + j * d;
-      T dist = 0;
-      for (int64_t e = 0; e < d; ++e) dist += (q[e] - r[e]) * (q[e] - r[e]);
-      if (dist < best) best = dist, arg = j;  // strict: the first of equal candidates wins
+#pragma omp parallel
+  {
+    std::vector<T> dist(k);
+    std::vector<int64_t> within;
+#pragma omp for schedule(static)
+    for (int64_t i = 0; i < n; ++i) {
+      const T* q = query + i * d;
+      const int64_t* row_candidates = candidates + i * k;
+      T best = std::numeric_limits<T>::infinity();
+      for (int64_t c = 0; c < k; ++c) {
+        const T* r = reference + row_candidates[c] * d;
+        T sum = 0;
+        for (int64_t e = 0; e < d; ++e) sum += (q[e] - r[e]) * (q[e] - r[e]);
+        dist[c] = sum;
+        best = std::min(best, sum);
+      }
+      // A double search rounds far below any distance the training tells apart: ties only.
+      const double bound =
+          static_cast<double>(best) +
+          (std::is_same_v<T, float> ? direct_search_tolerance(d, best, 0.0) : 0.0);
+      within.clear();
+      for (int64_t c = 0; c < k; ++c)
+        if (dist[c] <= bound) within.push_back(row_candidates[c]);
+      out[i] = within.empty() ? row_candidates[0]  // no number: the training checks skip the step
+                              : nearest_in_double(q, reference, d, within.data(),
+                                                  static_cast<int64_t>(within.size()));
     }
-    out[i] = arg;
   }
 }
 
@@ -70,19 +124,21 @@ void candidate_argmin(const T* query, const T* reference, const int64_t* candida
 
 torch::Tensor correspond_candidates(const torch::Tensor& query, const torch::Tensor& reference,
                                     const torch::Tensor& candidates) {
-  const auto q = query.detach().contiguous();
-  const auto r = reference.detach().to(q.scalar_type()).contiguous();
+  // Searched in double when given double (gradient checks), else in float32.
+  const auto dtype = query.scalar_type() == torch::kFloat64 ? torch::kFloat64 : torch::kFloat32;
+  const auto q = query.detach().to(dtype).contiguous();
+  const auto r = reference.detach().to(dtype).contiguous();
   const auto c = candidates.to(torch::kInt64).contiguous();
   const int64_t n = q.size(0), k = c.size(1), d = q.size(1);
   auto out = torch::empty({n}, torch::kInt64);
-  if (q.scalar_type() == torch::kFloat64) {
+  if (n == 0) return out;
+  require(k > 0, "correspond_candidates: every row needs at least one candidate");
+  if (dtype == torch::kFloat64)
     candidate_argmin(q.data_ptr<double>(), r.data_ptr<double>(), c.data_ptr<int64_t>(), n, k, d,
                      out.data_ptr<int64_t>());
-  } else {
-    const auto qf = q.to(torch::kFloat32), rf = r.to(torch::kFloat32);
-    candidate_argmin(qf.data_ptr<float>(), rf.data_ptr<float>(), c.data_ptr<int64_t>(), n, k, d,
+  else
+    candidate_argmin(q.data_ptr<float>(), r.data_ptr<float>(), c.data_ptr<int64_t>(), n, k, d,
                      out.data_ptr<int64_t>());
-  }
   return out;
 }
 

@@ -18,10 +18,13 @@ torch::Tensor pose_feature(const torch::Tensor& pose);
 double pose_similarity(const torch::Tensor& feature_a, const torch::Tensor& feature_b, double delta);
 
 // Exact argmin_j |query_i - reference_j|^2 for every row i: query [N, D], reference [N', D] -> [N]
-// int64. Blocked so memory stays O(block x N').
+// int64, by the distance in double, ties to the lowest j (the same answer as the k-d tree's:
+// train/nearest_in_double.h). A float GEMM finds the rows within its rounding of the least; blocked
+// so memory stays O(block x N').
 torch::Tensor correspond_exact(const torch::Tensor& query, const torch::Tensor& reference);
 
-// argmin over the candidate set only: candidates [N, K] int64 indices into reference.
+// argmin over the candidate set only: candidates [N, K] int64 indices into reference (in double,
+// ties to the lowest index).
 torch::Tensor correspond_candidates(const torch::Tensor& query, const torch::Tensor& reference,
                                     const torch::Tensor& candidates);
 

@@ -1,6 +1,7 @@
 #include "train/descriptor_tree.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <numeric>
 
@@ -8,6 +9,7 @@
 #include <torch/linalg.h>
 
 #include "core/error.h"
+#include "train/nearest_in_double.h"
 
 namespace handscs {
 
@@ -28,6 +30,9 @@ DescriptorTree::DescriptorTree(const torch::Tensor& reference) {
   // Eigenvectors of the scatter matrix, in ascending order of eigenvalue: reversed.
   axes_ = dim_ == 0 ? torch::zeros({0, 0}, torch::kFloat64)
                     : std::get<1>(torch::linalg::eigh(centred.t().matmul(centred), "L")).flip(1).contiguous();
+  reference_ = reference.detach()
+                   .to(reference.scalar_type() == torch::kFloat64 ? torch::kFloat64 : torch::kFloat32)
+                   .contiguous();
   const auto data = to_axes(reference);
   points_.assign(data.data_ptr<float>(), data.data_ptr<float>() + n * dim_);
   order_.resize(n);
@@ -99,8 +104,7 @@ float DescriptorTree::box_distance(const float* query, int32_t node_id) const {
   return dist;
 }
 
-void DescriptorTree::search(const float* query, int32_t node_id, float& best,
-                            int32_t& best_row) const {
+void DescriptorTree::search(const float* query, int32_t node_id, Search& state) const {
   const Node& node = nodes_[node_id];
   if (node.split_dim < 0) {
     for (int32_t k = node.begin; k < node.end; ++k) {
@@ -108,18 +112,27 @@ void DescriptorTree::search(const float* query, int32_t node_id, float& best,
       float dist = 0;
 #pragma omp simd reduction(+ : dist)
       for (int64_t d = 0; d < dim_; ++d) dist += (query[d] - p[d]) * (query[d] - p[d]);
-      if (dist < best) best = dist, best_row = k;
+      state.offer(dist, k, dim_);
     }
     return;
   }
-  // The nearer box first; the other only if it can still hold a closer point.
+  // The nearer box first; the other only if it can still hold a point within the bound.
   const float left = box_distance(query, node.left);
   const float right = box_distance(query, node.right);
   const bool left_first = left <= right;
   const int32_t first = left_first ? node.left : node.right;
   const int32_t second = left_first ? node.right : node.left;
-  if ((left_first ? left : right) < best) search(query, first, best, best_row);
-  if ((left_first ? right : left) < best) search(query, second, best, best_row);
+  if ((left_first ? left : right) <= state.bound) search(query, first, state);
+  if ((left_first ? right : left) <= state.bound) search(query, second, state);
+}
+
+void DescriptorTree::Search::offer(float dist, int32_t slot, int64_t dim) {
+  if (dist > bound) return;
+  within.emplace_back(dist, slot);
+  if (dist < best) {
+    best = dist;
+    bound = best + direct_search_tolerance(dim, best, query_norm);
+  }
 }
 
 torch::Tensor DescriptorTree::nearest(const torch::Tensor& query, const torch::Tensor& guess) const {
@@ -139,6 +152,16 @@ torch::Tensor DescriptorTree::nearest(const torch::Tensor& query, const torch::T
   }
   const float* qp = q.data_ptr<float>();
   const int64_t* gp = g.defined() ? g.data_ptr<int64_t>() : nullptr;
+  // The last step compares the rows as given, in double (train/nearest_in_double.h).
+  const auto original = query.detach().to(reference_.scalar_type()).contiguous();
+  const auto nearest_of = [&](int64_t i, const std::vector<int64_t>& rows) {
+    const auto count = static_cast<int64_t>(rows.size());
+    return original.scalar_type() == torch::kFloat64
+               ? nearest_in_double(original.data_ptr<double>() + i * dim_, reference_.data_ptr<double>(),
+                                   dim_, rows.data(), count)
+               : nearest_in_double(original.data_ptr<float>() + i * dim_, reference_.data_ptr<float>(),
+                                   dim_, rows.data(), count);
+  };
   int64_t* op = out.data_ptr<int64_t>();
   // Queries in the tree order of their guesses: neighbouring queries share leaves (cache).
   std::vector<int64_t> queue(n);
@@ -146,20 +169,33 @@ torch::Tensor DescriptorTree::nearest(const torch::Tensor& query, const torch::T
   if (gp)
     std::sort(queue.begin(), queue.end(),
               [&](int64_t a, int64_t b) { return slot_[gp[a]] < slot_[gp[b]]; });
-#pragma omp parallel for schedule(dynamic, 64)
-  for (int64_t k = 0; k < n; ++k) {
-    const int64_t i = queue[k];
-    const float* row = qp + i * dim_;
-    float best = std::numeric_limits<float>::infinity();
-    int32_t best_row = -1;
-    if (gp) {
-      best_row = static_cast<int32_t>(slot_[gp[i]]);
-      const float* p = points_.data() + static_cast<int64_t>(best_row) * dim_;
-      best = 0;
-      for (int64_t d = 0; d < dim_; ++d) best += (row[d] - p[d]) * (row[d] - p[d]);
+#pragma omp parallel
+  {
+    Search state;
+    std::vector<int64_t> rows;
+#pragma omp for schedule(dynamic, 64)
+    for (int64_t k = 0; k < n; ++k) {
+      const int64_t i = queue[k];
+      const float* row = qp + i * dim_;
+      state.within.clear();
+      state.best = state.bound = std::numeric_limits<float>::infinity();
+      float norm2 = 0;
+      for (int64_t d = 0; d < dim_; ++d) norm2 += row[d] * row[d];
+      state.query_norm = std::sqrt(static_cast<double>(norm2));
+      if (gp) {
+        const int32_t slot = static_cast<int32_t>(slot_[gp[i]]);
+        const float* p = points_.data() + static_cast<int64_t>(slot) * dim_;
+        float dist = 0;
+        for (int64_t d = 0; d < dim_; ++d) dist += (row[d] - p[d]) * (row[d] - p[d]);
+        state.offer(dist, slot, dim_);
+      }
+      search(row, 0, state);
+      rows.clear();
+      for (const auto& [dist, slot] : state.within)
+        if (dist <= state.bound) rows.push_back(order_[slot]);
+      // No distance is a number: the first row (the training checks skip such a step).
+      op[i] = rows.empty() ? order_[0] : nearest_of(i, rows);
     }
-    search(row, 0, best, best_row);
-    op[i] = order_[best_row];
   }
   return out;
 }

@@ -20,6 +20,7 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include <torch/types.h>
@@ -33,7 +34,8 @@ class DescriptorTree {
 
   // argmin_j |query_i - reference_j|^2 for every row: [N] int64. guess [N] int64 (optional): a
   // reference row per query row whose distance starts the search; any valid row keeps it exact.
-  // Of equidistant rows one is returned (not necessarily the lowest index).
+  // The search runs in float32 and keeps every row within its rounding of the best; of those the
+  // nearest in double wins, ties to the lowest row (as correspond_exact: train/nearest_in_double.h).
   torch::Tensor nearest(const torch::Tensor& query,  // [N, D]
                         const torch::Tensor& guess = {}) const;
 
@@ -52,7 +54,15 @@ class DescriptorTree {
   torch::Tensor to_axes(const torch::Tensor& rows) const;  // [N, D] -> float32 [N, D]
   // Squared distance from `query` to the tight box of a node's points (0 inside it).
   float box_distance(const float* query, int32_t node) const;
-  void search(const float* query, int32_t node, float& best, int32_t& best_row) const;
+  // One query's search: the best float32 distance, the bound within which a row may still be the
+  // nearest (best + its rounding), and the rows found within it (tree order).
+  struct Search {
+    float best = 0, bound = 0;
+    double query_norm = 0;  // |query| in the tree's centred coordinates
+    std::vector<std::pair<float, int32_t>> within;
+    void offer(float dist, int32_t slot, int64_t dim);
+  };
+  void search(const float* query, int32_t node, Search& state) const;
 
   int64_t dim_ = 0;
   torch::Tensor centre_;        // [D] float64: mean of the reference rows
@@ -62,6 +72,7 @@ class DescriptorTree {
   std::vector<int64_t> slot_;   // reference row -> tree order
   std::vector<Node> nodes_;
   std::vector<float> boxes_;    // per node: lowest then highest coordinate of its points [2 D]
+  torch::Tensor reference_;     // [N', D]: the reference rows as given, float32 or float64 (the last step)
 };
 
 }  // namespace handscs

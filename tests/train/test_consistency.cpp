@@ -1,6 +1,7 @@
 // Inter-pose consistency pieces against plain-loop references: the pose feature and similarity,
 // the exact correspondence search, the canonical K-NN and the candidate search (which must return
-// the exact argmin whenever it is among the candidates, and equal the exact search at K = N).
+// the exact argmin whenever it is among the candidates, and equal the exact search at K = N), and
+// the three searches row for row on twins closer than float32 rounding.
 #include "catch_torch.h"
 
 #include <cmath>
@@ -10,6 +11,7 @@
 #include "hand/lbs.h"
 #include "pose_descriptors.h"
 #include "train/consistency.h"
+#include "train/descriptor_tree.h"
 
 namespace {
 
@@ -82,6 +84,55 @@ TEST_CASE("consistency: exact search, K-NN and candidate search match plain loop
   const auto picked = handscs::correspond_candidates(small_q, small_r, without);
   CHECK(torch::equal(picked, without.gather(1, (without == picked.unsqueeze(1)).to(torch::kInt64)
                                                     .argmax(1, true)).squeeze(1)));
+}
+
+TEST_CASE("consistency: the GEMM, the k-d tree and the candidate search agree row for row on near-ties") {
+  // Twins closer than float32 rounding can tell apart: each reference row has a twin 1e-6 away
+  // (every fifth an exact copy), and all rows sit far from the origin, so the GEMM's |r|^2 - 2 q.r
+  // cancels. Every search must return the brute-force argmin in double, ties to the lowest row.
+  torch::manual_seed(11);
+  const int64_t base = 300, d = 36;
+  const auto centre = torch::full({1, d}, 0.8);
+  const auto rows = centre + 0.05 * torch::randn({base, d});
+  auto twins = rows + 1e-6 * torch::randn({base, d});
+  twins.slice(0, 0, base, 5).copy_(rows.slice(0, 0, base, 5));
+  const auto reference = torch::cat({rows, twins});                            // float32 [600, 36]
+  const auto query = rows.slice(0, 0, base, 2) + 0.01 * torch::randn({base / 2, d});
+
+  // argmin_j |q_i - r_j|^2 by plain loops in double, the lowest j of equal distances.
+  const auto q64 = query.to(torch::kFloat64).contiguous(), r64 = reference.to(torch::kFloat64).contiguous();
+  std::vector<int64_t> truth;
+  int64_t twin_matches = 0;
+  for (int64_t i = 0; i < q64.size(0); ++i) {
+    double best = std::numeric_limits<double>::infinity();
+    int64_t arg = -1;
+    for (int64_t j = 0; j < r64.size(0); ++j) {
+      double dist = 0;
+      for (int64_t e = 0; e < d; ++e) {
+        const double diff = q64.data_ptr<double>()[i * d + e] - r64.data_ptr<double>()[j * d + e];
+        dist += diff * diff;
+      }
+      if (dist < best) best = dist, arg = j;
+    }
+    truth.push_back(arg);
+    twin_matches += arg >= base ? 1 : 0;
+  }
+  // The set-up is a test of near-ties only if some twins win.
+  INFO("queries matched to a twin: " << twin_matches);
+  CHECK(twin_matches > 10);
+
+  const auto all = torch::arange(2 * base, torch::kInt64).unsqueeze(0).expand({base / 2, 2 * base}).contiguous();
+  const auto own = torch::arange(0, base, 2, torch::kInt64);
+  for (const auto& [name, match] :
+       {std::pair{"GEMM", handscs::correspond_exact(query, reference)},
+        std::pair{"k-d tree", handscs::DescriptorTree(reference).nearest(query)},
+        std::pair{"k-d tree with a guess", handscs::DescriptorTree(reference).nearest(query, own)},
+        std::pair{"every row a candidate", handscs::correspond_candidates(query, reference, all)}}) {
+    int64_t wrong = 0;
+    for (int64_t i = 0; i < match.size(0); ++i) wrong += match[i].item<int64_t>() != truth[i] ? 1 : 0;
+    INFO(name << ": rows off the brute-force argmin: " << wrong);
+    CHECK(wrong == 0);
+  }
 }
 
 TEST_CASE("consistency: on the built-in hand's descriptors, candidates approach the exact argmin") {
