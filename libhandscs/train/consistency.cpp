@@ -63,9 +63,10 @@ torch::Tensor correspond_exact(const torch::Tensor& query, const torch::Tensor& 
         tol[i - start] = gemm_search_tolerance(d, norms[i], r_norm);
     }
     // A row with no number in it keeps the GEMM's own argmin (the training checks skip its step).
-    out.slice(0, start, end).copy_(dist.argmin(1));
+    const auto [least, argmin] = dist.min(1, true);
+    out.slice(0, start, end).copy_(argmin.squeeze(1));
     // [M, 2]: (row of the block, reference row), by row.
-    const auto within = dist.le(std::get<0>(dist.min(1, true)) + tolerance).nonzero().contiguous();
+    const auto within = dist.le(least + tolerance).nonzero().contiguous();
     const int64_t* pairs = within.data_ptr<int64_t>();
     std::vector<int64_t> rows;
     for (int64_t m = 0; m < within.size(0);) {
@@ -73,10 +74,7 @@ torch::Tensor correspond_exact(const torch::Tensor& query, const torch::Tensor& 
       rows.clear();
       for (; m < within.size(0) && pairs[2 * m] == row; ++m) rows.push_back(pairs[2 * m + 1]);
       // The last step in double (train/nearest_in_double.h).
-      op[start + row] = float64 ? nearest_in_double(q.data_ptr<double>() + (start + row) * d,
-                                                    r.data_ptr<double>(), d, rows.data(), rows.size())
-                                : nearest_in_double(q.data_ptr<float>() + (start + row) * d,
-                                                    r.data_ptr<float>(), d, rows.data(), rows.size());
+      op[start + row] = nearest_in_double(q, start + row, r, rows);
     }
   }
   return out;

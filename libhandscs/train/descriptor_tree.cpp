@@ -154,14 +154,6 @@ torch::Tensor DescriptorTree::nearest(const torch::Tensor& query, const torch::T
   const int64_t* gp = g.defined() ? g.data_ptr<int64_t>() : nullptr;
   // The last step compares the rows as given, in double (train/nearest_in_double.h).
   const auto original = query.detach().to(reference_.scalar_type()).contiguous();
-  const auto nearest_of = [&](int64_t i, const std::vector<int64_t>& rows) {
-    const auto count = static_cast<int64_t>(rows.size());
-    return original.scalar_type() == torch::kFloat64
-               ? nearest_in_double(original.data_ptr<double>() + i * dim_, reference_.data_ptr<double>(),
-                                   dim_, rows.data(), count)
-               : nearest_in_double(original.data_ptr<float>() + i * dim_, reference_.data_ptr<float>(),
-                                   dim_, rows.data(), count);
-  };
   int64_t* op = out.data_ptr<int64_t>();
   // Queries in the tree order of their guesses: neighbouring queries share leaves (cache).
   std::vector<int64_t> queue(n);
@@ -194,7 +186,7 @@ torch::Tensor DescriptorTree::nearest(const torch::Tensor& query, const torch::T
       for (const auto& [dist, slot] : state.within)
         if (dist <= state.bound) rows.push_back(order_[slot]);
       // No distance is a number: the first row (the training checks skip such a step).
-      op[i] = rows.empty() ? order_[0] : nearest_of(i, rows);
+      op[i] = rows.empty() ? order_[0] : nearest_in_double(original, i, reference_, rows);
     }
   }
   return out;

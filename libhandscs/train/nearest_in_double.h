@@ -10,6 +10,9 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <vector>
+
+#include <torch/types.h>
 
 namespace handscs {
 
@@ -53,6 +56,18 @@ int64_t nearest_in_double(const T* query, const T* reference, int64_t d, const i
     if (dist < best || (dist == best && rows[c] < arg)) best = dist, arg = rows[c];
   }
   return arg >= 0 ? arg : rows[0];
+}
+
+// The same for row `row` of query [N, d] against reference [N', d], both contiguous and of one
+// dtype, float32 or float64.
+inline int64_t nearest_in_double(const torch::Tensor& query, int64_t row, const torch::Tensor& reference,
+                                 const std::vector<int64_t>& rows) {
+  const int64_t d = query.size(1), count = static_cast<int64_t>(rows.size());
+  return query.scalar_type() == torch::kFloat64
+             ? nearest_in_double(query.data_ptr<double>() + row * d, reference.data_ptr<double>(), d,
+                                 rows.data(), count)
+             : nearest_in_double(query.data_ptr<float>() + row * d, reference.data_ptr<float>(), d,
+                                 rows.data(), count);
 }
 
 }  // namespace handscs
