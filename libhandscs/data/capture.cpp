@@ -19,6 +19,7 @@
 #include "data/capture_impl.h"
 #include "data/capture_layout.h"
 #include "data/neus_capture.h"
+#include "data/hand_agreement.h"
 #include "data/handscs_capture.h"
 #include "data/image_checks.h"
 #include "data/interhand_records.h"
@@ -630,6 +631,8 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   // The rig posed once per kept pose (masks and in-view checks).
   std::vector<Rig> rigs;
   for (const Handedness side : hand_sides(c.hand)) rigs.push_back(capture_rig(c, side, config_key));
+  // Fitted poses (pose_source joints) agree with their joints by construction.
+  if (c.pose_source == CaptureConfig::PoseSource::mano) check_hand_agreement(records, c, rigs, config_key);
   const std::vector<std::vector<float>> posed = pose_hands(c, rigs, candidates, strided_pose);
   {
     const Rig& rig = rigs.front();
