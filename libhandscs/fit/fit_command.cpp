@@ -357,6 +357,13 @@ void run_fit_command(const FitCommandOptions& o) {
       fit.side_of_hand = assign_hands(fit.hands, models, config.fit,
                                       cap.sequence ? spdlog::level::debug : spdlog::level::info);
       for (int s = 0; s < 2; ++s)
+        if (fit.side_of_hand[s] >= 0 && !fit.hands[fit.side_of_hand[s]].repeated_detections.empty())
+          spdlog::log(cap.sequence ? spdlog::level::debug : spdlog::level::info,
+                      "{}{} more detections show the {} hand again, beyond multiview.inlier_px ({} px) of "
+                      "its landmarks elsewhere: left out, not taken for a second hand",
+                      where, fit.hands[fit.side_of_hand[s]].repeated_detections.size(), hand_name(kFitSides[s]),
+                      config.multiview.inlier_px);
+      for (int s = 0; s < 2; ++s)
         if (fit.side_of_hand[s] >= 0) {
           inputs_by_side[s].names.push_back(frame_file_stem(instant.frame));
           inputs_by_side[s].frames.push_back(fit.hands[fit.side_of_hand[s]].keypoints);

@@ -11,7 +11,38 @@ namespace handscs {
 
 namespace {
 
+// A later group lying closer than this to an earlier hand (mean over their shared joints), seen
+// mostly in views where that hand was not, is the earlier hand again: its detections that missed
+// inlier_px agree with each other and triangulate 9-28 mm from it (docs/FIT.md, MediaPipe at 10 px).
+// Two real hands palm to palm come as close, but each is seen beside the other in most views.
+constexpr double kSameHandMm = 40.0;
+
 Vec3 joint_at(const double* joints, int j) { return {joints[3 * j], joints[3 * j + 1], joints[3 * j + 2]}; }
+
+// Mean distance (mm) between the joints two hands both have; infinity when they share none.
+double mean_joint_distance_mm(const HandKeypoints& a, const HandKeypoints& b) {
+  double sum = 0;
+  int count = 0;
+  for (int j = 0; j < 21; ++j)
+    if (a.valid[j] && b.valid[j]) {
+      sum += norm(joint_at(a.joints.data(), j) - joint_at(b.joints.data(), j));
+      ++count;
+    }
+  return count ? 1000.0 * sum / count : std::numeric_limits<double>::infinity();
+}
+
+// The earlier hand `hand` repeats (see kSameHandMm), or -1.
+int repeated_hand(const TriangulatedHand& hand, const std::vector<TriangulatedHand>& earlier,
+                  const std::vector<Detection>& detections) {
+  for (size_t e = 0; e < earlier.size(); ++e) {
+    if (mean_joint_distance_mm(hand.keypoints, earlier[e].keypoints) >= kSameHandMm) continue;
+    size_t shared_views = 0;
+    for (int d : hand.detections)
+      for (int o : earlier[e].detections) shared_views += detections[d].view == detections[o].view;
+    if (2 * shared_views < hand.detections.size()) return static_cast<int>(e);
+  }
+  return -1;
+}
 
 struct Hypothesis {
   std::vector<int> support;  // detections, one per view
@@ -93,7 +124,8 @@ std::vector<TriangulatedHand> find_hands(const std::vector<Camera>& cameras,
   std::vector<TriangulatedHand> hands;
   std::vector<bool> taken(detections.size(), false);
   const int n = static_cast<int>(detections.size());
-  for (int round = 0; round < config.max_hands; ++round) {
+  // Each round takes at least min_views detections, so n rounds end it.
+  for (int round = 0; static_cast<int>(hands.size()) < config.max_hands && round < n; ++round) {
     Hypothesis best;
     for (int a = 0; a < n; ++a)
       for (int b = a + 1; b < n; ++b) {
@@ -105,7 +137,14 @@ std::vector<TriangulatedHand> find_hands(const std::vector<Camera>& cameras,
       }
     if (static_cast<int>(best.support.size()) < config.min_views) break;
     for (int d : best.support) taken[d] = true;
-    hands.push_back(triangulate_hand(cameras, detections, best.support, config.inlier_px));
+    TriangulatedHand hand = triangulate_hand(cameras, detections, best.support, config.inlier_px);
+    const int repeated = repeated_hand(hand, hands, detections);
+    if (repeated >= 0) {
+      auto& into = hands[repeated].repeated_detections;
+      into.insert(into.end(), best.support.begin(), best.support.end());
+      continue;
+    }
+    hands.push_back(std::move(hand));
   }
   return hands;
 }

@@ -43,9 +43,14 @@ struct TriangulatedHand {
   HandKeypoints keypoints;              // MANO21, world frame (metres)
   std::array<std::vector<int>, 21> used_views, dropped_views;  // per joint: views kept / dropped
   std::vector<int> dropped_joints;      // joints no two views agree on
+  // Detections that agreed with each other but not with this hand's, lying where it does: this hand
+  // seen again in views whose landmarks missed inlier_px. Left out of every hand.
+  std::vector<int> repeated_detections;
 };
 
 // Groups the detections into at most max_hands hands, most supported first, and triangulates each.
+// A group that lies where an earlier hand does, in views where that hand was not seen, is that
+// hand again, not a second one (TriangulatedHand::repeated_detections).
 std::vector<TriangulatedHand> find_hands(const std::vector<Camera>& cameras,
                                          const std::vector<Detection>& detections,
                                          const MultiviewConfig& config);

@@ -80,6 +80,56 @@ TEST_CASE("find_hands: two hands from detections with swapped labels, a missed h
   }
 }
 
+TEST_CASE("find_hands: one hand's detections beyond the inlier bound are that hand again, not a second") {
+  const auto cameras = test::camera_ring(10);
+  std::mt19937 rng(11);
+  const auto hand = hand_joints(Handedness::right, {0, 0, 0});
+  // Views 6-9 see the hand 15 mm higher, as a detector's consistent error would place it: 27 px
+  // at 1 m and 1800 px focal in every view of the ring, beyond a 10 px bound, and in agreement
+  // with each other.
+  const auto moved = hand_joints(Handedness::right, {0, 0.015, 0});
+  std::vector<Detection> detections;
+  for (int v = 0; v < 10; ++v)
+    detections.push_back(test::project_hand(cameras, v, (v < 6 ? hand : moved).data(), 1.0, rng, "Left"));
+  MultiviewConfig config;
+  config.inlier_px = 10.0;
+  const auto hands = find_hands(cameras, detections, config);
+  REQUIRE(hands.size() == 1);
+  CHECK(hands[0].detections.size() == 6u);
+  std::vector<int> repeated = hands[0].repeated_detections;
+  std::sort(repeated.begin(), repeated.end());
+  CHECK(repeated == std::vector<int>{6, 7, 8, 9});
+  // Allowed one hand, the same.
+  config.max_hands = 1;
+  CHECK(find_hands(cameras, detections, config).size() == 1);
+}
+
+TEST_CASE("find_hands: two real hands as close as a phantom are both kept, each seen beside the other") {
+  const auto cameras = test::camera_ring(10);
+  std::mt19937 rng(12);
+  // Two hands 25 mm apart, joint for joint (as close as palm to palm; their sides do not matter here).
+  const auto first = hand_joints(Handedness::right, {0, 0, 0});
+  const auto second = hand_joints(Handedness::right, {0, 0.025, 0});
+  double mean_mm = 0;
+  for (int j = 0; j < 21; ++j)
+    mean_mm += 1000.0 * norm(Vec3{first[3 * j] - second[3 * j], first[3 * j + 1] - second[3 * j + 1],
+                                  first[3 * j + 2] - second[3 * j + 2]}) / 21.0;
+  REQUIRE(mean_mm < 40.0);  // closer than the phantom bound: the views decide
+  std::vector<Detection> detections;
+  for (int v = 0; v < 10; ++v) {
+    detections.push_back(test::project_hand(cameras, v, first.data(), 1.0, rng, "Left"));
+    detections.push_back(test::project_hand(cameras, v, second.data(), 1.0, rng, "Right"));
+  }
+  MultiviewConfig config;
+  config.inlier_px = 10.0;
+  const auto hands = find_hands(cameras, detections, config);
+  REQUIRE(hands.size() == 2);
+  for (const TriangulatedHand& h : hands) {
+    CHECK(h.detections.size() == 10u);
+    CHECK(h.repeated_detections.empty());
+  }
+}
+
 TEST_CASE("npz: FMHR's camera archive reads as numpy wrote it") {
   const auto arrays = read_npz(kFmhr + "/camera/param.npz");
   CHECK(arrays.size() == 64);  // int, ext, world_mat, scale_mat for 16 views
