@@ -31,6 +31,24 @@ std::string user_cache_folder(const std::string& kind) {
   return "";
 }
 
+// The folder a cache file would be made in, or the nearest folder above it that exists, when no
+// one may write to it by its permission bits (a dataset unpacked read-only). Root passes every
+// access() test, so the bits are read instead: a run as root would otherwise fill read-only data
+// with cache folders. "" when writing there is allowed.
+std::string read_only_folder(const fs::path& file) {
+  std::error_code ec;
+  fs::path folder = file.parent_path();
+  while (!folder.empty() && !fs::exists(folder, ec)) {
+    if (folder == folder.parent_path()) return "";
+    folder = folder.parent_path();
+  }
+  if (folder.empty()) return "";
+  const fs::perms perms = fs::status(folder, ec).permissions();
+  if (ec) return "";
+  const fs::perms write = fs::perms::owner_write | fs::perms::group_write | fs::perms::others_write;
+  return (perms & write) == fs::perms::none ? folder.string() : "";
+}
+
 }  // namespace
 
 std::vector<std::string> cache_files_for(const std::string& setting, const std::string& source,
@@ -72,6 +90,10 @@ std::string write_first_writable(const std::vector<std::string>& files, const st
                                  std::string& problem) {
   problem = "no folder";
   for (const auto& file : files) {
+    if (const std::string folder = read_only_folder(file); !folder.empty()) {
+      problem = folder + ": read-only folder (no write permission for anyone)";
+      continue;
+    }
     try {
       ensure_directory(fs::path(file).parent_path().string());
       write_file_atomic(file, bytes);

@@ -36,6 +36,7 @@ ByteReader sealed_payload(ByteReader& in, const std::string& bytes);
 
 // Writes `bytes` to the first of `files` whose folder can be made and file written (atomically);
 // returns that file, or "" with `problem` saying why the last one failed ("no folder": no files).
+// A folder no one may write to by its permission bits is passed over, even by root.
 std::string write_first_writable(const std::vector<std::string>& files, const std::string& bytes,
                                  std::string& problem);
 

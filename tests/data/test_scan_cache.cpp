@@ -165,6 +165,23 @@ TEST_CASE("scan cache: entries of images not opened are kept; off writes nothing
   CHECK(counts.cached == paths.size() - 1);
 }
 
+TEST_CASE("scan cache: a read-only dataset folder is passed over, even by root") {
+  const std::string dir = fresh_dir("scan_cache_read_only");
+  const std::string images = dir + "/data/images";
+  const auto paths = sample_images(images);
+  // The dataset as unpacked read-only (r-x for all): root may still write there, the cache may not.
+  fs::permissions(dir + "/data", fs::perms::owner_write | fs::perms::group_write | fs::perms::others_write,
+                  fs::perm_options::remove);
+  const std::vector<std::string> files{dir + "/data/.handscs-cache/c.scans", dir + "/user/c.scans"};
+  handscs::ScanCounts counts;
+  (void)handscs::scan_images(paths, files, images, &counts);
+  CHECK(fs::is_regular_file(files[1]));
+  check_same(handscs::scan_images(paths, files, images, &counts), paths);
+  CHECK(counts.cached == paths.size() - 1);  // all but the missing image, read from the user's place
+  CHECK_FALSE(fs::exists(dir + "/data/.handscs-cache"));
+  fs::permissions(dir + "/data", fs::perms::owner_write, fs::perm_options::add);  // for the clean-up
+}
+
 TEST_CASE("scan cache: where the files go") {
   const std::string dir = fresh_dir("scan_cache_where");
   const auto files = handscs::scan_cache_files("auto", dir + "/images/train", 3);
