@@ -13,6 +13,8 @@
 
 #include "core/atomic_file.h"  // ensure_directory
 #include "core/error.h"
+#include "core/image_header.h"  // read_image_bytes
+#include "core/png_damage.h"
 #include "data/capture_impl.h"
 #include "data/mask_refine.h"
 #include "data/mesh_mask.h"
@@ -153,7 +155,12 @@ cv::Mat Capture::Impl::compute_mask(const FrameInfo& frame, const cv::Mat& bgr) 
 
 cv::Mat Capture::Impl::mask_for(const FrameInfo& frame, const cv::Mat& bgr) const {
   if (!frame.mask_path.empty()) {
-    cv::Mat stored = decode_image_file(frame.mask_path, cv::IMREAD_GRAYSCALE, "mask");
+    const std::string bytes = read_image_bytes(frame.mask_path);
+    // Walked before decoding: libpng would print its own lines, without the path, first.
+    if (is_png_data(bytes))
+      if (const std::string damage = png_damage(bytes); !damage.empty())
+        throw Error(frame.mask_path + ": damaged PNG mask (" + damage + ")");
+    cv::Mat stored = decode_image_bytes(bytes, cv::IMREAD_GRAYSCALE, frame.mask_path, "mask");
     if (stored.empty()) throw Error(frame.mask_path + ": cannot decode mask");
     if (stored.cols != bgr.cols || stored.rows != bgr.rows)
       throw Error(frame.mask_path + ": mask is " + std::to_string(stored.cols) + "x" +

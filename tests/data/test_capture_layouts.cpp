@@ -68,6 +68,19 @@ std::string tiny_with_pngs(const std::string& layout, const std::string& name,
   return root;
 }
 
+// Frame 5's supplied mask of the capture at `root`: a 30 x 40 box at (40, 60), as a PNG file's bytes
+// cut to `keep` of their length (1: whole). Returns the mask's path.
+std::string write_supplied_mask(const std::string& root, const FrameInfo& f, double keep = 1.0) {
+  cv::Mat supplied(f.camera.height, f.camera.width, CV_8UC1, cv::Scalar(0));
+  supplied(cv::Rect(40, 60, 30, 40)).setTo(255);
+  std::vector<uchar> png;
+  REQUIRE(cv::imencode(".png", supplied, png));
+  const std::string mask_file = root + "/masks/" + f.camera_id + "/" + frame_file_stem(f.frame_idx) + ".png";
+  std::filesystem::create_directories(std::filesystem::path(mask_file).parent_path());
+  data_test::write_text(mask_file, std::string(png.begin(), png.begin() + static_cast<size_t>(keep * png.size())));
+  return mask_file;
+}
+
 }  // namespace
 
 TEST_CASE("capture layouts: auto detects each layout, and data.layout names it") {
@@ -253,13 +266,7 @@ TEST_CASE("capture layouts: undistorted images are cached beside the masks and r
 TEST_CASE("capture layouts: masks supplied with a handscs capture replace the mesh's") {
   const std::string root = data_test::copy_of_tiny_in("handscs", "supplied_masks");
   Capture plain = Capture::open(data_test::tiny_config(root));
-  const FrameInfo& f = plain.frames()[5];
-  cv::Mat supplied(f.camera.height, f.camera.width, CV_8UC1, cv::Scalar(0));
-  supplied(cv::Rect(40, 60, 30, 40)).setTo(255);
-  const std::string mask_file =
-      root + "/masks/" + f.camera_id + "/" + frame_file_stem(f.frame_idx) + ".png";
-  std::filesystem::create_directories(std::filesystem::path(mask_file).parent_path());
-  cv::imwrite(mask_file, supplied);
+  const std::string mask_file = write_supplied_mask(root, plain.frames()[5]);
   Capture capture = Capture::open(data_test::tiny_config(root));
   const FrameInfo& g = capture.frames()[5];
   CHECK(g.mask_path == mask_file);
@@ -289,6 +296,17 @@ TEST_CASE("capture layouts: a named pipe in a supplied mask's place, or a masks 
   CHECK(error_of([&] { Capture::open(data_test::tiny_config(root)); }) ==
         root + "/masks: not a folder; supplied masks go in masks/<camera>/<frame>.png (remove it to "
                "use the posed meshes' masks)");
+}
+
+TEST_CASE("capture layouts: a truncated supplied PNG mask is refused by name before libpng sees it") {
+  const std::string root = data_test::copy_of_tiny_in("handscs", "supplied_mask_cut");
+  Capture plain = Capture::open(data_test::tiny_config(root));
+  const std::string mask_file = write_supplied_mask(root, plain.frames()[5], 0.5);
+  Capture capture = Capture::open(data_test::tiny_config(root));
+  const FrameInfo& g = capture.frames()[5];
+  REQUIRE(g.mask_path == mask_file);
+  const std::string error = error_of([&] { capture.load(g); });
+  CHECK(error.rfind(mask_file + ": damaged PNG mask (truncated: ", 0) == 0);
 }
 
 TEST_CASE("capture layouts: a supplied mask the posed hand disagrees with is named once") {
