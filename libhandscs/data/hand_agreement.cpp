@@ -123,9 +123,10 @@ void check_hand_agreement(const CaptureRecords& records, const CaptureConfig& co
     if (!std::isfinite(a.own_mm)) continue;
     const std::string hand = hand_name(a.side), other = hand_name(sides[h] == Handedness::right ? Handedness::left
                                                                                                : Handedness::right);
-    spdlog::info("{}: the {} hand's MANO parameters pose the rig {:.1f} mm from its joints (median of {} frames)",
-                 records.scope, hand, a.own_mm, a.frames);
-    const std::string where = records.scope + ": the " + hand + " hand's MANO parameters ";
+    // The hands' own file where the layout takes one (neus), else the capture's annotations.
+    const std::string source = config.hands_file.empty() ? records.scope : config.hands_file;
+    const std::string where = source + ": the " + hand + " hand's MANO parameters ";
+    spdlog::info("{}pose the rig {:.1f} mm from its joints (median of {} frames)", where, a.own_mm, a.frames);
     // Each figure: the median over the sampled frames of a frame's mean joint distance.
     const std::string frames = fmt::format("{} frames", a.frames);
     if (a.other_rig_mm < kSwappedRatio * a.own_mm)

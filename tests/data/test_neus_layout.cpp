@@ -12,6 +12,8 @@
 #include "data/capture_layout.h"
 #include "data/neus_cameras.h"
 #include "data/neus_capture.h"
+#include "hand/joint_model.h"
+#include "hand/keypoint_fit.h"  // absolute_pose
 #include "data_test_helpers.h"
 #include "io/npz.h"
 #include "npz_writer.h"
@@ -236,6 +238,26 @@ TEST_CASE("neus layout: cameras that are no cameras, images without cameras, bad
   CHECK_THAT(error_of([&] { read_records(c); }), Catch::Contains("unknown key \"camera\""));
   c.hands_file = root + "/none.json";
   CHECK(error_of([&] { read_records(c); }) == root + "/none.json: missing or not a file (data.hands_file)");
+}
+
+TEST_CASE("neus layout: a hands file whose right hand is the left one is refused, naming the file") {
+  const std::string root = synthetic_neus("neus_swapped_hand");
+  const CaptureConfig c = neus_config(root);
+  // The right entry's joints are those the left hand's rig gives its parameters, as when
+  // handscs-fit's two entries are swapped by hand.
+  const JointModel left = make_joint_model(load_rig_source("builtin:left"));
+  JointParams p;
+  p.pose = absolute_pose(left, std::array<double, kPoseDim>{}, c.flat_hand_mean);
+  std::array<double, 63> joints{};
+  joint_positions(left, p, joints.data());
+  json rows = json::array();
+  for (int j = 0; j < 21; ++j) rows.push_back({joints[3 * j], joints[3 * j + 1], joints[3 * j + 2]});
+  json hands = parse_json_file(c.hands_file);
+  hands["frames"][0]["right"]["joints"] = rows;
+  data_test::write_text(c.hands_file, hands.dump());
+  CHECK_THAT(error_of([&] { Capture::open(c); }),
+             Catch::StartsWith(c.hands_file + ": the right hand's MANO parameters fit the left hand's rig far "
+                               "better than its own: posed on it they lie 0.0 mm"));
 }
 
 TEST_CASE("neus layout: a view without its image is left out, without its mask rasterised, sizes per view") {
