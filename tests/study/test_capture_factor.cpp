@@ -74,3 +74,15 @@ TEST_CASE("capture_factor.py: the published novel-view gains read back from docs
   CHECK_THAT(text, Catch::Contains("| +0.229 ± 0.035 | pays |"));
   CHECK_THAT(text, Catch::Contains("| +1.553 ± 0.014 | pays |"));
 }
+
+TEST_CASE("capture_factor.py: SCS across the three captures reads back from docs/bench") {
+  const std::string bench = handscs_test::kSource + "/docs/bench/";
+  const std::string text = run("--capture seed1=" + bench + "scaling_view_10000_tau003.csv --capture seed2=" + bench +
+                               "scaling_view_captures_rp2.csv --capture seed3=" + bench +
+                               "scaling_view_captures_rp3.csv --gain scs=full_tau003-inter_pose_tau003");
+  // docs/SCALING.md, "SCS across captures".
+  CHECK_THAT(text, Catch::Contains("| +0.162 ± 0.085 | pays |"));
+  CHECK_THAT(text, Catch::Contains("| +0.152 ± 0.025 | pays |"));
+  CHECK_THAT(text, Catch::Contains("mean of the per-capture means +0.181 ± 0.042 dB"));
+  CHECK_THAT(text, Catch::Contains("Reading: **holds across captures (pays on every capture)**."));
+}
