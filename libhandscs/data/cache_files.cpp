@@ -42,7 +42,7 @@ std::string read_only_folder(const fs::path& file) {
     if (folder == folder.parent_path()) return "";
     folder = folder.parent_path();
   }
-  if (folder.empty()) return "";
+  if (folder.empty()) folder = ".";  // a relative path none of whose folders exist yet
   const fs::perms perms = fs::status(folder, ec).permissions();
   if (ec) return "";
   const fs::perms write = fs::perms::owner_write | fs::perms::group_write | fs::perms::others_write;

@@ -632,7 +632,11 @@ Capture Capture::open(const CaptureConfig& config, const std::string& mask_cache
   std::vector<Rig> rigs;
   for (const Handedness side : hand_sides(c.hand)) rigs.push_back(capture_rig(c, side, config_key));
   // Fitted poses (pose_source joints) agree with their joints by construction.
-  if (c.pose_source == CaptureConfig::PoseSource::mano) check_hand_agreement(records, c, rigs, config_key);
+  if (c.pose_source == CaptureConfig::PoseSource::mano && !strided_pose.empty()) {
+    std::set<int64_t> used_frames;
+    for (const auto& [frame_idx, pose] : strided_pose) used_frames.insert(frame_idx);
+    check_hand_agreement(records, c, rigs, used_frames, config_key);
+  }
   const std::vector<std::vector<float>> posed = pose_hands(c, rigs, candidates, strided_pose);
   {
     const Rig& rig = rigs.front();

@@ -35,8 +35,8 @@ const RecordHand* hand_of(const RecordFrame& frame, Handedness side) {
   return hand ? &*hand : nullptr;
 }
 
-// Mean distance (mm) over the joints valid in `valid` between `posed` and `joints`; NaN below
-// kMinJoints.
+// Mean distance (mm) between `posed` and the annotated joints, over those valid in `annotated`;
+// NaN below kMinJoints.
 double mean_distance_mm(const double* posed, const RecordHand& annotated) {
   double sum = 0;
   int count = 0;
@@ -80,10 +80,11 @@ double median(std::vector<double> values) {
 }  // namespace
 
 HandAgreement measure_hand_agreement(const CaptureRecords& records, Handedness side, const Rig& rig,
-                                     bool flat_hand_mean) {
+                                     bool flat_hand_mean, const std::set<int64_t>& selected) {
   const Handedness other_side = side == Handedness::right ? Handedness::left : Handedness::right;
   std::vector<const RecordFrame*> measurable;
   for (const auto& [frame_idx, frame] : records.frames) {
+    if (!selected.empty() && !selected.count(frame_idx)) continue;
     const RecordHand* hand = hand_of(frame, side);
     if (hand && hand->has_joints && valid_joints(*hand) >= kMinJoints) measurable.push_back(&frame);
   }
@@ -116,15 +117,20 @@ HandAgreement measure_hand_agreement(const CaptureRecords& records, Handedness s
 }
 
 void check_hand_agreement(const CaptureRecords& records, const CaptureConfig& config,
-                          const std::vector<Rig>& rigs, const std::string& config_key) {
+                          const std::vector<Rig>& rigs, const std::set<int64_t>& selected,
+                          const std::string& config_key) {
   const std::vector<Handedness> sides = hand_sides(config.hand);
   for (size_t h = 0; h < sides.size(); ++h) {
-    const HandAgreement a = measure_hand_agreement(records, sides[h], rigs[h], config.flat_hand_mean);
+    const HandAgreement a = measure_hand_agreement(records, sides[h], rigs[h], config.flat_hand_mean, selected);
     if (!std::isfinite(a.own_mm)) continue;
     const std::string hand = hand_name(a.side), other = hand_name(sides[h] == Handedness::right ? Handedness::left
                                                                                                : Handedness::right);
-    // The hands' own file where the layout takes one (neus), else the capture's annotations.
-    const std::string source = config.hands_file.empty() ? records.scope : config.hands_file;
+    // The file the parameters come from: the hands file (neus), InterHand2.6M's MANO file, else
+    // the capture's own file.
+    const std::string source = !config.hands_file.empty() ? config.hands_file
+                               : records.layout == CaptureConfig::Layout::interhand
+                                   ? records.source_files.front() + " (" + records.scope + ")"
+                                   : records.scope;
     const std::string where = source + ": the " + hand + " hand's MANO parameters ";
     spdlog::info("{}pose the rig {:.1f} mm from its joints (median of {} frames)", where, a.own_mm, a.frames);
     // Each figure: the median over the sampled frames of a frame's mean joint distance.

@@ -4,9 +4,11 @@
 // hand's own joints and close to the other hand's, or close only with the other hand's rig.
 //
 // Typical use (Capture::open, pose_source mano):
-//   check_hand_agreement(records, config, rigs, "data");  // throws Error naming the hand and file
+//   check_hand_agreement(records, config, rigs, frames, "data");  // throws Error naming hand and file
 #pragma once
 
+#include <cstdint>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -27,15 +29,18 @@ struct HandAgreement {
                                 // (NaN where the frames lack the other hand's joints)
 };
 
-// Measures hand `side` of `records` posed with `rig` (a rig of that side) and its mirror image.
+// Measures hand `side` of `records` posed with `rig` (a rig of that side) and its mirror image, on
+// the frames in `selected` (frame numbers; empty: every frame).
 HandAgreement measure_hand_agreement(const CaptureRecords& records, Handedness side, const Rig& rig,
-                                     bool flat_hand_mean);
+                                     bool flat_hand_mean, const std::set<int64_t>& selected = {});
 
 // The hands config.hand selects, each posed with `rigs` (in hand_sides order). Throws Error when
 // a hand's parameters fit the other hand (rig or joints) far better than its own joints, or lie
 // centimetres from them; logs each hand's figures. Hands without joints are not checked.
-// config_key names the config in messages ("data").
+// Only the frames the run uses (`selected`) are measured. config_key names the config in messages
+// ("data").
 void check_hand_agreement(const CaptureRecords& records, const CaptureConfig& config,
-                          const std::vector<Rig>& rigs, const std::string& config_key);
+                          const std::vector<Rig>& rigs, const std::set<int64_t>& selected,
+                          const std::string& config_key);
 
 }  // namespace handscs

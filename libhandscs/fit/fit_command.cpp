@@ -11,6 +11,7 @@
 
 #include "core/atomic_file.h"
 #include "core/config.h"
+#include "core/text.h"  // join
 #include "data/capture_json.h"
 #include "data/handscs_capture.h"
 #include "fit/fitted_capture.h"
@@ -356,13 +357,18 @@ void run_fit_command(const FitCommandOptions& o) {
           spdlog::warn("{}joint {}: no two views agree; left out of the fit", where, kMano21Names[j]);
       fit.side_of_hand = assign_hands(fit.hands, models, config.fit,
                                       cap.sequence ? spdlog::level::debug : spdlog::level::info);
-      for (int s = 0; s < 2; ++s)
-        if (fit.side_of_hand[s] >= 0 && !fit.hands[fit.side_of_hand[s]].repeated_detections.empty())
-          spdlog::log(cap.sequence ? spdlog::level::debug : spdlog::level::info,
-                      "{}{} more detections show the {} hand again, beyond multiview.inlier_px ({} px) of "
-                      "its landmarks elsewhere: left out, not taken for a second hand",
-                      where, fit.hands[fit.side_of_hand[s]].repeated_detections.size(), hand_name(kFitSides[s]),
-                      config.multiview.inlier_px);
+      for (int s = 0; s < 2; ++s) {
+        if (fit.side_of_hand[s] < 0) continue;
+        const std::vector<int>& repeated = fit.hands[fit.side_of_hand[s]].repeated_detections;
+        if (repeated.empty()) continue;
+        std::vector<std::string> views;
+        for (int d : repeated) views.push_back(cap.views[instant.detections[d].view]);
+        spdlog::log(cap.sequence ? spdlog::level::debug : spdlog::level::info,
+                    "{}the detections of views {} show the {} hand again, beyond multiview.inlier_px ({} px) "
+                    "of its landmarks elsewhere: left out, not taken for a second hand",
+                    where, join(views, ", "), hand_name(kFitSides[s]),
+                    config.multiview.inlier_px);
+      }
       for (int s = 0; s < 2; ++s)
         if (fit.side_of_hand[s] >= 0) {
           inputs_by_side[s].names.push_back(frame_file_stem(instant.frame));

@@ -19,7 +19,8 @@ constexpr double kSameHandMm = 40.0;
 
 Vec3 joint_at(const double* joints, int j) { return {joints[3 * j], joints[3 * j + 1], joints[3 * j + 2]}; }
 
-// Mean distance (mm) between the joints two hands both have; infinity when they share none.
+// Mean distance (mm) between the joints two hands both have; infinity when they share fewer than
+// a fit needs (a distance from one or two joints says little about where a hand lies).
 double mean_joint_distance_mm(const HandKeypoints& a, const HandKeypoints& b) {
   double sum = 0;
   int count = 0;
@@ -28,7 +29,7 @@ double mean_joint_distance_mm(const HandKeypoints& a, const HandKeypoints& b) {
       sum += norm(joint_at(a.joints.data(), j) - joint_at(b.joints.data(), j));
       ++count;
     }
-  return count ? 1000.0 * sum / count : std::numeric_limits<double>::infinity();
+  return count >= kMinFitKeypoints ? 1000.0 * sum / count : std::numeric_limits<double>::infinity();
 }
 
 // The earlier hand `hand` repeats (see kSameHandMm), or -1.

@@ -131,4 +131,20 @@ TEST_CASE("hand agreement: hands without joints are not measured") {
       measure_hand_agreement(records_of(config), Handedness::right, capture_rig(config, Handedness::right), false);
   CHECK(a.frames == 0);
   CHECK(std::isnan(a.own_mm));
+  CHECK(open_error(config).empty());  // nothing to tell them apart by: not refused
+}
+
+TEST_CASE("hand agreement: only the frames the run uses are measured") {
+  // Frames of sequence "b" have their hands swapped; a run on sequence "a" never sees them.
+  int k = 0;
+  const std::string root = edited_copy("agreement_sequences", [&](json& frame) {
+    const bool second_half = k++ >= 6;  // both_tiny has 12 poses
+    frame["sequence"] = second_half ? "b" : "a";
+    if (second_half) std::swap(frame["right"], frame["left"]);
+  });
+  CaptureConfig config = config_of(root, CaptureConfig::Hands::both);
+  config.sequences = {"a"};
+  CHECK(open_error(config).empty());
+  config.sequences = {"b"};
+  CHECK(open_error(config).find("swapped") != std::string::npos);
 }

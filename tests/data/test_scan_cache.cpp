@@ -172,6 +172,13 @@ TEST_CASE("scan cache: a read-only dataset folder is passed over, even by root")
   // The dataset as unpacked read-only (r-x for all): root may still write there, the cache may not.
   fs::permissions(dir + "/data", fs::perms::owner_write | fs::perms::group_write | fs::perms::others_write,
                   fs::perm_options::remove);
+  struct Restore {  // writable again however the test ends, so the clean-up can remove it
+    std::string folder;
+    ~Restore() {
+      std::error_code ec;
+      fs::permissions(folder, fs::perms::owner_write, fs::perm_options::add, ec);
+    }
+  } restore{dir + "/data"};
   const std::vector<std::string> files{dir + "/data/.handscs-cache/c.scans", dir + "/user/c.scans"};
   handscs::ScanCounts counts;
   (void)handscs::scan_images(paths, files, images, &counts);
@@ -179,7 +186,6 @@ TEST_CASE("scan cache: a read-only dataset folder is passed over, even by root")
   check_same(handscs::scan_images(paths, files, images, &counts), paths);
   CHECK(counts.cached == paths.size() - 1);  // all but the missing image, read from the user's place
   CHECK_FALSE(fs::exists(dir + "/data/.handscs-cache"));
-  fs::permissions(dir + "/data", fs::perms::owner_write, fs::perm_options::add);  // for the clean-up
 }
 
 TEST_CASE("scan cache: where the files go") {
