@@ -8,7 +8,7 @@
 
 #include "core/error.h"
 #include "hand/joint_model.h"
-#include "hand/keypoint_fit.h"  // absolute_pose
+#include "hand/keypoint_fit.h"  // absolute_pose, kMinFitKeypoints, kSwappedHandRatio
 #include "hand/rig_mirror.h"
 
 namespace handscs {
@@ -20,10 +20,6 @@ namespace {
 constexpr size_t kSampledFrames = 32;
 // Valid joints a frame needs to be measured (as a keypoint fit needs: the palm and one more).
 constexpr int kMinJoints = kMinFitKeypoints;
-// The other hand (rig or joints) must agree this much better (ratio of medians) to call the hands
-// swapped: a hand's own parameters pose its rig within millimetres of its joints, the other
-// hand's lie centimetres off (mirrored fingers, or a hand 10+ cm away).
-constexpr double kSwappedRatio = 0.5;
 // Beyond this median distance a hand's parameters do not describe its joints whatever the rest
 // says: annotations of one hand agree within millimetres to about a centimetre (fitting noise, a
 // rig that is not the annotator's), and a hand is ~18 cm long.
@@ -135,12 +131,12 @@ void check_hand_agreement(const CaptureRecords& records, const CaptureConfig& co
     spdlog::info("{}pose the rig {:.1f} mm from its joints (median of {} frames)", where, a.own_mm, a.frames);
     // Each figure: the median over the sampled frames of a frame's mean joint distance.
     const std::string frames = fmt::format("{} frames", a.frames);
-    if (a.other_rig_mm < kSwappedRatio * a.own_mm)
+    if (a.other_rig_mm < kSwappedHandRatio * a.own_mm)
       throw Error(where + fmt::format("fit the {} hand's rig far better than its own: posed on it they lie "
                                       "{:.1f} mm from the {} hand's joints, on its own rig {:.1f} mm (medians over "
                                       "{}). The hands' entries are swapped, or the {} hand's were copied in",
                                       other, a.other_rig_mm, hand, a.own_mm, frames, other));
-    if (a.other_joints_mm < kSwappedRatio * a.own_mm)
+    if (a.other_joints_mm < kSwappedHandRatio * a.own_mm)
       throw Error(where + fmt::format("pose the rig onto the {} hand's joints ({:.1f} mm from them) rather than "
                                       "its own ({:.1f} mm; medians over {}). The hands' parameters are swapped, "
                                       "or the {} hand's were copied in",

@@ -29,9 +29,6 @@ namespace {
 // Frames of a sequence on which the other hand's rig is tried as well (evenly spaced): enough to
 // tell a swapped hand, a fraction of the fit's time on a long capture.
 constexpr int kHandednessSamples = 10;
-// The other hand's rig must fit this much better (mean residual ratio) to call the hand swapped:
-// a true hand fits its rig to ~1-5 mm, its mirror image bends fingers backwards (10+ mm).
-constexpr double kSwappedRatio = 0.5;
 
 struct SideInput {
   std::vector<std::string> names;    // frame names
@@ -99,7 +96,7 @@ SideResult fit_side(const JointModel& model, const JointModel& other, const Side
   if (check_handedness) {
     const double own = sampled_mean(model, input, config.fit);
     const double mirrored = sampled_mean(other, input, config.fit);
-    if (mirrored < kSwappedRatio * own)
+    if (mirrored < kSwappedHandRatio * own)
       throw Error("the " + side + " hand's keypoints fit the other hand's rig far better (mean " +
                   std::to_string(mirrored) + " mm against " + std::to_string(own) + " mm on up to " +
                   std::to_string(kHandednessSamples) +

@@ -87,6 +87,12 @@ std::vector<HandFit> fit_keypoint_sequence(const JointModel& model,
 // a fit needs them and at least one more.
 constexpr int kMinFitKeypoints = 5;
 
+// The other hand (its rig, or its joints) must agree this much better than a hand's own to call
+// the hands swapped (ratio of distances, or of fit residuals): a hand agrees with its own rig and
+// joints within ~1-5 mm, with the other hand's by centimetres (mirrored fingers bend backwards, or
+// the other hand lies 10+ cm away). handscs-fit and Capture::open both judge by it.
+constexpr double kSwappedHandRatio = 0.5;
+
 // The pose in the rig's file convention: relative to hands_mean unless flat_hand_mean.
 std::array<double, kPoseDim> rig_pose(const JointModel& model, const JointParams& params,
                                       bool flat_hand_mean);
