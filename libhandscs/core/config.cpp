@@ -226,7 +226,14 @@ json* config_value_at(json& object, const std::string& path) {
 
 void drop_deprecated_keys(json& object, const json& defaults, const std::vector<DeprecatedKey>& keys,
                           const std::string& source) {
-  static std::set<std::string> warned;  // one warning per source and key in a process
+  static std::set<std::string> warned;  // one notice per origin and key in a process
+  const auto ends_with = [](const std::string& text, const std::string& end) {
+    return text.size() >= end.size() && text.compare(text.size() - end.size(), end.size(), end) == 0;
+  };
+  const std::string with_overrides = kWithOverrides;
+  const std::string origin =
+      ends_with(source, with_overrides) ? source.substr(0, source.size() - with_overrides.size()) : source;
+  const bool stored = ends_with(origin, kStoredConfig);
   json lookup = defaults;
   lookup.merge_patch(object);
   for (const auto& k : keys) {
@@ -239,8 +246,12 @@ void drop_deprecated_keys(json& object, const json& defaults, const std::vector<
       throw Error(source + ": " + k.key + " (" + current.dump() + ") and " + old_key + " (" +
                   old_value->dump() + ") must agree: " + k.why + " (" + old_key +
                   " is deprecated: set " + k.key + " alone)");
-    if (warned.insert(source + "|" + old_key).second)
-      spdlog::warn("{}: {} is deprecated ({} serves for it): drop it", source, old_key, k.key);
+    if (warned.insert(origin + "|" + old_key).second) {
+      if (stored)  // a checkpoint of an older build: nothing the user can or needs to edit
+        spdlog::info("{}: written with {}, read as {}", origin, old_key, k.key);
+      else
+        spdlog::warn("{}: {} is deprecated ({} serves for it): drop it", origin, old_key, k.key);
+    }
     const size_t dot = old_key.rfind('.');
     json* parent = dot == std::string::npos ? &object : config_value_at(object, old_key.substr(0, dot));
     parent->erase(old_key.substr(dot == std::string::npos ? 0 : dot + 1));

@@ -203,6 +203,14 @@ struct DeprecatedKey {
   const char* why;      // why the two must agree, for the error
 };
 
+// Ends the source name of a config merged with --set overrides ("x.json + --set"): its keys from
+// x.json were read, and noted, once already.
+inline constexpr const char* kWithOverrides = " + --set";
+
+// Ends the source name of a config stored in a checkpoint (meta "config"): a deprecated key there
+// was written by an older build, so it is noted, not warned about.
+inline constexpr const char* kStoredConfig = " (stored config)";
+
 template <class C, class = void>
 struct HasDeprecatedKeys : std::false_type {};
 template <class C>
@@ -283,7 +291,7 @@ C load_config(const std::string& path, const std::vector<std::string>& overrides
   if constexpr (HasDeprecatedKeys<C>::value)
     make_room_for_deprecated_keys(merged, overrides, C::deprecated_keys());
   apply_overrides(merged, overrides);
-  config_from_json(merged, overrides.empty() ? source : source + " + --set", config);
+  config_from_json(merged, overrides.empty() ? source : source + kWithOverrides, config);
   return config;
 }
 

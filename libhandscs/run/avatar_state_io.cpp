@@ -83,10 +83,10 @@ TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run,
   // The stored config as trained, then with the overrides merged as JSON (read again, once).
   json stored = opened.checkpoint.meta.at("config");
   RunConfig trained_config;
-  config_from_json(stored, opened.path + " (stored config)", trained_config);
+  config_from_json(stored, opened.path + kStoredConfig, trained_config);
   apply_overrides(stored, overrides);
   RunConfig config;
-  config_from_json(stored, opened.path + " (stored config)" + (overrides.empty() ? "" : " + --set"),
+  config_from_json(stored, opened.path + kStoredConfig + (overrides.empty() ? "" : kWithOverrides),
                    config);
   const std::vector<Handedness> sides = hand_sides(trained_config.data.hand);  // the weights' hands
   Avatar avatar = restore_avatar(opened.checkpoint, config.model, avatar_rig(trained_config, sides.front()),

@@ -742,7 +742,7 @@ void Trainer::load_from(const Checkpoint& ckpt, const std::string& source, bool 
                         bool keep_own_state) {
   check_checkpoint_meta(ckpt.meta, source);
   RunConfig stored;
-  config_from_json(ckpt.meta.at("config"), source + " (stored config)", stored);
+  config_from_json(ckpt.meta.at("config"), source + kStoredConfig, stored);
   const auto changes = experiment_differences(stored, config_);
   if (!changes.empty()) {
     std::string listed;

@@ -1,8 +1,10 @@
 // The shipped configs: base.json equals the compiled-in defaults, docs/CONFIG.md documents every
 // key, and every run config under configs/ loads and validates.
 #include "catch_torch.h"
+#include "captured_warnings.h"
 #include "test_support.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -144,6 +146,35 @@ TEST_CASE("configs: the old form with model.rig and model.flat_hand_mean still l
   // A trained avatar's rig is its checkpoint's: data.rig serves the model, so it is no override.
   CHECK_THROWS_WITH(handscs::refuse_model_overrides({"data.rig=mano_right.json"}),
                     Catch::StartsWith("--set data.rig=mano_right.json: the rig is the checkpoint's"));
+}
+
+TEST_CASE("configs: a deprecated key warns once per file, and not at all from a checkpoint") {
+  handscs::RunConfig defaults;
+  handscs::json old = handscs::config_to_json(defaults);
+  old["model"]["rig"] = "builtin";  // agrees with data.rig
+  const std::string path =
+      handscs_test::scratch_file("handscs_test_deprecated_once", "old_rig.json", old.dump(2));
+  const auto count = [](const std::vector<std::string>& messages, const std::string& part) {
+    return std::count_if(messages.begin(), messages.end(),
+                         [&](const std::string& m) { return m.find(part) != std::string::npos; });
+  };
+  {
+    // The file is read alone, then again merged with --set: one warning, naming the file.
+    handscs_test::CapturedWarnings warnings;
+    CHECK_NOTHROW(handscs::load_config<handscs::RunConfig>(path, {"train.iterations=10"}));
+    const auto messages = warnings.messages();
+    CHECK(count(messages, "model.rig is deprecated") == 1);
+    CHECK(count(messages, path + ": model.rig is deprecated") == 1);
+  }
+  {
+    // A checkpoint's stored config, read twice as open_trained_avatar does: not the user's to edit.
+    handscs_test::CapturedWarnings warnings;
+    const std::string stored = "run/step_00000100.ckpt" + std::string(handscs::kStoredConfig);
+    handscs::RunConfig config;
+    CHECK_NOTHROW(handscs::config_from_json(old, stored, config));
+    CHECK_NOTHROW(handscs::config_from_json(old, stored + handscs::kWithOverrides, config));
+    CHECK(count(warnings.messages(), "model.rig") == 0);
+  }
 }
 
 TEST_CASE("configs: every point of every sweep file applies to its run config") {
