@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <string>
 
 namespace handscs {
@@ -21,5 +22,13 @@ inline uint64_t fnv1a64(const char* bytes, size_t n) {
 }
 
 inline uint64_t fnv1a64(const std::string& bytes) { return fnv1a64(bytes.data(), bytes.size()); }
+
+// A hash as 16 lower-case hex digits (cache folder names, fingerprints stored in JSON, where a
+// number past 2^53 would lose digits in many readers).
+inline std::string hex16(uint64_t value) {
+  char text[17];
+  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(value));
+  return text;
+}
 
 }  // namespace handscs

@@ -16,12 +16,6 @@ namespace {
 
 constexpr char kBesideFolder[] = ".handscs-cache";
 
-std::string hex16(uint64_t value) {
-  char text[17];
-  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(value));
-  return text;
-}
-
 // The user's cache folder for caches of `kind`, "" when neither variable is set.
 std::string user_cache_folder(const std::string& kind) {
   if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg)

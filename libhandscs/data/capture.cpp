@@ -128,10 +128,7 @@ std::string file_stamp(const std::string& path) {
 
 // <cache_dir>/<kind>-<hash of settings>.
 std::string cache_folder(const std::string& cache_dir, const char* kind, const std::string& settings) {
-  char name[48];
-  std::snprintf(name, sizeof(name), "%s-%016llx", kind,
-                static_cast<unsigned long long>(fnv1a64(settings)));
-  return (fs::path(cache_dir) / name).string();
+  return (fs::path(cache_dir) / (std::string(kind) + "-" + hex16(fnv1a64(settings)))).string();
 }
 
 // <cache_dir>/masks-<hash>: the hash covers every setting a mask depends on, so a changed setting

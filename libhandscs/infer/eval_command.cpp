@@ -55,6 +55,9 @@ void add_model_eval_options(CLI::App& app, ModelEvalCommandLine& cli) {
                     "score at most this many frames, evenly spaced over the split (0 = all)")
       ->check(CLI::Range(int64_t{0}, int64_t{100000000}));
   group->add_option("--label", cli.label, "column label of table.md (default split/CaptureN)");
+  group->add_flag("--other-capture", cli.other_capture,
+                  "score a capture other than the one the checkpoint trained on (refused otherwise: "
+                  "data.root must hold the run's capture, copied or moved)");
 }
 
 void check_eval_mode_options(const ModelEvalCommandLine& model, const EvalCommandLine& folder) {
@@ -78,6 +81,7 @@ void check_eval_mode_options(const ModelEvalCommandLine& model, const EvalComman
   if (model.side_by_side) misplaced.push_back("--side-by-side");
   if (model.max_images != defaults.max_images) misplaced.push_back("--max-images");
   if (!model.label.empty()) misplaced.push_back("--label");
+  if (model.other_capture) misplaced.push_back("--other-capture");
   if (folder.no_regions) misplaced.push_back("--no-regions");
   if (!misplaced.empty())
     throw Error(join(misplaced, ", ") + ": model-mode option(s), used only with --checkpoint (folder mode "
@@ -107,6 +111,7 @@ int run_model_eval_command(const ModelEvalCommandLine& cli, const EvalCommandLin
   options.side_by_side = cli.side_by_side;
   options.max_images = cli.max_images;
   options.label = cli.label;
+  options.other_capture = cli.other_capture;
   options.regions = !metric_flags.no_regions;
   options.regions_dir = metric_flags.regions_dir;
   const ModelEvalResult result = evaluate_avatar(config, std::move(trained), options);

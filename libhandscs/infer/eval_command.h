@@ -21,6 +21,7 @@ struct ModelEvalCommandLine {
   bool side_by_side = false;
   int64_t max_images = 0;
   std::string label;
+  bool other_capture = false;
 
   bool model_mode() const { return !checkpoint.empty(); }
 };

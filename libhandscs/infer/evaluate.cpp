@@ -17,6 +17,7 @@
 #include "core/progress.h"
 #include "core/text.h"
 #include "data/capture.h"
+#include "data/capture_identity.h"
 #include "io/png.h"
 #include "metrics/comparison_panel.h"
 #include "metrics/image_scorer.h"
@@ -48,6 +49,25 @@ void refuse_damaged_images(const Capture& capture) {
   if (damaged.empty()) return;
   throw Error(std::to_string(damaged.size()) + " damaged JPEG(s) in the capture (first: " + damaged.front() +
               "; the warnings above say what is wrong with each): repair or remove them before scoring");
+}
+
+// The split's keys match any capture of the same layout: a data.root naming another capture (or
+// this one with frames gone) would be scored as the run's own test images.
+void check_capture_identity(const TrainedAvatar& trained, const Capture& capture, const std::string& root,
+                            bool other_capture) {
+  if (!trained.capture_identity) {
+    spdlog::info("{} was written by a build that did not record its capture: {} is taken to be it",
+                 trained.path, root);
+    return;
+  }
+  const auto differences = identity_differences(*trained.capture_identity, capture_identity(capture));
+  if (differences.empty()) return;
+  const std::string text = root + " differs from the capture " + trained.path + " trained on (" +
+                           join(differences, "; ") + ")";
+  if (!other_capture)
+    throw Error(text + ": its scores would not be the run's; set data.root to the run's capture, or pass "
+                       "--other-capture to score this one anyway");
+  spdlog::warn("{}: scoring it as asked (--other-capture)", text);
 }
 }  // namespace
 
@@ -110,6 +130,7 @@ ModelEvalResult evaluate_avatar(const RunConfig& config_in, TrainedAvatar traine
                                 : options.out_dir + "/cache";
   Capture capture = Capture::open(config.data, cache);
   refuse_damaged_images(capture);
+  check_capture_identity(trained, capture, config.data.root, options.other_capture);
   ImageScorer scorer(config.eval);
   RegionLegend legend;
   std::string regions_dir;

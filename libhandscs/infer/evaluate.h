@@ -22,6 +22,9 @@ struct ModelEvalOptions {
   std::string label;           // column-group label of table.md (default "<split>/Capture<c>")
   bool regions = true;         // score region masks (metrics/region_masks.h) when there are some
   std::string regions_dir;     // their folder: "" = <data.root>/regions when it holds regions.json
+  // Score a capture other than the one the checkpoint trained on (data/capture_identity.h), with a
+  // warning; refused otherwise.
+  bool other_capture = false;
 };
 
 struct ModelEvalResult {

@@ -100,8 +100,11 @@ TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run,
     left.push_back(restore_avatar(checkpoint_section(opened.checkpoint, section), config.model,
                                   avatar_rig(trained_config, Handedness::left), opened.path));
   }
-  return {opened.path,         std::move(config), std::move(trained_config),
-          std::move(avatar),   std::move(colors), std::move(left)};
+  std::optional<CaptureIdentity> identity;
+  if (const auto it = opened.checkpoint.meta.find(kCaptureIdentityKey); it != opened.checkpoint.meta.end())
+    identity = CaptureIdentity::from_json(*it, opened.path + ": " + kCaptureIdentityKey);
+  return {opened.path,       std::move(config), std::move(trained_config), std::move(avatar),
+          std::move(colors), std::move(left),   identity};
 }
 
 Handedness TrainedAvatar::first_hand() const { return hand_sides(trained_config.data.hand).front(); }

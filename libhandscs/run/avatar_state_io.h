@@ -2,10 +2,12 @@
 // out of a Checkpoint, by name; loading checks every name and shape.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "avatar/avatar.h"
+#include "data/capture_identity.h"
 #include "run/camera_color_transform.h"
 #include "run/checkpoint.h"
 #include "run/run_config.h"
@@ -32,6 +34,8 @@ struct TrainedAvatar {
   CameraColorTable colors;
   // data.hand both: the left hand's avatar (the checkpoint's "left" section); empty otherwise.
   std::vector<Avatar> left;
+  // The capture it trained on (data/capture_identity.h); absent from an older build's checkpoint.
+  std::optional<CaptureIdentity> capture_identity;
   Handedness first_hand() const;  // the hand `avatar` is
   // The avatar of hand `side`; null when the checkpoint has none.
   Avatar* hand(Handedness side);

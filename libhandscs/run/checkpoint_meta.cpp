@@ -5,6 +5,7 @@
 #include <regex>
 
 #include "core/error.h"
+#include "data/capture_identity.h"
 #include "run/checkpoint.h"
 
 namespace handscs {
@@ -72,6 +73,9 @@ void check_checkpoint_meta(const json& meta, const std::string& source) {
   if (meta.contains("running_psnr")) number_field(meta, "running_psnr", source);
   if (meta.contains("elapsed_seconds") && number_field(meta, "elapsed_seconds", source) < 0)
     throw Error(source + ": checkpoint metadata 'elapsed_seconds' is negative");
+  if (meta.contains(kCaptureIdentityKey))
+    CaptureIdentity::from_json(meta.at(kCaptureIdentityKey),
+                               source + ": checkpoint metadata " + kCaptureIdentityKey);
   // A run's checkpoint is found by its name: the name must say the step it holds.
   const std::string name = std::filesystem::path(source).filename().string();
   static const std::regex run_name("step_[0-9]{8,}\\.ckpt");

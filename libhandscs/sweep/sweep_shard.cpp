@@ -94,9 +94,7 @@ ShardRecord shard_record(const SweepConfig& config, const std::vector<std::strin
                          const SweepShard& shard) {
   std::string identity = read_file(config.path);
   for (const auto& point : only_points) identity += "\n--points " + point;
-  char hex[17];
-  std::snprintf(hex, sizeof(hex), "%016llx", static_cast<unsigned long long>(fnv1a64(identity)));
-  return {config.path, hex, shard};
+  return {config.path, hex16(fnv1a64(identity)), shard};
 }
 
 void write_shard_record(const std::string& out_dir, const ShardRecord& record) {

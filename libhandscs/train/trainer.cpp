@@ -100,6 +100,7 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir, ProcessGro
   capture_ = std::make_unique<Capture>(Capture::open(config_.data, run_dir_ + "/cache"));
   require(!capture_->train().empty(),
           "data: the capture has no training frames (check data.root, split, capture, cameras)");
+  capture_identity_ = capture_identity(*capture_);
   entry_order_ = std::make_unique<EntryOrder>(capture_->train(), config_.train.views_per_pose,
                                               config_.train.seed);
   if (is_root()) {
@@ -724,6 +725,7 @@ Checkpoint Trainer::make_checkpoint() {
   ckpt.meta["elapsed_seconds"] = elapsed_seconds_;
   ckpt.meta["adam_steps"] = hands_.front().optimizer->steps();
   ckpt.meta["lr_scale"] = hands_.front().optimizer->lr_scale();
+  ckpt.meta[kCaptureIdentityKey] = capture_identity_.to_json();
   // The first hand's state as a one-hand run writes it, the second hand's in its section.
   for (HandSlot& hand : hands_) {
     Checkpoint part;
@@ -755,6 +757,18 @@ void Trainer::load_from(const Checkpoint& ckpt, const std::string& source, bool 
                                      "--resume-changing-data if you mean it (its scores then "
                                      "mix two experiments)");
     spdlog::warn("{}\ncontinuing as asked (--resume-changing-data)", text);
+  }
+  if (const auto it = ckpt.meta.find(kCaptureIdentityKey); it != ckpt.meta.end()) {
+    const auto stored_identity = CaptureIdentity::from_json(*it, source + ": " + kCaptureIdentityKey);
+    const auto differences = identity_differences(stored_identity, capture_identity_);
+    if (!differences.empty()) {
+      const std::string text = source + ": " + config_.data.root + " differs from the capture the run " +
+                               "trained on (" + join(differences, "; ") + ")";
+      if (!allow_changed_data)
+        throw ExperimentChanged(text + "\nresume on the run's capture, or pass --resume-changing-data "
+                                       "if you mean it (its scores then mix two experiments)");
+      spdlog::warn("{}\ncontinuing as asked (--resume-changing-data)", text);
+    }
   }
   if (config_to_json(stored.model) != config_to_json(config_.model)) {
     std::string differences;

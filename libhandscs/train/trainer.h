@@ -35,6 +35,7 @@
 #include "avatar/avatar.h"
 #include "core/error.h"
 #include "data/capture.h"
+#include "data/capture_identity.h"
 #include "run/checkpoint.h"
 #include "run/run_config.h"
 #include "train/adam.h"
@@ -219,6 +220,7 @@ class Trainer {
   void for_each_part(F&& f);
 
   std::unique_ptr<Capture> capture_;
+  CaptureIdentity capture_identity_;  // the capture's, stored in every checkpoint
   std::vector<HandSlot> hands_;  // right first
   std::unique_ptr<Adam> optimizer_;  // the shared components' parameters
   std::unique_ptr<Objective> objective_;

@@ -89,8 +89,16 @@ TEST_CASE("checkpoint meta: each field is checked for type and range, naming fil
   CHECK(edited([](auto& m) { m["format"] = "other"; }) ==
         "X.ckpt: checkpoint metadata 'format' is \"other\", not \"handscs-checkpoint\" (not a "
         "HandSCS training checkpoint)");
-  // Counters the first checkpoints lacked may be absent.
+  CHECK(edited([](auto& m) { m["capture_identity"]["calibration"] = "12"; }) ==
+        "X.ckpt: checkpoint metadata capture_identity.calibration: expected 16 hex digits");
+  CHECK(edited([](auto& m) { m["capture_identity"]["annotations"] = "0123456789abcdeX"; }) ==
+        "X.ckpt: checkpoint metadata capture_identity.annotations: expected 16 hex digits, got "
+        "\"0123456789abcdeX\"");
+  CHECK(edited([](auto& m) { m["capture_identity"]["frames"] = -1; }) ==
+        "X.ckpt: checkpoint metadata capture_identity.frames: expected a non-negative integer");
+  // Counters the first checkpoints lacked may be absent, and so may the capture's identity.
   CHECK(edited([](auto& m) { m.erase("rollbacks"); m.erase("elapsed_seconds"); }) == "(no error)");
+  CHECK(edited([](auto& m) { m.erase("capture_identity"); }) == "(no error)");
   // A run's checkpoint name must say the step it holds.
   CHECK(meta_error(good, checkpoints + handscs::checkpoint_name(99)) ==
         checkpoints + handscs::checkpoint_name(99) + ": named for another step than the 4 it holds (renamed?)");

@@ -338,6 +338,54 @@ TEST_CASE("cli: handscs-eval refuses a split other than the run trained with") {
   CHECK(std::filesystem::exists(run_dir + "_eval/summary.json"));
 }
 
+TEST_CASE("cli: handscs-eval and a resume refuse another capture at data.root, not the same one moved") {
+  // Another seed of the same preset: the same layout, cameras ids, image names and split keys.
+  const auto run_dir = fresh_dir("cli_other_capture");
+  const std::string other = run_dir + "_capture_seed2";
+  auto preset = handscs::synth_preset("tiny");
+  preset.seed += 1;
+  handscs::generate_synth_capture(preset, other);
+  const std::string train = kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
+                            " --threads 2 --set train.iterations=2";
+  REQUIRE(run(train + " data.root=" + tiny_capture_dir()) == 0);
+  const std::string checkpoint = run_dir + "/checkpoints/step_00000002.ckpt";
+  const std::string eval = kBin + "/handscs-eval --checkpoint " + run_dir + " --threads 2 --max-images 1 --out " +
+                           run_dir + "_eval";
+
+  CHECK(run(eval + " --set data.root=" + other) == 1);
+  // Another seed moves the cameras and the hands alike.
+  CHECK(log_text().find(other + " differs from the capture " + checkpoint + " trained on (the cameras' "
+                        "calibration; the image names or the annotated hands): its scores would not be the "
+                        "run's; set data.root to the run's capture, or pass --other-capture to score this "
+                        "one anyway") != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(run_dir + "_eval/summary.json"));
+  CHECK(run(eval + " --set data.root=" + other + " --other-capture") == 0);
+  CHECK(log_text().find("scoring it as asked (--other-capture)") != std::string::npos);
+  std::filesystem::remove_all(run_dir + "_eval");
+
+  // The run's own capture, moved: the same frames, cameras and hands.
+  const std::string moved = run_dir + "_capture_moved";
+  std::filesystem::copy(tiny_capture_dir(), moved, std::filesystem::copy_options::recursive);
+  CHECK(run(eval + " --set data.root=" + moved) == 0);
+  CHECK(std::filesystem::exists(run_dir + "_eval/summary.json"));
+
+  // A run on that copy, its capture then replaced in the same folder: the resume is refused before
+  // a step (data.root itself may not change on resume), and the run folder is left as it was.
+  const std::string moved_run = run_dir + "_moved_run";
+  const std::string train_moved = kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " +
+                                  moved_run + " --threads 2 --set data.root=" + moved;
+  REQUIRE(run(train_moved + " train.iterations=2") == 0);
+  std::filesystem::remove_all(moved);
+  std::filesystem::copy(other, moved, std::filesystem::copy_options::recursive);
+  const auto before = snapshot(moved_run);
+  CHECK(run(train_moved + " train.iterations=4 --resume") != 0);
+  CHECK(log_text().find(moved + " differs from the capture the run trained on (the cameras' calibration; the "
+                        "image names or the annotated hands)\nresume on the run's capture, or pass "
+                        "--resume-changing-data") !=
+        std::string::npos);
+  CHECK(snapshot(moved_run) == before);
+}
+
 TEST_CASE("cli: SIGTERM stops a render, keeping the frames written and no torn video") {
   const auto run_dir = fresh_dir("cli_render_stop");
   REQUIRE(run(kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
