@@ -250,7 +250,7 @@ void drop_deprecated_keys(json& object, const json& defaults, const std::vector<
       if (stored)  // a checkpoint of an older build: nothing the user can or needs to edit
         spdlog::info("{}: written with {}, read as {}", origin, old_key, k.key);
       else
-        spdlog::warn("{}: {} is deprecated ({} serves for it): drop it", origin, old_key, k.key);
+        spdlog::warn("{}: {} is deprecated ({} serves for it): drop it", source, old_key, k.key);
     }
     const size_t dot = old_key.rfind('.');
     json* parent = dot == std::string::npos ? &object : config_value_at(object, old_key.substr(0, dot));

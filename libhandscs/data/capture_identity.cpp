@@ -79,10 +79,10 @@ CaptureIdentity CaptureIdentity::from_json(const nlohmann::json& object, const s
   return identity;
 }
 
-CaptureIdentity capture_identity(const Capture& capture) {
+CaptureIdentity capture_identity(const Capture& capture, const std::vector<FrameInfo>& frames) {
   const bool parameters_read = capture.config().pose_source == CaptureConfig::PoseSource::mano;
   CaptureIdentity identity;
-  for (const FrameInfo& frame : capture.frames()) {
+  for (const FrameInfo& frame : frames) {
     ++identity.frames;
     // Sums wrap modulo 2^64: the order the frames come in does not matter.
     identity.calibration += frame_calibration(frame);

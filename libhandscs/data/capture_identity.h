@@ -4,7 +4,7 @@
 // its checkpoints; handscs-eval and a resume compare it with the capture they open.
 //
 // The identity hashes what a capture's files say about the frames the run selected (train and test
-// alike, so a dropped validation split keeps it): each frame's image name and camera, and its
+// alike): each frame's image name and camera, and its
 // annotated hands (joints, and the MANO parameters when they are read, not fitted). A capture
 // copied or moved keeps it; one synthesised with another seed, or another recording of the same
 // layout, does not. Images are not read (a damaged one is refused at open all the same).
@@ -33,8 +33,10 @@ struct CaptureIdentity {
   static CaptureIdentity from_json(const nlohmann::json& object, const std::string& where);
 };
 
-// The identity of `capture`'s usable frames (order-independent: a sum of per-frame hashes).
-CaptureIdentity capture_identity(const Capture& capture);
+// The identity of `frames`, frames of `capture` (order-independent: a sum of per-frame hashes). A
+// run stores its Capture::frames(). A config without the run's data.validation_cameras opens the
+// test cameras too; its Capture::train() then holds the run's frames.
+CaptureIdentity capture_identity(const Capture& capture, const std::vector<FrameInfo>& frames);
 
 // How `given` differs from `run`, as phrases for an error ("the cameras' calibration", ...); empty
 // when the two are the same capture.

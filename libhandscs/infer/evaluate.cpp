@@ -60,13 +60,20 @@ void check_capture_identity(const TrainedAvatar& trained, const Capture& capture
                  trained.path, root);
     return;
   }
-  const auto differences = identity_differences(*trained.capture_identity, capture_identity(capture));
+  // Without the run's validation cameras the test cameras open too: the run's frames are then the
+  // training ones (the validation cameras back among them).
+  const bool validation_cameras_dropped =
+      !trained.trained_config.data.validation_cameras.empty() && capture.config().validation_cameras.empty();
+  const auto differences = identity_differences(
+      *trained.capture_identity,
+      capture_identity(capture, validation_cameras_dropped ? capture.train() : capture.frames()));
   if (differences.empty()) return;
-  const std::string text = root + " differs from the capture " + trained.path + " trained on (" +
-                           join(differences, "; ") + ")";
+  const std::string text = "the frames " + root + " gives differ from those " + trained.path + " trained on (" +
+                           join(differences, "; ") + "): another capture, or a data setting that selects "
+                           "other frames";
   if (!other_capture)
-    throw Error(text + ": its scores would not be the run's; set data.root to the run's capture, or pass "
-                       "--other-capture to score this one anyway");
+    throw Error(text + ".\nIts scores would not be the run's: evaluate on the run's capture, or pass "
+                       "--other-capture to score these frames anyway");
   spdlog::warn("{}: scoring it as asked (--other-capture)", text);
 }
 }  // namespace

@@ -100,7 +100,7 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir, ProcessGro
   capture_ = std::make_unique<Capture>(Capture::open(config_.data, run_dir_ + "/cache"));
   require(!capture_->train().empty(),
           "data: the capture has no training frames (check data.root, split, capture, cameras)");
-  capture_identity_ = capture_identity(*capture_);
+  capture_identity_ = capture_identity(*capture_, capture_->frames());
   entry_order_ = std::make_unique<EntryOrder>(capture_->train(), config_.train.views_per_pose,
                                               config_.train.seed);
   if (is_root()) {
@@ -690,7 +690,8 @@ bool Trainer::rollback() {
   const int64_t rollbacks = rollbacks_ + 1;
   const int64_t skipped = skipped_total_;
   const auto restore = [&](const Checkpoint& checkpoint, const std::string& source) {
-    load_from(checkpoint, source);
+    // A run resumed with --resume-changing-data may roll back to a checkpoint from before the change.
+    load_from(checkpoint, source, accepted_changed_data_);
     for (Adam* adam : optimizers()) adam->set_lr_scale(scale);
     rollbacks_ = rollbacks;
     skipped_total_ = skipped;
@@ -762,8 +763,9 @@ void Trainer::load_from(const Checkpoint& ckpt, const std::string& source, bool 
     const auto stored_identity = CaptureIdentity::from_json(*it, source + ": " + kCaptureIdentityKey);
     const auto differences = identity_differences(stored_identity, capture_identity_);
     if (!differences.empty()) {
-      const std::string text = source + ": " + config_.data.root + " differs from the capture the run " +
-                               "trained on (" + join(differences, "; ") + ")";
+      const std::string text = source + ": the frames " + config_.data.root + " gives differ from those the " +
+                               "run trained on (" + join(differences, "; ") + "): another capture, or a " +
+                               "data setting that selects other frames";
       if (!allow_changed_data)
         throw ExperimentChanged(text + "\nresume on the run's capture, or pass --resume-changing-data "
                                        "if you mean it (its scores then mix two experiments)");
@@ -851,6 +853,7 @@ bool Trainer::resume(bool allow_changed_data) {
     const std::string& file = files[k];
     try {
       load_from(load_checkpoint(file), file, allow_changed_data);
+      accepted_changed_data_ = allow_changed_data;
       last_checkpoint_ = file;
       spdlog::info("resumed from {} at step {}", file, iteration_);
       // The newer files that could not be resumed are set aside, not deleted (the user may want to

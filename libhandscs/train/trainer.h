@@ -221,6 +221,7 @@ class Trainer {
 
   std::unique_ptr<Capture> capture_;
   CaptureIdentity capture_identity_;  // the capture's, stored in every checkpoint
+  bool accepted_changed_data_ = false;  // resumed with --resume-changing-data (rollbacks too)
   std::vector<HandSlot> hands_;  // right first
   std::unique_ptr<Adam> optimizer_;  // the shared components' parameters
   std::unique_ptr<Objective> objective_;

@@ -15,11 +15,16 @@
 
 namespace {
 
-const std::string kDir = handscs_test::scratch_path("handscs_test_capture_factor", std::to_string(::getpid()));
+// Made at first use, under the test process's own temp folder (tests/main.cpp sets it in main).
+const std::string& scratch() {
+  static const std::string dir =
+      handscs_test::scratch_path("handscs_test_capture_factor", std::to_string(::getpid()));
+  return dir;
+}
 
 // A results.csv of rows "point,psnr,ssim,lpips" at 10,000 steps, status ok.
 std::string sweep(const std::string& name, const std::vector<std::tuple<std::string, double, double, double>>& rows) {
-  const std::string folder = kDir + "/" + name;
+  const std::string folder = scratch() + "/" + name;
   std::filesystem::create_directories(folder);
   std::string csv = "point,budget,status,psnr,ssim,lpips\n";
   for (const auto& [point, psnr, ssim, lpips] : rows)
@@ -29,7 +34,7 @@ std::string sweep(const std::string& name, const std::vector<std::tuple<std::str
 }
 
 std::string run(const std::string& arguments) {
-  const std::string out = kDir + "/out.txt";
+  const std::string out = scratch() + "/out.txt";
   const std::string command = "/usr/bin/python3 " + handscs_test::kSource + "/tools/study/capture_factor.py " +
                               arguments + " > '" + out + "' 2>&1";
   const int status = std::system(command.c_str());
@@ -50,12 +55,12 @@ TEST_CASE("capture_factor.py: per-capture gains, their rule, and the reading acr
   const std::string b = sweep("B", {{"c.view.s10", 30.0, 0.9, 0.1}, {"full.view.s10", 30.1, 0.9, 0.1},
                                     {"c.view.s11", 30.0, 0.9, 0.1}, {"full.view.s11", 29.9, 0.9, 0.1},
                                     {"c.view.s12", 30.0, 0.9, 0.1}, {"full.view.s12", 30.3, 0.9, 0.1}});
-  std::string text = run("--capture A=" + a + " --capture B=" + b + " --gain scs=full-c --out " + kDir + "/table");
+  std::string text = run("--capture A=" + a + " --capture B=" + b + " --gain scs=full-c --out " + scratch() + "/table");
   CHECK_THAT(text, Catch::Contains("| A | s10 +0.200 / s11 +0.100 / s12 +0.300 | +0.200 ± 0.100 | pays | +0.0033 | -0.0033 |"));
   CHECK_THAT(text, Catch::Contains("| B | s10 +0.100 / s11 -0.100 / s12 +0.300 | +0.100 ± 0.200 | no difference shown |"));
   CHECK_THAT(text, Catch::Contains("Across 2 complete of 2 captures: mean of the per-capture means +0.150 ± 0.071 dB."));
   CHECK_THAT(text, Catch::Contains("Reading: **does not hold across captures: pays on 1 of 2**."));
-  CHECK(handscs::read_file(kDir + "/table.md") + "\n" == text);
+  CHECK(handscs::read_file(scratch() + "/table.md") + "\n" == text);
   // Every capture paying holds; a capture short of a seed gives no verdict.
   text = run("--capture A=" + a + " --capture A_again=" + a + " --gain scs=full-c");
   CHECK_THAT(text, Catch::Contains("Reading: **holds across captures (pays on every capture)**."));

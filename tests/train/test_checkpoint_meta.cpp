@@ -15,6 +15,10 @@
 #include "core/atomic_file.h"
 #include "core/config.h"
 #include "core/error.h"
+#include "data/capture.h"
+#include "data/capture_identity.h"
+#include "synth/capture.h"
+#include "synth/config.h"
 #include "core/threads.h"
 #include "run/checkpoint.h"
 #include "run/checkpoint_meta.h"
@@ -242,4 +246,47 @@ TEST_CASE("checkpoint meta: a resume that changes the experiment's data is refus
   CHECK(handscs::experiment_differences(stored, elsewhere) ==
         std::vector<std::string>{"data.root: \"" + stored.data.root + "\" -> \"/another/capture\""});
   handscs::set_threads(2);
+}
+
+TEST_CASE("capture identity: kept by another split, a copy and the thread count; not by another seed") {
+  const auto identity_of = [](const handscs::CaptureConfig& data) {
+    const handscs::Capture capture = handscs::Capture::open(data);
+    return handscs::capture_identity(capture, capture.frames());
+  };
+  const auto config = tiny_run_config();
+  handscs::set_threads(1);
+  const auto reference = identity_of(config.data);
+  CHECK(reference.frames > 0);
+  handscs::set_threads(2);
+  CHECK(handscs::identity_differences(reference, identity_of(config.data)).empty());
+  auto other_split = config.data;
+  other_split.held_out_poses = 5;
+  other_split.validation_poses = 2;
+  CHECK(handscs::identity_differences(reference, identity_of(other_split)).empty());
+  const std::string copy = fresh_dir("identity_copy");
+  fs::copy(config.data.root, copy, fs::copy_options::recursive);
+  auto copied = config.data;
+  copied.root = copy;
+  CHECK(handscs::identity_differences(reference, identity_of(copied)).empty());
+  // The JSON form reads back.
+  const auto read = handscs::CaptureIdentity::from_json(reference.to_json(), "x");
+  CHECK(handscs::identity_differences(reference, read).empty());
+
+  // Another seed of the preset: the same image names and camera ids, other cameras and hands.
+  const std::string other = fresh_dir("identity_other_seed");
+  auto preset = handscs::synth_preset("tiny");
+  preset.seed += 1;
+  handscs::generate_synth_capture(preset, other);
+  auto other_capture = config.data;
+  other_capture.root = other;
+  CHECK(handscs::identity_differences(reference, identity_of(other_capture)) ==
+        std::vector<std::string>{"the cameras' calibration", "the image names or the annotated hands"});
+  // One frame fewer (its image gone): the count is named too.
+  const handscs::Capture full = handscs::Capture::open(copied);
+  fs::remove(full.frames().front().image_path);
+  const auto fewer = identity_of(copied);
+  CHECK(fewer.frames == reference.frames - 1);
+  CHECK(handscs::identity_differences(reference, fewer).front() ==
+        std::to_string(reference.frames - 1) + " usable frames (the run's capture: " +
+            std::to_string(reference.frames) + ")");
 }

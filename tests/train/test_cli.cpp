@@ -35,13 +35,17 @@ using handscs_test::kSource;
 using handscs_test::snapshot;
 
 // One log per test process: ctest -j runs the cases of this file side by side.
-const std::string kLog = "/tmp/handscs_cli_test_" + std::to_string(getpid()) + ".log";
+const std::string& log_path() {
+  static const std::string path =
+      (std::filesystem::temp_directory_path() / ("handscs_cli_test_" + std::to_string(getpid()) + ".log")).string();
+  return path;
+}
 
 int run(const std::string& command) {
-  const int status = std::system((command + " > " + kLog + " 2>&1").c_str());
+  const int status = std::system((command + " > " + log_path() + " 2>&1").c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
-std::string log_text() { return handscs::read_file(kLog); }
+std::string log_text() { return handscs::read_file(log_path()); }
 
 // Starts handscs-train (after `prefix`, e.g. "nohup "; `extra` options after its own) on the tiny
 // capture for 100000 steps into `run_dir`, its log in run_dir.log, and returns its pid once
@@ -354,10 +358,11 @@ TEST_CASE("cli: handscs-eval and a resume refuse another capture at data.root, n
 
   CHECK(run(eval + " --set data.root=" + other) == 1);
   // Another seed moves the cameras and the hands alike.
-  CHECK(log_text().find(other + " differs from the capture " + checkpoint + " trained on (the cameras' "
-                        "calibration; the image names or the annotated hands): its scores would not be the "
-                        "run's; set data.root to the run's capture, or pass --other-capture to score this "
-                        "one anyway") != std::string::npos);
+  CHECK(log_text().find("the frames " + other + " gives differ from those " + checkpoint + " trained on (the "
+                        "cameras' calibration; the image names or the annotated hands): another capture, or a "
+                        "data setting that selects other frames.\nIts scores would not be the run's: evaluate "
+                        "on the run's capture, or pass --other-capture to score these frames anyway") !=
+        std::string::npos);
   CHECK_FALSE(std::filesystem::exists(run_dir + "_eval/summary.json"));
   CHECK(run(eval + " --set data.root=" + other + " --other-capture") == 0);
   CHECK(log_text().find("scoring it as asked (--other-capture)") != std::string::npos);
@@ -379,11 +384,27 @@ TEST_CASE("cli: handscs-eval and a resume refuse another capture at data.root, n
   std::filesystem::copy(other, moved, std::filesystem::copy_options::recursive);
   const auto before = snapshot(moved_run);
   CHECK(run(train_moved + " train.iterations=4 --resume") != 0);
-  CHECK(log_text().find(moved + " differs from the capture the run trained on (the cameras' calibration; the "
-                        "image names or the annotated hands)\nresume on the run's capture, or pass "
+  CHECK(log_text().find("the frames " + moved + " gives differ from those the run trained on (the cameras' "
+                        "calibration; the image names or the annotated hands): another capture, or a data "
+                        "setting that selects other frames\nresume on the run's capture, or pass "
                         "--resume-changing-data") !=
         std::string::npos);
   CHECK(snapshot(moved_run) == before);
+}
+
+TEST_CASE("cli: handscs-eval takes a run's capture without its validation cameras as the run's") {
+  // Validation cameras leave the test cameras unopened, so the run's frames are its training
+  // cameras'; dropped at evaluation, the test cameras open beside them (tools/study/early_stopping.py).
+  const auto run_dir = fresh_dir("cli_eval_validation_cameras");
+  REQUIRE(run(kBin + "/handscs-train --config " + kSource + "/configs/tiny.json --out " + run_dir +
+              " --threads 2 --set data.root=" + tiny_capture_dir() + " train.iterations=2 "
+              "data.split_rule=novel_view 'data.test_cameras=[\"400008\"]' "
+              "'data.validation_cameras=[\"400004\"]'") == 0);
+  const std::string eval = kBin + "/handscs-eval --checkpoint " + run_dir + " --threads 2 --max-images 1 --out " +
+                           run_dir + "_eval";
+  INFO(log_text());
+  CHECK(run(eval + " --set 'data.validation_cameras=[]'") == 0);
+  CHECK(std::filesystem::exists(run_dir + "_eval/summary.json"));
 }
 
 TEST_CASE("cli: SIGTERM stops a render, keeping the frames written and no torn video") {

@@ -167,6 +167,14 @@ TEST_CASE("configs: a deprecated key warns once per file, and not at all from a 
     CHECK(count(messages, path + ": model.rig is deprecated") == 1);
   }
   {
+    // Given by --set alone, it is named as the overrides' (the file does not hold it).
+    const std::string plain = handscs_test::scratch_file("handscs_test_deprecated_once", "plain.json",
+                                                         handscs::config_to_json(defaults).dump(2));
+    handscs_test::CapturedWarnings warnings;
+    CHECK_NOTHROW(handscs::load_config<handscs::RunConfig>(plain, {"model.rig=builtin"}));
+    CHECK(count(warnings.messages(), plain + " + --set: model.rig is deprecated") == 1);
+  }
+  {
     // A checkpoint's stored config, read twice as open_trained_avatar does: not the user's to edit.
     handscs_test::CapturedWarnings warnings;
     const std::string stored = "run/step_00000100.ckpt" + std::string(handscs::kStoredConfig);
