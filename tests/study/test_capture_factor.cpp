@@ -91,3 +91,16 @@ TEST_CASE("capture_factor.py: SCS across the three captures reads back from docs
   CHECK_THAT(text, Catch::Contains("mean of the per-capture means +0.181 ± 0.042 dB"));
   CHECK_THAT(text, Catch::Contains("Reading: **holds across captures (pays on every capture)**."));
 }
+
+TEST_CASE("capture_factor.py: the embeddings across the three captures read back from docs/bench") {
+  const std::string bench = handscs_test::kSource + "/docs/bench/";
+  const std::string text = run("--capture seed1=" + bench + "scaling_view_10000.csv --capture seed2=" + bench +
+                               "scaling_view_captures_rp2.csv --capture seed3=" + bench +
+                               "scaling_view_captures_rp3.csv --gain embeddings=embedding-baseline");
+  // docs/SCALING.md, "The embeddings across captures".
+  CHECK_THAT(text, Catch::Contains("| +1.553 ± 0.014 | pays |"));
+  CHECK_THAT(text, Catch::Contains("| +1.554 ± 0.130 | pays |"));
+  CHECK_THAT(text, Catch::Contains("| +1.706 ± 0.110 | pays |"));
+  CHECK_THAT(text, Catch::Contains("mean of the per-capture means +1.604 ± 0.088 dB"));
+  CHECK_THAT(text, Catch::Contains("Reading: **holds across captures (pays on every capture)**."));
+}
