@@ -44,6 +44,14 @@ std::string run(const std::string& arguments) {
   return text;
 }
 
+// The declared capture-factor reading of `gain` from docs/bench: the study's capture (its sweep's
+// CSV) and the two captures synthesised with seeds 2 and 3.
+std::string across_three_captures(const std::string& study_csv, const std::string& gain) {
+  const std::string bench = handscs_test::kSource + "/docs/bench/";
+  return run("--capture seed1=" + bench + study_csv + " --capture seed2=" + bench +
+             "scaling_view_captures_rp2.csv --capture seed3=" + bench + "scaling_view_captures_rp3.csv --gain " + gain);
+}
+
 }  // namespace
 
 TEST_CASE("capture_factor.py: per-capture gains, their rule, and the reading across captures") {
@@ -81,10 +89,7 @@ TEST_CASE("capture_factor.py: the published novel-view gains read back from docs
 }
 
 TEST_CASE("capture_factor.py: SCS across the three captures reads back from docs/bench") {
-  const std::string bench = handscs_test::kSource + "/docs/bench/";
-  const std::string text = run("--capture seed1=" + bench + "scaling_view_10000_tau003.csv --capture seed2=" + bench +
-                               "scaling_view_captures_rp2.csv --capture seed3=" + bench +
-                               "scaling_view_captures_rp3.csv --gain scs=full_tau003-inter_pose_tau003");
+  const std::string text = across_three_captures("scaling_view_10000_tau003.csv", "scs=full_tau003-inter_pose_tau003");
   // docs/SCALING.md, "SCS across captures".
   CHECK_THAT(text, Catch::Contains("| +0.162 ± 0.085 | pays |"));
   CHECK_THAT(text, Catch::Contains("| +0.152 ± 0.025 | pays |"));
@@ -93,10 +98,7 @@ TEST_CASE("capture_factor.py: SCS across the three captures reads back from docs
 }
 
 TEST_CASE("capture_factor.py: the embeddings across the three captures read back from docs/bench") {
-  const std::string bench = handscs_test::kSource + "/docs/bench/";
-  const std::string text = run("--capture seed1=" + bench + "scaling_view_10000.csv --capture seed2=" + bench +
-                               "scaling_view_captures_rp2.csv --capture seed3=" + bench +
-                               "scaling_view_captures_rp3.csv --gain embeddings=embedding-baseline");
+  const std::string text = across_three_captures("scaling_view_10000.csv", "embeddings=embedding-baseline");
   // docs/SCALING.md, "The embeddings across captures".
   CHECK_THAT(text, Catch::Contains("| +1.553 ± 0.014 | pays |"));
   CHECK_THAT(text, Catch::Contains("| +1.554 ± 0.130 | pays |"));
