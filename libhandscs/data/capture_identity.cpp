@@ -26,15 +26,13 @@ uint64_t frame_calibration(const FrameInfo& frame) {
   return fnv1a64(text);
 }
 
-void append_hand(std::string& text, const std::array<float, 63>& joints, const std::array<uint8_t, 21>& valid,
-                 const std::array<float, 48>& pose, const std::array<float, 10>& shape,
-                 const std::array<float, 3>& trans, bool parameters_read) {
-  append_bytes(text, joints);
-  append_bytes(text, valid);
+void append_hand(std::string& text, const HandParams& hand, bool parameters_read) {
+  append_bytes(text, hand.joints);
+  append_bytes(text, hand.joint_valid);
   if (!parameters_read) return;  // fitted to the joints: a product of this build, not of the files
-  append_bytes(text, pose);
-  append_bytes(text, shape);
-  append_bytes(text, trans);
+  append_bytes(text, hand.pose);
+  append_bytes(text, hand.shape);
+  append_bytes(text, hand.trans);
 }
 
 uint64_t frame_annotations(const FrameInfo& frame, bool parameters_read) {
@@ -44,10 +42,11 @@ uint64_t frame_annotations(const FrameInfo& frame, bool parameters_read) {
     if (const auto& hand = frame.hands[side]) {
       two_hands = true;
       text += side == 0 ? 'R' : 'L';
-      append_hand(text, hand->joints, hand->joint_valid, hand->pose, hand->shape, hand->trans, parameters_read);
+      append_hand(text, *hand, parameters_read);
     }
   if (!two_hands)
-    append_hand(text, frame.joints, frame.joint_valid, frame.pose, frame.shape, frame.trans, parameters_read);
+    append_hand(text, HandParams{frame.pose, frame.shape, frame.trans, frame.joints, frame.joint_valid},
+                parameters_read);
   return fnv1a64(text);
 }
 
