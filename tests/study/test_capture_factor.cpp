@@ -45,11 +45,12 @@ std::string run(const std::string& arguments) {
 }
 
 // The declared capture-factor reading of `gain` from docs/bench: the study's capture (its sweep's
-// CSV) and the two captures synthesised with seeds 2 and 3.
-std::string across_three_captures(const std::string& study_csv, const std::string& gain) {
+// CSV) and the two captures synthesised with seeds 2 and 3 (`cell`'s CSVs, e.g. "scaling_view_captures").
+std::string across_three_captures(const std::string& study_csv, const std::string& gain,
+                                  const std::string& cell = "scaling_view_captures", const std::string& options = "") {
   const std::string bench = handscs_test::kSource + "/docs/bench/";
-  return run("--capture seed1=" + bench + study_csv + " --capture seed2=" + bench +
-             "scaling_view_captures_rp2.csv --capture seed3=" + bench + "scaling_view_captures_rp3.csv --gain " + gain);
+  return run("--capture seed1=" + bench + study_csv + " --capture seed2=" + bench + cell + "_rp2.csv --capture seed3=" +
+             bench + cell + "_rp3.csv --gain " + gain + " " + options);
 }
 
 }  // namespace
@@ -76,6 +77,27 @@ TEST_CASE("capture_factor.py: per-capture gains, their rule, and the reading acr
   text = run("--capture A=" + a + " --capture C=" + short_of_one + " --gain scs=full-c");
   CHECK_THAT(text, Catch::Contains("| C | s10 +0.500 | +0.500 ± n/a | incomplete (1 of 3 seeds) |"));
   CHECK_THAT(text, Catch::Contains("Reading: **no verdict yet: 1 capture(s) incomplete**."));
+}
+
+TEST_CASE("capture_factor.py: \"no difference\" holds across captures only where no capture pays or costs") {
+  // Capture N: +0.1, -0.1, +0.3 (no difference shown); capture P: +0.2, +0.1, +0.3 (pays); capture
+  // C: -0.2, -0.1, -0.3 (costs). Cell p350, as the novel-pose cell names its points.
+  const std::string n = sweep("N", {{"c.p350.s10", 30.0, 0.9, 0.1}, {"full.p350.s10", 30.1, 0.9, 0.1},
+                                    {"c.p350.s11", 30.0, 0.9, 0.1}, {"full.p350.s11", 29.9, 0.9, 0.1},
+                                    {"c.p350.s12", 30.0, 0.9, 0.1}, {"full.p350.s12", 30.3, 0.9, 0.1}});
+  const std::string p = sweep("P", {{"c.p350.s10", 30.0, 0.9, 0.1}, {"full.p350.s10", 30.2, 0.9, 0.1},
+                                    {"c.p350.s11", 30.0, 0.9, 0.1}, {"full.p350.s11", 30.1, 0.9, 0.1},
+                                    {"c.p350.s12", 30.0, 0.9, 0.1}, {"full.p350.s12", 30.3, 0.9, 0.1}});
+  const std::string c = sweep("C", {{"c.p350.s10", 30.0, 0.9, 0.1}, {"full.p350.s10", 29.8, 0.9, 0.1},
+                                    {"c.p350.s11", 30.0, 0.9, 0.1}, {"full.p350.s11", 29.9, 0.9, 0.1},
+                                    {"c.p350.s12", 30.0, 0.9, 0.1}, {"full.p350.s12", 29.7, 0.9, 0.1}});
+  const std::string options = " --gain scs=full-c --cell p350 --holds none";
+  std::string text = run("--capture N=" + n + " --capture N_again=" + n + options);
+  CHECK_THAT(text, Catch::Contains("# Gains with the capture as a factor (p350 cell, 10000 steps)"));
+  CHECK_THAT(text, Catch::Contains("Reading: **no difference holds across captures (no capture shows a gain or a cost)**."));
+  text = run("--capture N=" + n + " --capture P=" + p + " --capture C=" + c + options);
+  CHECK_THAT(text, Catch::Contains("| C | s10 -0.200 / s11 -0.100 / s12 -0.300 | -0.200 ± 0.100 | costs |"));
+  CHECK_THAT(text, Catch::Contains("Reading: **no difference does not hold across captures: pays on 1, costs on 1 of 3**."));
 }
 
 TEST_CASE("capture_factor.py: the published novel-view gains read back from docs/bench") {

@@ -5,7 +5,7 @@
         --capture seed1=docs/bench/scaling_view_10000_tau003.csv,docs/bench/scaling_view_10000.csv \
         --capture seed2=out/view_captures.C2 --capture seed3=out/view_captures.C3 \
         --gain scs=full_tau003-inter_pose_tau003 --gain embeddings=embedding-baseline \
-        [--cell view] [--budget 10000] [--seeds 3] [--out PREFIX]
+        [--cell view] [--budget 10000] [--seeds 3] [--holds pays|none] [--out PREFIX]
 
 Each --capture names one capture and the handscs-bench output folders (or their results.csv files)
 that hold its runs, comma-separated. Points are named <row>.<cell>.s<seed>. For every --gain
@@ -13,7 +13,9 @@ ROW-BASE: per capture, the PSNR gain paired by seed, its mean and sample std ove
 the study's rule (pays: positive on every seed; costs: negative on every seed; otherwise no
 difference shown; incomplete until --seeds pairs are in). Across captures, a random factor: the
 mean and sample std of the per-capture mean gains, and the reading declared before the runs: a gain
-holds across captures if it pays on every capture. SSIM and LPIPS gains are given beside it.
+holds across captures if it pays on every capture (--holds pays); "no difference" holds across
+captures if no capture shows the gain paying or costing (--holds none, for a cell that showed no
+difference on one capture). SSIM and LPIPS gains are given beside it.
 Writes PREFIX.md and prints it.
 """
 import argparse
@@ -48,7 +50,21 @@ def fmt(value, digits=3, signed=True):
     return f'{value:+.{digits}f}' if signed else f'{value:.{digits}f}'
 
 
-def analyse(captures, gains, cell, budget, seeds):
+def verdict_of(readings, holds):
+    """The declared reading across captures of the complete captures' readings."""
+    pays = sum(r == 'pays' for r in readings)
+    costs = sum(r == 'costs' for r in readings)
+    if holds == 'none':
+        if pays == costs == 0:
+            return 'no difference holds across captures (no capture shows a gain or a cost)'
+        return (f'no difference does not hold across captures: pays on {pays}, costs on {costs} '
+                f'of {len(readings)}')
+    if pays == len(readings):
+        return 'holds across captures (pays on every capture)'
+    return f'does not hold across captures: pays on {pays} of {len(readings)}'
+
+
+def analyse(captures, gains, cell, budget, seeds, holds='pays'):
     """Rows of the table and the across-capture verdicts, as text lines."""
     lines = [f'# Gains with the capture as a factor ({cell} cell, {budget} steps)', '']
     for name, (row, base) in gains.items():
@@ -73,13 +89,10 @@ def analyse(captures, gains, cell, budget, seeds):
         across_mean, across_std = mean_std(means)
         lines.append(f'Across {len(means)} complete of {len(captures)} captures: mean of the per-capture means '
                      f'{fmt(across_mean)} ± {fmt(across_std, signed=False)} dB.')
-        pays = sum(r == 'pays' for r in readings)
         if not complete:
             verdict = f'no verdict yet: {len(captures) - len(means)} capture(s) incomplete'
-        elif pays == len(captures):
-            verdict = 'holds across captures (pays on every capture)'
         else:
-            verdict = f'does not hold across captures: pays on {pays} of {len(captures)}'
+            verdict = verdict_of(readings, holds)
         lines += [f'Reading: **{verdict}**.', '']
     return lines
 
@@ -91,6 +104,9 @@ def main():
     parser.add_argument('--cell', default='view')
     parser.add_argument('--budget', type=int, default=10000)
     parser.add_argument('--seeds', type=int, default=3, help='pairs a capture needs for a reading')
+    parser.add_argument('--holds', choices=['pays', 'none'], default='pays',
+                        help='the reading that holds across captures: the gain pays on every capture, '
+                             'or no capture shows a gain or a cost')
     parser.add_argument('--out', help='write PREFIX.md')
     args = parser.parse_args()
     captures = {}
@@ -105,7 +121,7 @@ def main():
         if row_budget is not None or base_budget is not None:
             sys.exit(f'--gain {spec}: both rows are read at --budget; give NAME=ROW-BASE')
         gains[name] = (row, base)
-    text = '\n'.join(analyse(captures, gains, args.cell, args.budget, args.seeds))
+    text = '\n'.join(analyse(captures, gains, args.cell, args.budget, args.seeds, args.holds))
     print(text)
     if args.out:
         with open(args.out + '.md', 'w') as f:
