@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "data/capture.h"
 #include "data/interhand_annotations.h"
+#include "data/placement.h"
 #include "fit/keypoint_file.h"
 #include "hand/joint_model.h"
 #include "hand/keypoint_fit.h"
@@ -131,9 +132,9 @@ json pose_frame_to_json(const PoseFrame& frame) {
   if (frame.hands[0] || frame.hands[1]) {
     for (const Handedness side : {Handedness::right, Handedness::left})
       if (const auto& hand = frame.hands[side == Handedness::right ? 0 : 1])
-        item[hand_name(side)] = {{"pose", hand->pose}, {"shape", hand->shape}, {"trans", hand->trans}};
+        item[hand_name(side)] = hand_params_to_json(*hand);
   } else {
-    item = {{"pose", frame.pose}, {"shape", frame.shape}, {"trans", frame.trans}};
+    item = hand_params_to_json(HandParams{frame.pose, frame.shape, frame.trans, {}, {}});
   }
   if (!frame.name.empty()) item["name"] = frame.name;
   return item;

@@ -4,6 +4,7 @@
 
 #include "core/config.h"
 #include "core/error.h"
+#include "data/placement.h"
 #include "run/checkpoint_meta.h"
 
 namespace handscs {
@@ -103,8 +104,10 @@ TrainedAvatar open_trained_avatar(const std::string& checkpoint_or_run,
   std::optional<CaptureIdentity> identity;
   if (const auto it = opened.checkpoint.meta.find(kCaptureIdentityKey); it != opened.checkpoint.meta.end())
     identity = CaptureIdentity::from_json(*it, opened.path + ": " + kCaptureIdentityKey);
+  const nlohmann::json placement = opened.checkpoint.meta.value(kPlacementKey, nlohmann::json());
   return {opened.path,       std::move(config), std::move(trained_config), std::move(avatar),
-          std::move(colors), std::move(left),   identity};
+          std::move(colors), std::move(left),   identity,
+          placement};
 }
 
 Handedness TrainedAvatar::first_hand() const { return hand_sides(trained_config.data.hand).front(); }

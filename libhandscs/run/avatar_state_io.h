@@ -36,6 +36,9 @@ struct TrainedAvatar {
   std::vector<Avatar> left;
   // The capture it trained on (data/capture_identity.h); absent from an older build's checkpoint.
   std::optional<CaptureIdentity> capture_identity;
+  // Its hands in the run's first training frame (data/placement.h, a POSES file's frame object);
+  // null for an older build's checkpoint.
+  nlohmann::json placement;
   Handedness first_hand() const;  // the hand `avatar` is
   // The avatar of hand `side`; null when the checkpoint has none.
   Avatar* hand(Handedness side);

@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "data/capture_identity.h"
+#include "data/placement.h"
 #include "run/checkpoint.h"
 
 namespace handscs {
@@ -76,6 +77,9 @@ void check_checkpoint_meta(const json& meta, const std::string& source) {
   if (meta.contains(kCaptureIdentityKey))
     CaptureIdentity::from_json(meta.at(kCaptureIdentityKey),
                                source + ": checkpoint metadata " + kCaptureIdentityKey);
+  if (meta.contains(kPlacementKey) && !meta.at(kPlacementKey).is_object())
+    throw Error(source + ": checkpoint metadata '" + kPlacementKey + "' is " + meta.at(kPlacementKey).dump() +
+                ", not an object");
   // A run's checkpoint is found by its name: the name must say the step it holds.
   const std::string name = std::filesystem::path(source).filename().string();
   static const std::regex run_name("step_[0-9]{8,}\\.ckpt");

@@ -24,6 +24,7 @@
 #include "core/progress.h"
 #include "core/stop_signal.h"
 #include "data/camera_transforms.h"
+#include "data/placement.h"
 #include "io/png.h"
 #include "metrics/comparison_panel.h"
 #include "metrics/image_tensor.h"
@@ -101,6 +102,7 @@ Trainer::Trainer(const RunConfig& config, const std::string& run_dir, ProcessGro
   require(!capture_->train().empty(),
           "data: the capture has no training frames (check data.root, split, capture, cameras)");
   capture_identity_ = capture_identity(*capture_, capture_->frames());
+  placement_ = training_placement(capture_->train());
   entry_order_ = std::make_unique<EntryOrder>(capture_->train(), config_.train.views_per_pose,
                                               config_.train.seed);
   if (is_root()) {
@@ -727,6 +729,7 @@ Checkpoint Trainer::make_checkpoint() {
   ckpt.meta["adam_steps"] = hands_.front().optimizer->steps();
   ckpt.meta["lr_scale"] = hands_.front().optimizer->lr_scale();
   ckpt.meta[kCaptureIdentityKey] = capture_identity_.to_json();
+  ckpt.meta[kPlacementKey] = placement_;
   // The first hand's state as a one-hand run writes it, the second hand's in its section.
   for (HandSlot& hand : hands_) {
     Checkpoint part;

@@ -36,6 +36,7 @@
 #include "core/error.h"
 #include "data/capture.h"
 #include "data/capture_identity.h"
+#include "data/placement.h"
 #include "run/checkpoint.h"
 #include "run/run_config.h"
 #include "train/adam.h"
@@ -221,6 +222,7 @@ class Trainer {
 
   std::unique_ptr<Capture> capture_;
   CaptureIdentity capture_identity_;  // the capture's, stored in every checkpoint
+  nlohmann::json placement_;          // the hands of the first training frame (data/placement.h), likewise
   bool accepted_changed_data_ = false;  // resumed with --resume-changing-data (rollbacks too)
   std::vector<HandSlot> hands_;  // right first
   std::unique_ptr<Adam> optimizer_;  // the shared components' parameters

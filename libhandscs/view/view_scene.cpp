@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <optional>
 #include <set>
 
 #include <c10/core/InferenceMode.h>
@@ -11,6 +12,7 @@
 
 #include "core/error.h"
 #include "data/capture.h"
+#include "data/placement.h"
 #include "metrics/image_tensor.h"
 #include "synth/math.h"
 
@@ -42,6 +44,19 @@ std::vector<PoseFrame> held_out_poses(const RunConfig& config) {
   return poses;
 }
 
+// Where the sliders' hands stand: the first held-out pose, else the run's first training frame as
+// its checkpoint records it (data/placement.h; none from an older build).
+std::optional<PoseFrame> slider_base(const TrainedAvatar& trained, const std::vector<PoseFrame>& held_out) {
+  if (!held_out.empty()) return held_out.front();
+  if (trained.placement.is_null()) return std::nullopt;
+  try {
+    return pose_frame_from_json(trained.placement, trained.path + ": " + kPlacementKey);
+  } catch (const std::exception& e) {
+    spdlog::warn("{}; the sliders' hands stand at the origin", e.what());
+    return std::nullopt;
+  }
+}
+
 }  // namespace
 
 ViewScene::ViewScene(TrainedAvatar trained, std::vector<PoseFrame> held_out)
@@ -49,10 +64,11 @@ ViewScene::ViewScene(TrainedAvatar trained, std::vector<PoseFrame> held_out)
       held_out_(std::move(held_out)),
       axes_(rig_axes(trained_.avatar.rig())),
       hands_(trained_) {
-  if (!held_out_.empty()) {
-    base_.shape = held_out_.front().shape;
-    base_.trans = held_out_.front().trans;
-    base_.hands = held_out_.front().hands;  // two hands: the other hand stays as captured
+  const std::optional<PoseFrame> base = slider_base(trained_, held_out_);
+  if (base) {
+    base_.shape = base->shape;
+    base_.trans = base->trans;
+    base_.hands = base->hands;  // two hands: the other hand stays as captured
   }
   double extent = 0;
   for (Handedness side : {Handedness::right, Handedness::left}) {
@@ -63,10 +79,10 @@ ViewScene::ViewScene(TrainedAvatar trained, std::vector<PoseFrame> held_out)
     for (int d = 0; d < 3; ++d) rest_centres_[side == Handedness::right ? 0 : 1][d] = centre[d].item<double>();
     extent = std::max(extent, (means.amax(0) - means.amin(0)).norm().item<double>());
   }
-  if (!trained_.left.empty() && !held_out_.empty()) {
-    // Two hands: frame both as the first held-out pose places them.
+  if (!trained_.left.empty() && base) {
+    // Two hands: frame both as the base places them.
     c10::InferenceMode guard;
-    const torch::Tensor means = hands_.pose(held_out_.front(), "pose " + held_out_.front().name).means.to(torch::kFloat64);
+    const torch::Tensor means = hands_.pose(*base, "pose " + base->name).means.to(torch::kFloat64);
     extent = (means.amax(0) - means.amin(0)).norm().item<double>();
   }
   gaussians_ = trained_.gaussian_count();
@@ -134,8 +150,9 @@ PoseFrame ViewScene::pose_of(const ViewRequest& request) const {
     if (!controls[side]) continue;
     auto& hand = frame.hands[side];
     if (!hand) {
-      require(side == 0, "request.controls.left: the run's capture shows no left hand to place (its held-out "
-                         "poses cannot be read); pose it with a POSES file (handscs-view --poses)");
+      require(side == 0, "request.controls.left: nothing places the left hand (the run's capture cannot be "
+                         "read, and its checkpoint, from an older build, records no placement); pose it "
+                         "with a POSES file (handscs-view --poses)");
       hand = HandParams{{}, frame.shape, frame.trans, {}, {}};  // the wrist at zero
     }
     const std::array<float, 48> pose =

@@ -100,9 +100,14 @@ TEST_CASE("checkpoint meta: each field is checked for type and range, naming fil
         "\"0123456789abcdeX\"");
   CHECK(edited([](auto& m) { m["capture_identity"]["frames"] = -1; }) ==
         "X.ckpt: checkpoint metadata capture_identity.frames: expected a non-negative integer");
-  // Counters the first checkpoints lacked may be absent, and so may the capture's identity.
+  CHECK(edited([](auto& m) { m["placement"] = 5; }) ==
+        "X.ckpt: checkpoint metadata 'placement' is 5, not an object");
+  // Counters the first checkpoints lacked may be absent, and so may the capture's identity and
+  // the placement of its hands.
   CHECK(edited([](auto& m) { m.erase("rollbacks"); m.erase("elapsed_seconds"); }) == "(no error)");
   CHECK(edited([](auto& m) { m.erase("capture_identity"); }) == "(no error)");
+  REQUIRE(good.contains("placement"));
+  CHECK(edited([](auto& m) { m.erase("placement"); }) == "(no error)");
   // A run's checkpoint name must say the step it holds.
   CHECK(meta_error(good, checkpoints + handscs::checkpoint_name(99)) ==
         checkpoints + handscs::checkpoint_name(99) + ": named for another step than the 4 it holds (renamed?)");

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/threads.h"
+#include "data/capture.h"
 #include "hand/lbs_one_pose.h"
 #include "hand/rig.h"
 #include "synth/hand_axes.h"
@@ -117,6 +118,44 @@ TEST_CASE("view scene: two hands, the sliders pose either hand and keep each wri
   const std::string picture_both = scene.render(handscs::parse_view_request(both, scene.default_view())).bytes;
   const std::string picture_left = scene.render(handscs::parse_view_request(left_only, scene.default_view())).bytes;
   CHECK(picture_both != picture_left);
+}
+
+TEST_CASE("view scene: without its capture, a two-hand avatar's checkpoint places both hands") {
+  // The checkpoint records the hands of the run's first training frame that holds both; the
+  // reference is that frame read from the capture itself.
+  handscs::TrainedAvatar trained = handscs::open_trained_avatar(two_hand_run());
+  const handscs::Capture capture = handscs::Capture::open(trained.config.data, "", "data");
+  const auto first_with_both = std::find_if(capture.train().begin(), capture.train().end(),
+                                            [](const handscs::FrameInfo& f) { return f.hands[0] && f.hands[1]; });
+  REQUIRE(first_with_both != capture.train().end());
+  const std::string gesture = handscs::controls_to_json(a_gesture()).dump();
+  const std::string left_only = "{\"controls\": {\"left\": " + gesture + "}}";
+  {
+    handscs::ViewScene scene(std::move(trained), {});  // no held-out poses: the capture is not read
+    CHECK(scene.info()["held_out"].empty());
+    CHECK(scene.info()["hands"] == nlohmann::json::array({"right", "left"}));
+    const handscs::PoseFrame f = scene.pose_of(handscs::parse_view_request(left_only, scene.default_view()));
+    for (int side = 0; side < 2; ++side) {
+      REQUIRE(f.hands[side]);
+      const handscs::HandParams& captured = *first_with_both->hands[side];
+      CHECK(f.hands[side]->trans == captured.trans);
+      CHECK(f.hands[side]->shape == captured.shape);
+      for (int i = 0; i < 3; ++i) CHECK(f.hands[side]->pose[i] == captured.pose[i]);  // the wrist as captured
+    }
+    CHECK(f.hands[0]->pose == first_with_both->hands[0]->pose);  // the right hand untouched
+  }
+  // An older build's checkpoint records none: the left hand is refused by name, the right one posed.
+  handscs::TrainedAvatar without = handscs::open_trained_avatar(two_hand_run());
+  without.placement = nullptr;
+  handscs::ViewScene scene(std::move(without), {});
+  CHECK(scene.info()["hands"] == nlohmann::json::array({"right"}));
+  CHECK_THAT(handscs_test::error_of([&] { scene.pose_of(handscs::parse_view_request(left_only, scene.default_view())); }),
+             Catch::StartsWith("request.controls.left: nothing places the left hand"));
+  CHECK_NOTHROW(scene.pose_of(handscs::parse_view_request("{\"controls\": " + gesture + "}", scene.default_view())));
+  // A placement that is not a POSES frame is passed over (a warning), as if absent.
+  handscs::TrainedAvatar malformed = handscs::open_trained_avatar(two_hand_run());
+  malformed.placement["left"]["pose"] = {1.0, 2.0};
+  CHECK(handscs::ViewScene(std::move(malformed), {}).info()["hands"] == nlohmann::json::array({"right"}));
 }
 
 TEST_CASE("view scene: two hands, the default view frames both") {
