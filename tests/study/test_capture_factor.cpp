@@ -128,3 +128,14 @@ TEST_CASE("capture_factor.py: the embeddings across the three captures read back
   CHECK_THAT(text, Catch::Contains("mean of the per-capture means +1.604 ± 0.088 dB"));
   CHECK_THAT(text, Catch::Contains("Reading: **holds across captures (pays on every capture)**."));
 }
+
+TEST_CASE("capture_factor.py: SCS with 350 poses across the three captures reads back from docs/bench") {
+  const std::string text = across_three_captures("scaling_pose_10000_tau003.csv", "scs=full_tau003-inter_pose_tau003",
+                                                 "scaling_pose_captures", "--cell p350 --holds none");
+  // docs/SCALING.md, "SCS with 350 poses across captures".
+  CHECK_THAT(text, Catch::Contains("| -0.042 ± 0.047 | no difference shown |"));
+  CHECK_THAT(text, Catch::Contains("| s10 -0.526 / s11 -0.354 / s12 -0.068 | -0.316 ± 0.231 | costs |"));
+  CHECK_THAT(text, Catch::Contains("| s10 -0.216 / s11 -0.133 / s12 -0.124 | -0.158 ± 0.051 | costs |"));
+  CHECK_THAT(text, Catch::Contains("mean of the per-capture means -0.172 ± 0.138 dB"));
+  CHECK_THAT(text, Catch::Contains("Reading: **no difference does not hold across captures: pays on 0, costs on 2 of 3**."));
+}
