@@ -1,10 +1,10 @@
 // handscs-bench-data: reading speed and memory of a capture (default: the synthetic `bench`
-// preset, generated on first use). Prints one JSON object: open time; JPEG decode rate (1 thread
-// and
-// --threads); mask rate (posed-mesh rasterisation + refinement); two passes over the training
-// frames in shuffled order through Capture::load with prefetching (rate per pass, cache
-// statistics); and the peak resident memory (VmHWM) of the process, read right after the two
-// passes.
+// preset, generated on first use). Prints one JSON object: open time; the capture identity's cost
+// per frame (data/capture_identity.h: every training, resume and evaluation computes it); JPEG
+// decode rate (1 thread and --threads); mask rate (posed-mesh rasterisation + refinement); two
+// passes over the training frames in shuffled order through Capture::load with prefetching (rate
+// per pass, cache statistics); and the peak resident memory (VmHWM) of the process, read right
+// after the two passes.
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
@@ -22,6 +22,7 @@
 #include "core/cli.h"
 #include "core/logging.h"
 #include "data/capture.h"
+#include "data/capture_identity.h"
 #include "synth/capture.h"
 #include "bench_timing.h"
 
@@ -107,6 +108,16 @@ int main(int argc, char** argv) {
     out["train_images"] = capture.train().size();
     out["rss_before_open_mb"] = rss_start;
     out["rss_after_open_mb"] = status_mb("VmRSS");
+
+    // The identity is a sum over frames of two hashes each, so its time per frame gives its time on
+    // a capture of any size.
+    handscs::CaptureIdentity identity;
+    const bench::Timing identity_time =
+        bench::time_repeated([&] { identity = handscs::capture_identity(capture, capture.frames()); }, 1,
+                             std::max(repeats, 5));
+    out["identity"] = {{"frames", identity.frames},
+                       {"median_ms", identity_time.median_ms},
+                       {"us_per_frame", 1000.0 * identity_time.median_ms / std::max<int64_t>(1, identity.frames)}};
 
     // Two passes over the training frames in shuffled order, as a training loop would read them.
     std::vector<int64_t> order;
