@@ -3,6 +3,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <filesystem>
 #include <vector>
@@ -20,9 +21,8 @@ namespace fs = std::filesystem;
 namespace {
 
 // The files one run writes into its folder (the mask cache, cache/, is shared and stays).
-const std::vector<std::string> kRunEntries = {"checkpoints",     "config.json", "metrics.csv",
-                                              "pose_refine.csv", "validation",  "eval",
-                                              "camera_color.csv"};
+const std::vector<std::string> kRunEntries = {"checkpoints", "config.json", "metrics.csv",      "pose_refine.csv",
+                                              "validation",  "eval",        "camera_color.csv", "left"};
 const std::string kAsidePrefix = ".overwritten.";
 
 bool entry_exists(const fs::path& path) {
@@ -56,12 +56,25 @@ void move_entries(const fs::path& from, const fs::path& to) {
   }
 }
 
-void remove_entries(const fs::path& dir) {
-  for (const auto& name : kRunEntries) {
+// The run entries of `dir` that exist.
+std::vector<std::string> present_entries(const fs::path& dir) {
+  std::vector<std::string> present;
+  for (const auto& name : kRunEntries)
+    if (entry_exists(dir / name)) present.push_back(name);
+  return present;
+}
+
+// Removes the run entries of `dir` other than `kept`; returns the names removed.
+std::vector<std::string> remove_entries(const fs::path& dir, const std::vector<std::string>& kept = {}) {
+  std::vector<std::string> removed;
+  for (const auto& name : present_entries(dir)) {
+    if (std::find(kept.begin(), kept.end(), name) != kept.end()) continue;
     std::error_code ec;
     fs::remove_all(dir / name, ec);
     if (ec) throw Error((dir / name).string() + ": cannot remove it (" + ec.message() + ")");
+    removed.push_back(name);
   }
+  return removed;
 }
 
 void put_back(const fs::path& dir, const fs::path& aside) {
@@ -70,11 +83,20 @@ void put_back(const fs::path& dir, const fs::path& aside) {
   fs::remove(aside);
 }
 
+std::string joined(const std::vector<std::string>& names) {
+  std::string text;
+  for (const auto& name : names) text += (text.empty() ? "" : ", ") + name;
+  return text;
+}
+
 }  // namespace
 
 SetAsideRun::SetAsideRun(const std::string& dir) : dir_(dir) {
   const auto contents = inspect_run_folder(dir);
-  if (!contents.holds_run()) return;
+  if (!contents.holds_run()) {
+    kept_ = present_entries(dir);
+    return;
+  }
   described_ = contents.describe();
   const fs::path aside = fs::path(dir) / (kAsidePrefix + std::to_string(::getpid()));
   move_entries(dir, aside);
@@ -84,15 +106,17 @@ SetAsideRun::SetAsideRun(const std::string& dir) : dir_(dir) {
 }
 
 SetAsideRun::~SetAsideRun() {
-  if (aside_.empty()) return;
+  if (settled_) return;
   try {
     restore();
   } catch (const std::exception& e) {
-    spdlog::error("{}; the earlier run's files are in {}", e.what(), aside_);
+    if (aside_.empty()) spdlog::error("{}", e.what());
+    else spdlog::error("{}; the earlier run's files are in {}", e.what(), aside_);
   }
 }
 
 void SetAsideRun::discard() {
+  settled_ = true;
   if (aside_.empty()) return;
   std::error_code ec;
   fs::remove_all(aside_, ec);
@@ -102,7 +126,15 @@ void SetAsideRun::discard() {
 }
 
 void SetAsideRun::restore() {
-  if (aside_.empty()) return;
+  if (settled_) return;
+  settled_ = true;
+  if (aside_.empty()) {
+    const std::vector<std::string> removed = remove_entries(dir_, kept_);
+    if (!removed.empty())
+      spdlog::warn("the run ended before its first checkpoint: removed what it wrote in {} ({}); a "
+                   "rerun needs no --overwrite", dir_, joined(removed));
+    return;
+  }
   put_back(dir_, aside_);
   spdlog::warn("the new run ended before its first checkpoint: the earlier run in {} ({}) is back "
                "as it was", dir_, described_);

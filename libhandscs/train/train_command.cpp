@@ -105,7 +105,7 @@ int train_command(int argc, char** argv) {
     if (root && !resume) refuse_run_folder_without_overwrite(run_dir, overwrite);
     // ...and with --overwrite the old run is set aside only once the new one has opened its
     // capture and passed the trainer's checks, and deleted once the new one has its first
-    // checkpoint; a new run that ends before that puts it back.
+    // checkpoint; a new run that ends before that removes its own files and puts the old back.
     Trainer trainer(config, run_dir, group.get());
     // A run this machine cannot hold is refused before the folder changes (a resume's after its
     // checkpoint gave the Gaussian count). Each rank checks its own process.
@@ -119,7 +119,7 @@ int train_command(int argc, char** argv) {
     };
     if (!resume) check_memory();
     std::optional<SetAsideRun> replaced;
-    if (root && !resume && overwrite) {
+    if (root && !resume) {
       replaced.emplace(run_dir);
       trainer.on_first_checkpoint([&replaced] { replaced->discard(); });
     }

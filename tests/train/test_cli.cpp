@@ -252,7 +252,7 @@ TEST_CASE("cli: a run that outgrows the memory it may use ends naming the step a
   const auto run_dir = fresh_dir("cli_oom");
   CHECK(run("prlimit --as=4000000000 " + kBin + "/handscs-train --config " + kSource +
             "/configs/tiny.json --out " + run_dir + " --threads 1 --set data.root=" + tiny_capture_dir() +
-            " train.iterations=200 train.validate_every=0 train.checkpoint_every=100000"
+            " train.iterations=200 train.validate_every=0 train.checkpoint_every=100000 train.log_every=1"
             " train.densify.start=1 train.densify.interval=1 train.densify.grad_threshold=0"
             " train.densify.stop=1000 train.densify.max_gaussians=" + std::to_string(cap)) == 1);
   INFO(log_text());
@@ -260,6 +260,12 @@ TEST_CASE("cli: a run that outgrows the memory it may use ends naming the step a
   CHECK(log_text().find("Gaussians") != std::string::npos);
   CHECK(log_text().find("train.densify.max_gaussians") != std::string::npos);
   CHECK(log_text().find("enforce fail") == std::string::npos);  // not LibTorch's words alone
+  // It logged steps (config.json and metrics.csv written) and ended before its first checkpoint:
+  // what it wrote is gone, so a rerun needs no --overwrite.
+  CHECK(log_text().find("(config.json, metrics.csv)") != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(run_dir + "/config.json"));
+  CHECK_FALSE(std::filesystem::exists(run_dir + "/metrics.csv"));
+  CHECK(log_text().find("the run ended before its first checkpoint: removed what it wrote") != std::string::npos);
 }
 
 TEST_CASE("cli: SIGTERM stops training with a checkpoint of the step reached and exit 130") {

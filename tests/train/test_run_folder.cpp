@@ -258,6 +258,36 @@ TEST_CASE("run folder: a run stopped by a user error at step 1 leaves the folder
   CHECK_NOTHROW(handscs::refuse_run_folder_without_overwrite(dir, /*overwrite=*/false));  // no --overwrite needed
 }
 
+TEST_CASE("run folder: a fresh run that ends before its first checkpoint removes what it wrote, and only that") {
+  const auto dir = handscs_test::fresh_dir("folder_fresh_fails");
+  write(dir + "/notes.txt", "the user's own file");
+  write(dir + "/eval/metrics.json", "the user's own scores");  // a run file name, but no run: not the new run's
+  write(dir + "/cache/masks-1/a.png", "mask");
+  const auto before = snapshot(dir);
+  // A user error at step 16, after the first logged step wrote config.json and metrics.csv.
+  CHECK(handscs_test::error_of([&] {
+          handscs::SetAsideRun guard(dir);
+          CHECK_FALSE(guard.holds_files());
+          write(dir + "/config.json", "{\"new\": true}");
+          write(dir + "/metrics.csv", "iteration\n1\n");
+          write(dir + "/validation/step_00000010.png", "new");
+          write(dir + "/left/pose_refine.csv", "new");
+          write(dir + "/eval/metrics.json", "the user's own scores");
+          throw handscs::Error("the hand masks of the first 16 training images are all empty");
+        }) == "the hand masks of the first 16 training images are all empty");
+  CHECK(snapshot(dir) == before);
+  CHECK_NOTHROW(handscs::refuse_run_folder_without_overwrite(dir, /*overwrite=*/false));  // no --overwrite needed
+  // Past its first checkpoint the run's files stay.
+  {
+    handscs::SetAsideRun guard(dir);
+    write(dir + "/config.json", "{\"new\": true}");
+    write(dir + "/checkpoints/step_00000010.ckpt", "ten");
+    guard.discard();
+  }
+  CHECK(handscs::inspect_run_folder(dir).holds_run());
+  CHECK(handscs::read_file(dir + "/config.json") == "{\"new\": true}");
+}
+
 TEST_CASE("run folder: config differences are listed key by key") {
   const handscs::json a = {{"x", 1}, {"s", {{"c", 2}, {"d", 3}}}};
   const handscs::json b = {{"x", 1}, {"s", {{"c", 5}}}, {"e", true}};
