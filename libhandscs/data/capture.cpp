@@ -204,6 +204,10 @@ Rig capture_rig(const CaptureConfig& config, Handedness side, const std::string&
               hand_name(config.hand));
 }
 
+HandParams own_hand(const FrameInfo& frame) {
+  return HandParams{frame.pose, frame.shape, frame.trans, frame.joints, frame.joint_valid};
+}
+
 FrameInfo frame_of_hand(const FrameInfo& frame, Handedness side) {
   FrameInfo out = frame;
   if (const HandParams* hand = frame.hand(side)) {

@@ -81,6 +81,9 @@ struct FrameInfo {
 // (one hand) is returned as it is.
 FrameInfo frame_of_hand(const FrameInfo& frame, Handedness side);
 
+// A one-hand frame's own hand fields (pose, shape, trans, joints) as one HandParams.
+HandParams own_hand(const FrameInfo& frame);
+
 // A decoded frame: image and mask as uint8 tensors, cropped to the ROI unless full_image.
 struct FrameSample {
   int64_t index = 0;    // FrameInfo::index

@@ -45,8 +45,7 @@ uint64_t frame_annotations(const FrameInfo& frame, bool parameters_read) {
       append_hand(text, *hand, parameters_read);
     }
   if (!two_hands)
-    append_hand(text, HandParams{frame.pose, frame.shape, frame.trans, frame.joints, frame.joint_valid},
-                parameters_read);
+    append_hand(text, own_hand(frame), parameters_read);
   return fnv1a64(text);
 }
 

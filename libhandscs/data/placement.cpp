@@ -24,7 +24,7 @@ nlohmann::json training_placement(const std::vector<FrameInfo>& train) {
     for (int side = 0; side < 2; ++side)
       if (chosen->hands[side]) placement[side == 0 ? "right" : "left"] = hand_params_to_json(*chosen->hands[side]);
   } else {
-    placement = hand_params_to_json(HandParams{chosen->pose, chosen->shape, chosen->trans, {}, {}});
+    placement = hand_params_to_json(own_hand(*chosen));
   }
   placement["name"] = chosen->file_name;
   return placement;

@@ -11,6 +11,7 @@
 #include <spdlog/spdlog.h>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "run/checkpoint.h"
 #include "train/run_folder.h"
 
@@ -83,12 +84,6 @@ void put_back(const fs::path& dir, const fs::path& aside) {
   fs::remove(aside);
 }
 
-std::string joined(const std::vector<std::string>& names) {
-  std::string text;
-  for (const auto& name : names) text += (text.empty() ? "" : ", ") + name;
-  return text;
-}
-
 }  // namespace
 
 SetAsideRun::SetAsideRun(const std::string& dir) : dir_(dir) {
@@ -132,7 +127,7 @@ void SetAsideRun::restore() {
     const std::vector<std::string> removed = remove_entries(dir_, kept_);
     if (!removed.empty())
       spdlog::warn("the run ended before its first checkpoint: removed what it wrote in {} ({}); a "
-                   "rerun needs no --overwrite", dir_, joined(removed));
+                   "rerun needs no --overwrite", dir_, join(removed, ", "));
     return;
   }
   put_back(dir_, aside_);

@@ -118,10 +118,10 @@ int train_command(int argc, char** argv) {
                      available < 0 ? std::string("not known") : bytes_text(static_cast<double>(available)));
     };
     if (!resume) check_memory();
-    std::optional<SetAsideRun> replaced;
+    std::optional<SetAsideRun> folder_guard;
     if (root && !resume) {
-      replaced.emplace(run_dir);
-      trainer.on_first_checkpoint([&replaced] { replaced->discard(); });
+      folder_guard.emplace(run_dir);
+      trainer.on_first_checkpoint([&folder_guard] { folder_guard->discard(); });
     }
     if (root && resume && !trainer.resume(resume_changing_data))
       spdlog::warn("{}: no checkpoint to resume; starting afresh", run_dir);

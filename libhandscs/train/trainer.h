@@ -32,11 +32,12 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "avatar/avatar.h"
 #include "core/error.h"
 #include "data/capture.h"
 #include "data/capture_identity.h"
-#include "data/placement.h"
 #include "run/checkpoint.h"
 #include "run/run_config.h"
 #include "train/adam.h"
